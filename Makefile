@@ -1,0 +1,46 @@
+# isar-clutter: build, run experiments, test.
+# The cargo target directory lives outside the checkout (a cold release build with polars
+# takes 20+ minutes on 2 cores; later builds are incremental). Override CARGO_TARGET_DIR to move it.
+CARGO_TARGET_DIR ?= $(HOME)/.cache/isar-clutter/target
+export CARGO_TARGET_DIR
+SPEC ?= experiments/table4_exponential.yaml
+ARGS ?=
+BIN := $(CARGO_TARGET_DIR)/release/isar-clutter
+PYTHON ?= python3
+VENV := .venv
+
+.PHONY: build run-experiment validate test lint fmt bench bench-deps
+
+## build: release build of the isar-clutter binary
+build:
+	cargo build --release --locked
+
+## run-experiment: build and run SPEC (default: the Table 4 spec) into outputs/<name>/
+run-experiment: build
+	$(BIN) run $(SPEC) $(ARGS)
+
+## validate: check SPEC without running it
+validate: build
+	$(BIN) validate $(SPEC)
+
+## test: every test, with the release profile (shares the release build's dependencies)
+test:
+	cargo test --release --locked
+
+## lint: formatting and clippy with warnings as errors
+lint:
+	cargo fmt --all -- --check
+	cargo clippy --release --all-targets --locked -- -D warnings
+
+fmt:
+	cargo fmt --all
+
+## bench-deps: a virtualenv with numpy for the side-by-side baselines
+$(VENV)/bin/python:
+	$(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/pip install --quiet numpy==2.2.6 pyarrow==20.0.0
+bench-deps: $(VENV)/bin/python
+
+## bench: analysis benchmark (isar-clutter run vs numpy baselines); see BENCHMARKS.md
+bench: build bench-deps
+	$(VENV)/bin/python bench/analysis_bench.py --bin $(BIN)

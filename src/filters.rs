@@ -1,0 +1,273 @@
+//! Correlating filters (dissertation eqs. 32-33, 65-68 and ch. 4; SPEC-NOTES sections 3-4):
+//! the exponential and dyadic tap families, the 1-D lag and group correlations a filter
+//! induces on white noise, spatially varying separable filtering of a padded white seed, and
+//! the exact expected multiscale maps of filtered noise (the "truth" an analysis is compared
+//! with).
+//!
+//! Taps are stored as a vector of length `2K + 1`, index `K + d` holding `f(d)` for
+//! `d = -K..=K`. Filters are real; the seed is complex circular with `E|w|^2 = 1`.
+
+use crate::analysis::cell_stats;
+use ndarray::{Array2, ArrayView2};
+use num_complex::Complex64;
+
+/// Exponential taps `f(d) = exp(-|d| / |alpha|)` on `|d| <= half_width` (eq. 65, 68).
+///
+/// A negative `alpha` gives the sign-alternating filter `(-1)^d exp(-|d| / |alpha|)` whose
+/// lag-1 correlation is the negative of the positive filter's (SPEC-NOTES section 4,
+/// Method 1). `alpha = +-inf` gives a constant (or alternating) filter.
+///
+/// # Panics
+/// If `alpha` is zero or NaN.
+pub fn exponential_taps(alpha: f64, half_width: usize) -> Vec<f64> {
+    assert!(alpha != 0.0 && !alpha.is_nan(), "alpha must be non-zero, got {alpha}");
+    let k = half_width as i64;
+    (-k..=k)
+        .map(|d| {
+            let mag = (-(d.abs() as f64) / alpha.abs()).exp();
+            if alpha < 0.0 && d % 2 != 0 {
+                -mag
+            } else {
+                mag
+            }
+        })
+        .collect()
+}
+
+/// Dyadic taps (SPEC-NOTES section 4, Method 2): `f(0) = 1`, `f(d) = r[l-1]` for
+/// `2^(l-1) <= |d| < 2^l`, zero beyond `2^L - 1`.
+///
+/// # Panics
+/// If `half_width < 2^L - 1` (the filter would be truncated).
+pub fn dyadic_taps(r: &[f64], half_width: usize) -> Vec<f64> {
+    let reach = dyadic_reach(r.len());
+    assert!(
+        half_width >= reach,
+        "half_width {half_width} truncates a {}-level dyadic filter (needs {reach})",
+        r.len()
+    );
+    let k = half_width as i64;
+    (-k..=k)
+        .map(|d| {
+            let a = d.unsigned_abs() as usize;
+            if a == 0 {
+                1.0
+            } else if a <= reach {
+                r[(usize::BITS - a.leading_zeros()) as usize - 1]
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Largest offset with a non-zero tap for an `levels`-parameter dyadic filter: `2^L - 1`.
+pub fn dyadic_reach(levels: usize) -> usize {
+    (1usize << levels) - 1
+}
+
+/// Autocorrelation sum `R(d) = sum_n f(n) f(n + d)` of centred taps.
+pub fn autocovariance(taps: &[f64], lag: usize) -> f64 {
+    if lag >= taps.len() {
+        return 0.0;
+    }
+    taps.iter().zip(&taps[lag..]).map(|(a, b)| a * b).sum()
+}
+
+/// Lag-`d` correlation `rho(d) = sum_n f(n) f(n+d) / sum_n f(n)^2` (eq. 66-67, Table 3).
+pub fn lag_correlation(taps: &[f64], lag: usize) -> f64 {
+    autocovariance(taps, lag) / autocovariance(taps, 0)
+}
+
+/// Group correlation of filtered white noise: the correlation between the sum of `g`
+/// consecutive samples and the sum of the next `g` (what level `L = log2(g) + 1` measures).
+pub fn group_correlation(taps: &[f64], g: usize) -> f64 {
+    let r = |d: i64| autocovariance(taps, d.unsigned_abs() as usize);
+    let g = g as i64;
+    let mut cov = 0.0;
+    let mut var = 0.0;
+    for a in 0..g {
+        for b in 0..g {
+            cov += r(g + b - a);
+            var += r(b - a);
+        }
+    }
+    cov / var
+}
+
+/// Per-pixel separable filter bank: vertical and horizontal taps for every output pixel.
+#[derive(Clone, Debug)]
+pub struct FilterBank {
+    /// Half-width `K` shared by all taps.
+    pub half_width: usize,
+    /// Output height.
+    pub height: usize,
+    /// Output width.
+    pub width: usize,
+    /// Vertical taps, `height * width` rows of `2K + 1`, row-major by pixel.
+    pub vertical: Vec<Vec<f64>>,
+    /// Horizontal taps, same layout.
+    pub horizontal: Vec<Vec<f64>>,
+}
+
+impl FilterBank {
+    /// A bank where every pixel uses the same taps.
+    pub fn uniform(vertical: Vec<f64>, horizontal: Vec<f64>, height: usize, width: usize) -> Self {
+        let half_width = horizontal.len() / 2;
+        assert_eq!(vertical.len(), horizontal.len(), "taps must share a half-width");
+        FilterBank {
+            half_width,
+            height,
+            width,
+            vertical: vec![vertical; height * width],
+            horizontal: vec![horizontal; height * width],
+        }
+    }
+
+    /// Whether every pixel has the same taps (enables the fast separable path).
+    pub fn is_uniform(&self) -> bool {
+        let same = |v: &Vec<Vec<f64>>| v.iter().all(|t| t == &v[0]);
+        same(&self.vertical) && same(&self.horizontal)
+    }
+
+    /// Analytic standard deviation of the output at pixel `p` for a unit seed:
+    /// `sqrt(sum fV^2 * sum fH^2)`.
+    pub fn output_sd(&self, p: usize) -> f64 {
+        (autocovariance(&self.vertical[p], 0) * autocovariance(&self.horizontal[p], 0)).sqrt()
+    }
+
+    /// Exact covariance `E[y_p conj(y_q)]` of the (unnormalised) outputs at pixels
+    /// `p = (i, j)` and `q = (i2, j2)` for a unit white seed:
+    /// `[sum_a fV_p(a) fV_q(a + i - i2)] [sum_b fH_p(b) fH_q(b + j - j2)]`.
+    pub fn output_covariance(&self, p: (usize, usize), q: (usize, usize)) -> f64 {
+        let ip = p.0 * self.width + p.1;
+        let iq = q.0 * self.width + q.1;
+        let cross = |fp: &[f64], fq: &[f64], shift: i64| -> f64 {
+            let k = self.half_width as i64;
+            (-k..=k)
+                .filter_map(|a| {
+                    let b = a + shift;
+                    (b.abs() <= k).then(|| fp[(a + k) as usize] * fq[(b + k) as usize])
+                })
+                .sum()
+        };
+        let dv = p.0 as i64 - q.0 as i64;
+        let dh = p.1 as i64 - q.1 as i64;
+        cross(&self.vertical[ip], &self.vertical[iq], dv)
+            * cross(&self.horizontal[ip], &self.horizontal[iq], dh)
+    }
+}
+
+/// Filters one padded white seed (`(H + 2K) x (W + 2K)`, 'valid' mode) with the bank.
+///
+/// Uniform banks use the two-pass separable convolution; spatially varying banks the direct
+/// per-pixel double sum of eq. 33. `scratch` holds the horizontal pass of the uniform path.
+pub fn filter_seed(bank: &FilterBank, seed: ArrayView2<Complex64>, out: &mut [Complex64]) {
+    let (h, w, k) = (bank.height, bank.width, bank.half_width);
+    assert_eq!(seed.dim(), (h + 2 * k, w + 2 * k), "seed must be padded by the half-width");
+    assert_eq!(out.len(), h * w);
+    let seed = seed.as_standard_layout();
+    let s = seed.as_slice().expect("standard layout");
+    let sw = w + 2 * k;
+    if bank.is_uniform() {
+        let (fv, fh) = (&bank.vertical[0], &bank.horizontal[0]);
+        let mut rows = vec![Complex64::new(0.0, 0.0); (h + 2 * k) * w];
+        for r in 0..h + 2 * k {
+            for j in 0..w {
+                let src = &s[r * sw + j..r * sw + j + 2 * k + 1];
+                rows[r * w + j] = src.iter().zip(fh).map(|(z, f)| z * f).sum();
+            }
+        }
+        for i in 0..h {
+            for j in 0..w {
+                out[i * w + j] = (0..=2 * k).map(|a| rows[(i + a) * w + j] * fv[a]).sum();
+            }
+        }
+    } else {
+        for i in 0..h {
+            for j in 0..w {
+                out[i * w + j] = filter_pixel_direct(bank, s, sw, i, j);
+            }
+        }
+    }
+}
+
+/// Direct double sum of eq. 33 for one output pixel (also the oracle of the uniform path).
+pub fn filter_pixel_direct(bank: &FilterBank, seed: &[Complex64], seed_width: usize, i: usize, j: usize) -> Complex64 {
+    let p = i * bank.width + j;
+    let (fv, fh) = (&bank.vertical[p], &bank.horizontal[p]);
+    let n = 2 * bank.half_width + 1;
+    let mut acc = Complex64::new(0.0, 0.0);
+    for a in 0..n {
+        let row = &seed[(i + a) * seed_width + j..(i + a) * seed_width + j + n];
+        let t: Complex64 = row.iter().zip(fh).map(|(z, f)| z * f).sum();
+        acc += t * fv[a];
+    }
+    acc
+}
+
+/// Exact expected multiscale correlation maps (`[H, V, D]` per level) of
+/// `x_p = mu_p + std_p y_p / sd(y_p)` where `y` is the bank's output for a unit white seed.
+///
+/// Uniform banks with uniform `std` use the 1-D group correlations (`rho_D = rho_H rho_V`);
+/// otherwise every unit covariance is summed over its pixel pairs.
+pub fn expected_maps(bank: &FilterBank, std: &Array2<f64>, levels: usize) -> Vec<[Array2<f64>; 3]> {
+    let (h, w) = (bank.height, bank.width);
+    let uniform_std = std.iter().all(|&s| s == std[[0, 0]]);
+    (1..=levels)
+        .map(|level| {
+            let shape = (h >> level, w >> level);
+            if bank.is_uniform() && uniform_std {
+                let g = 1usize << (level - 1);
+                let rh = group_correlation(&bank.horizontal[0], g);
+                let rv = group_correlation(&bank.vertical[0], g);
+                [
+                    Array2::from_elem(shape, rh),
+                    Array2::from_elem(shape, rv),
+                    Array2::from_elem(shape, rh * rv),
+                ]
+            } else {
+                exact_level(bank, std, level)
+            }
+        })
+        .collect()
+}
+
+/// Pixel-pair summation of [`expected_maps`] for one level.
+fn exact_level(bank: &FilterBank, std: &Array2<f64>, level: usize) -> [Array2<f64>; 3] {
+    let g = 1usize << (level - 1);
+    let shape = (bank.height >> level, bank.width >> level);
+    let scale = |i: usize, j: usize| std[[i, j]] / bank.output_sd(i * bank.width + j);
+    let unit_cov = |a: (usize, usize), b: (usize, usize)| -> f64 {
+        let mut sum = 0.0;
+        for i1 in 0..g {
+            for j1 in 0..g {
+                let p = (a.0 * g + i1, a.1 * g + j1);
+                for i2 in 0..g {
+                    for j2 in 0..g {
+                        let q = (b.0 * g + i2, b.1 * g + j2);
+                        sum += scale(p.0, p.1) * scale(q.0, q.1) * bank.output_covariance(p, q);
+                    }
+                }
+            }
+        }
+        sum
+    };
+    let mut maps: [Array2<f64>; 3] = std::array::from_fn(|_| Array2::zeros(shape));
+    for r in 0..shape.0 {
+        for c in 0..shape.1 {
+            let u = [(2 * r, 2 * c), (2 * r, 2 * c + 1), (2 * r + 1, 2 * c), (2 * r + 1, 2 * c + 1)];
+            let s: Vec<f64> = u.iter().map(|&a| unit_cov(a, a).sqrt()).collect();
+            let cv = |i: usize, j: usize| unit_cov(u[i], u[j]);
+            let dirs = [
+                (cv(0, 1) + cv(2, 3), s[0] * s[1] + s[2] * s[3]),
+                (cv(0, 2) + cv(1, 3), s[0] * s[2] + s[1] * s[3]),
+                (cv(0, 3) + cv(1, 2), s[0] * s[3] + s[1] * s[2]),
+            ];
+            for (d, (csum, denom)) in dirs.into_iter().enumerate() {
+                maps[d][[r, c]] = cell_stats(csum, denom).0;
+            }
+        }
+    }
+    maps
+}

@@ -1,0 +1,18 @@
+//! isar-clutter: a declarative batch experiment runner for the multiscale modelling and
+//! simulation of clutter in ISAR imaging (Mitchell, 2020). A YAML spec names datasets and
+//! analysis settings; the plan expands sweeps into seeded jobs; the runner analyses every
+//! job's stack and writes Parquet tables, `.npy` maps and a manifest.
+//!
+//! Modules follow the data flow: [`spec`] -> [`plan`] -> [`data`] (with [`npy`] and
+//! [`filters`]) -> [`analysis`] -> [`results`], driven by [`runner`]. The numerical kernels
+//! ([`analysis`], [`filters`]) are free of I/O; [`oracle`] holds their slow references.
+
+pub mod analysis;
+pub mod data;
+pub mod filters;
+pub mod npy;
+pub mod oracle;
+pub mod plan;
+pub mod results;
+pub mod runner;
+pub mod spec;

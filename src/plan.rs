@@ -1,0 +1,367 @@
+//! From a spec file to a validated list of jobs: sweep expansion (grid axes in all
+//! combinations, zip axes paired), readable job ids, and seeds derived from the master seed and
+//! each job's canonical identity (never its position), so adding a job does not change the
+//! others' random numbers.
+//!
+//! A sweep axis is a dotted field path: `datasets.<id>.<field>[.<sub>...]` (`<id>` may be `*`
+//! for every dataset; a numeric component indexes a list, e.g. `datasets.d.r_h.0`) or
+//! `analysis.<field>`. An axis applies to the jobs of the datasets it names; jobs that the
+//! swept values do not touch are not duplicated.
+
+use crate::spec::{self, AnalysisSpec, Ctx, Dataset, DatasetSpec, RawSpec, SpecError};
+use serde::Serialize;
+use serde_json::Value as Json;
+use serde_yaml_ng::Value as Yaml;
+use sha2::{Digest, Sha256};
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// Longest job id before a hash suffix replaces the tail.
+const MAX_ID_LEN: usize = 96;
+
+/// One unit of work: a dataset under one sweep point.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// Readable, file-name-safe id (`held.alpha_h=0.5`).
+    pub id: String,
+    /// The dataset's id.
+    pub dataset_id: String,
+    /// Validated dataset after the sweep's overrides.
+    pub dataset: Dataset,
+    /// Validated analysis settings after the sweep's overrides.
+    pub analysis: AnalysisSpec,
+    /// Swept values that apply to this job, by short key (`alpha_h`, `levels`).
+    pub params: BTreeMap<String, Json>,
+    /// Canonical identity (JSON) from which the seeds are derived.
+    pub identity: String,
+    /// Job seed: hash of the master seed and the job identity.
+    pub seed: u64,
+    /// Data seed: hash of the master seed and the dataset identity (dataset id and the
+    /// dataset's own swept values), shared by jobs that see the same data.
+    pub data_seed: u64,
+}
+
+/// A validated experiment.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The spec file.
+    pub file: PathBuf,
+    /// SHA-256 of the spec file's bytes (hex).
+    pub spec_hash: String,
+    /// The parsed spec.
+    pub spec: RawSpec,
+    /// Jobs in spec order (datasets, then sweep points).
+    pub jobs: Vec<Job>,
+    /// Short keys of all swept parameters, sorted (the extra table columns).
+    pub param_keys: Vec<String>,
+}
+
+/// Derives a 64-bit seed from the master seed, a domain and a canonical identity
+/// (first 8 bytes, little endian, of SHA-256 over `isar-clutter/v1/<domain>/<master>/<identity>`).
+pub fn derive_seed(master: u64, domain: &str, identity: &str) -> u64 {
+    let digest = Sha256::digest(format!("isar-clutter/v1/{domain}/{master}/{identity}").as_bytes());
+    u64::from_le_bytes(digest[..8].try_into().expect("8 bytes"))
+}
+
+/// Hex SHA-256 of bytes.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A parsed sweep axis.
+#[derive(Debug, Clone)]
+struct Axis {
+    /// The axis as written, e.g. `datasets.held.alpha_h`.
+    key: String,
+    /// YAML path of the axis in the spec (`sweep.grid.<key>`).
+    at: String,
+    /// `Some(id)` for a dataset field (`*` = all), `None` for an analysis field.
+    dataset: Option<String>,
+    /// Field path below the dataset or analysis section.
+    field: Vec<String>,
+    /// Values.
+    values: Vec<Yaml>,
+}
+
+impl Axis {
+    fn short(&self) -> String {
+        self.field.join(".")
+    }
+
+    fn applies_to(&self, id: &str) -> bool {
+        self.dataset.as_deref().is_none_or(|d| d == "*" || d == id)
+    }
+}
+
+/// Loads, parses and validates a spec file into a [`Plan`]. Nothing is written.
+///
+/// # Errors
+/// A [`SpecError`] naming the file, the YAML path and (when the parser gives it) the line.
+pub fn load(file: &Path) -> Result<Plan, SpecError> {
+    let bytes = std::fs::read(file).map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;
+    let text = String::from_utf8(bytes.clone()).map_err(|_| SpecError::at(file, ".", "the spec is not UTF-8 text"))?;
+    let spec = spec::parse(&text, file)?;
+    let raw: Yaml = serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
+    let ctx = Ctx { file };
+    check_top(&spec, &ctx)?;
+    let axes = parse_axes(&spec, &ctx)?;
+    let points = sweep_points(&axes, &ctx)?;
+    let mut jobs = Vec::new();
+    let mut seen = HashMap::new();
+    for (i, ds) in spec.datasets.iter().enumerate() {
+        for point in &points {
+            let applied: Vec<&(usize, usize)> = point.iter().filter(|(a, _)| axes[*a].applies_to(&ds.id)).collect();
+            let mut params = BTreeMap::new();
+            for &&(a, v) in &applied {
+                let axis = &axes[a];
+                let value = serde_json::to_value(&axis.values[v]).expect("YAML values are JSON");
+                if params.insert(axis.short(), value).is_some() {
+                    return Err(ctx.err(&axis.at, format!("another sweep axis also sets `{}` of dataset {}", axis.short(), ds.id)));
+                }
+            }
+            let identity = identity(&ds.id, &params);
+            if seen.insert(identity.clone(), ()).is_some() {
+                continue;
+            }
+            let job = build_job(&spec, &raw, &ctx, i, ds, &axes, &applied, params, identity)?;
+            jobs.push(job);
+        }
+    }
+    assign_ids(&mut jobs);
+    let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
+    param_keys.sort();
+    param_keys.dedup();
+    Ok(Plan { file: file.to_path_buf(), spec_hash: sha256_hex(text.as_bytes()), spec, jobs, param_keys })
+}
+
+/// Document-level checks: name, unique dataset ids.
+fn check_top(spec: &RawSpec, ctx: &Ctx) -> Result<(), SpecError> {
+    if spec.name.is_empty() || !spec.name.chars().all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c)) || spec.name.starts_with('.') {
+        return Err(ctx.err("name", format!("name {:?} must be non-empty ASCII letters, digits, `_`, `-` or `.` (it names the output folder)", spec.name)));
+    }
+    if spec.datasets.is_empty() {
+        return Err(ctx.err("datasets", "at least one dataset is needed"));
+    }
+    let mut ids = HashMap::new();
+    for (i, d) in spec.datasets.iter().enumerate() {
+        if let Some(j) = ids.insert(d.id.clone(), i) {
+            return Err(ctx.err(format!("datasets[{i}].id"), format!("dataset id {:?} is already used by datasets[{j}]", d.id)));
+        }
+    }
+    Ok(())
+}
+
+/// Parses the sweep's axis keys and checks their targets exist.
+fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
+    let mut axes = Vec::new();
+    for (section, map) in [("grid", &spec.sweep.grid), ("zip", &spec.sweep.zip)] {
+        for (key, values) in map {
+            let at = format!("sweep.{section}.{key}");
+            let parts: Vec<String> = key.split('.').map(str::to_string).collect();
+            let (dataset, field) = match parts.first().map(String::as_str) {
+                Some("datasets") if parts.len() >= 3 => {
+                    let id = &parts[1];
+                    if id != "*" && !spec.datasets.iter().any(|d| &d.id == id) {
+                        return Err(ctx.err(at, format!("no dataset with id {id:?}")));
+                    }
+                    (Some(id.clone()), parts[2..].to_vec())
+                }
+                Some("analysis") if parts.len() >= 2 => (None, parts[1..].to_vec()),
+                _ => {
+                    return Err(ctx.err(at, "a sweep axis is `datasets.<id>.<field>` or `analysis.<field>`"));
+                }
+            };
+            if field.first().is_some_and(|f| f == "id" || f == "kind") {
+                return Err(ctx.err(at, "`id` and `kind` cannot be swept"));
+            }
+            if values.is_empty() {
+                return Err(ctx.err(at, "a sweep axis needs at least one value"));
+            }
+            axes.push(Axis { key: key.clone(), at, dataset, field, values: values.clone() });
+        }
+    }
+    Ok(axes)
+}
+
+/// Sweep points as lists of `(axis index, value index)`.
+fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, SpecError> {
+    let grid: Vec<usize> = (0..axes.len()).filter(|&a| axes[a].at.starts_with("sweep.grid.")).collect();
+    let zip: Vec<usize> = (0..axes.len()).filter(|&a| axes[a].at.starts_with("sweep.zip.")).collect();
+    let mut points: Vec<Vec<(usize, usize)>> = vec![vec![]];
+    for &a in &grid {
+        points = points
+            .into_iter()
+            .flat_map(|p| {
+                (0..axes[a].values.len()).map(move |v| {
+                    let mut q = p.clone();
+                    q.push((a, v));
+                    q
+                })
+            })
+            .collect();
+    }
+    if let Some(&first) = zip.first() {
+        let n = axes[first].values.len();
+        if let Some(&bad) = zip.iter().find(|&&a| axes[a].values.len() != n) {
+            return Err(ctx.err(&axes[bad].at, format!("zip axes must have equal lengths: {} has {n} values, {} has {}", axes[first].key, axes[bad].key, axes[bad].values.len())));
+        }
+        points = points
+            .into_iter()
+            .flat_map(|p| {
+                let zip = zip.clone();
+                (0..n).map(move |v| {
+                    let mut q = p.clone();
+                    q.extend(zip.iter().map(|&a| (a, v)));
+                    q
+                })
+            })
+            .collect();
+    }
+    Ok(points)
+}
+
+/// Canonical identity of a dataset under some swept values.
+fn identity(dataset: &str, params: &BTreeMap<String, Json>) -> String {
+    #[derive(Serialize)]
+    struct Id<'a> {
+        dataset: &'a str,
+        params: &'a BTreeMap<String, Json>,
+    }
+    serde_json::to_string(&Id { dataset, params }).expect("serialisable")
+}
+
+/// Applies overrides and validates one job.
+#[allow(clippy::too_many_arguments)]
+fn build_job(
+    spec: &RawSpec,
+    raw: &Yaml,
+    ctx: &Ctx,
+    index: usize,
+    ds: &DatasetSpec,
+    axes: &[Axis],
+    applied: &[&(usize, usize)],
+    params: BTreeMap<String, Json>,
+    identity: String,
+) -> Result<Job, SpecError> {
+    let mut ds_value = raw["datasets"][index].clone();
+    let mut an_value = raw["analysis"].clone();
+    let mut data_params = BTreeMap::new();
+    for &&(a, v) in applied {
+        let axis = &axes[a];
+        let target = if axis.dataset.is_some() { &mut ds_value } else { &mut an_value };
+        set_path(target, &axis.field, axis.values[v].clone())
+            .map_err(|m| ctx.err(&axis.at, m))?;
+        if axis.dataset.is_some() {
+            data_params.insert(axis.short(), params[&axis.short()].clone());
+        }
+    }
+    let swept = || {
+        applied
+            .iter()
+            .map(|&&(a, v)| format!("{} = {}", axes[a].key, serde_json::to_string(&axes[a].values[v]).unwrap_or_default()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let typed = |e: serde_path_to_error::Error<serde_yaml_ng::Error>, section: &str| {
+        let first = applied.first().map(|&&(a, _)| axes[a].at.clone()).unwrap_or_else(|| section.to_string());
+        ctx.err(first, format!("with {}: {section}.{}: {}", swept(), e.path(), e.inner()))
+    };
+    let (dataset_spec, analysis) = if applied.is_empty() {
+        (ds.clone(), spec.analysis.clone())
+    } else {
+        let d: DatasetSpec = serde_path_to_error::deserialize(ds_value).map_err(|e| typed(e, &format!("datasets[{index}]")))?;
+        let a: AnalysisSpec = serde_path_to_error::deserialize(an_value).map_err(|e| typed(e, "analysis"))?;
+        (d, a)
+    };
+    let dataset = dataset_spec.check(ctx, &format!("datasets[{index}]"), analysis.levels).map_err(|mut e| {
+        if !applied.is_empty() {
+            e.message = format!("{} (with {})", e.message, swept());
+        }
+        e
+    })?;
+    let data_identity = self::identity(&ds.id, &data_params);
+    Ok(Job {
+        id: String::new(),
+        dataset_id: ds.id.clone(),
+        dataset,
+        analysis,
+        seed: derive_seed(spec.seed, "job", &identity),
+        data_seed: derive_seed(spec.seed, "data", &data_identity),
+        params,
+        identity,
+    })
+}
+
+/// Sets the value at a dotted field path inside a YAML mapping (numeric parts index lists).
+fn set_path(target: &mut Yaml, field: &[String], value: Yaml) -> Result<(), String> {
+    let (last, walk) = field.split_last().ok_or("empty field path")?;
+    let mut cur = target;
+    for part in walk {
+        cur = step(cur, part)?;
+    }
+    match cur {
+        Yaml::Mapping(m) => {
+            m.insert(Yaml::String(last.clone()), value);
+            Ok(())
+        }
+        Yaml::Sequence(s) => {
+            let i: usize = last.parse().map_err(|_| format!("`{last}` is not a list index"))?;
+            let len = s.len();
+            *s.get_mut(i).ok_or(format!("index {i} is past the list's {len} entries"))? = value;
+            Ok(())
+        }
+        _ => Err(format!("cannot set `{last}` inside a scalar")),
+    }
+}
+
+fn step<'a>(cur: &'a mut Yaml, part: &str) -> Result<&'a mut Yaml, String> {
+    match cur {
+        Yaml::Mapping(m) => m.get_mut(part).ok_or(format!("no field `{part}` to descend into (set it in the dataset first)")),
+        Yaml::Sequence(s) => {
+            let i: usize = part.parse().map_err(|_| format!("`{part}` is not a list index"))?;
+            s.get_mut(i).ok_or(format!("no list entry {i}"))
+        }
+        _ => Err(format!("cannot descend into `{part}` of a scalar")),
+    }
+}
+
+/// Formats a swept value for a job id.
+fn id_value(v: &Json) -> String {
+    match v {
+        Json::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// Makes a string safe as a file name.
+fn sanitize(s: &str) -> String {
+    s.chars().map(|c| if c.is_ascii_alphanumeric() || "._=+-".contains(c) { c } else { '_' }).collect()
+}
+
+/// Assigns readable ids; a short hash of the identity is appended only where ids collide
+/// after sanitising, or are too long.
+fn assign_ids(jobs: &mut [Job]) {
+    let readable: Vec<String> = jobs
+        .iter()
+        .map(|j| {
+            let mut id = sanitize(&j.dataset_id);
+            for (k, v) in &j.params {
+                id.push_str(&format!(".{}={}", sanitize(k), sanitize(&id_value(v))));
+            }
+            id
+        })
+        .collect();
+    let mut count: HashMap<&str, usize> = HashMap::new();
+    for id in &readable {
+        *count.entry(id).or_default() += 1;
+    }
+    for (job, id) in jobs.iter_mut().zip(&readable) {
+        job.id = if count[id.as_str()] > 1 || id.len() > MAX_ID_LEN {
+            let hash = &sha256_hex(job.identity.as_bytes())[..8];
+            let keep: String = id.chars().take(MAX_ID_LEN).collect();
+            format!("{keep}~{hash}")
+        } else {
+            id.clone()
+        };
+    }
+}

@@ -1,0 +1,410 @@
+//! Result tables and files: builds the long-format Parquet tables of a run from the jobs'
+//! results, and writes every output atomically (a temporary name in the same folder, then a
+//! rename), so a reader never sees a half-written file.
+//!
+//! Table layout is a public contract (see `docs/spec.md`): `analysis_maps`,
+//! `analysis_summary`, `pixel_stats`, `filter_correlation`, `jobs`.
+
+use crate::analysis::{Analysis, Direction};
+use crate::plan::{Job, Plan};
+use anyhow::{Context, Result};
+use ndarray::Array2;
+use polars::prelude::*;
+use serde_json::Value as Json;
+use std::fs::{self, File};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// What one successful job computed.
+pub struct JobResult {
+    /// The analysis of the job's stack.
+    pub analysis: Analysis,
+    /// Exact expected correlation maps per level (`[H, V, D]`) for synthetic data.
+    pub expected: Option<Vec<[Array2<f64>; 3]>>,
+    /// Filter lag correlations for synthetic data with spatially uniform filters.
+    pub filter_rows: Vec<FilterRow>,
+    /// Stack shape `(N, H, W)`.
+    pub shape: (usize, usize, usize),
+    /// Seconds spent loading or generating the data.
+    pub data_s: f64,
+    /// Seconds spent in the analysis kernel.
+    pub analysis_s: f64,
+    /// Bytes of stack data analysed.
+    pub bytes: usize,
+}
+
+/// One row of `filter_correlation.parquet` (Table 3).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FilterRow {
+    /// `H` or `V`.
+    pub direction: Direction,
+    /// Lag `d >= 0`.
+    pub lag: usize,
+    /// Tap `f(d)`.
+    pub coefficient: f64,
+    /// `rho(d)` (eq. 66).
+    pub correlation: f64,
+}
+
+/// Outcome of one job.
+pub struct JobOutcome {
+    /// Index into the plan's jobs.
+    pub index: usize,
+    /// The result, or the error's message (with its cause chain).
+    pub result: Result<JobResult, String>,
+    /// Wall time of the job in seconds.
+    pub elapsed_s: f64,
+}
+
+/// Writes `path` atomically: `write` fills a temporary file in the same folder, which is then
+/// renamed over `path`.
+///
+/// # Errors
+/// If the temporary file cannot be written or renamed; the temporary file is removed.
+pub fn atomic_write(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut w = BufWriter::new(File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?);
+        write(&mut w)?;
+        w.flush()?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing {}", path.display()))
+}
+
+/// Writes a DataFrame as Parquet, atomically.
+///
+/// # Errors
+/// If writing fails.
+pub fn write_parquet(path: &Path, df: &mut DataFrame) -> Result<()> {
+    atomic_write(path, |w| {
+        ParquetWriter::new(w).finish(df)?;
+        Ok(())
+    })
+}
+
+/// Writes an array as `.npy`, atomically.
+///
+/// # Errors
+/// If writing fails.
+pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(path: &Path, a: &ndarray::Array<A, D>) -> Result<()> {
+    use ndarray_npy::WriteNpyExt;
+    atomic_write(path, |w| {
+        a.write_npy(w)?;
+        Ok(())
+    })
+}
+
+/// Writes a job's maps under `dir` (`mean.npy`, `variance.npy`,
+/// `level{L}_{correlation,covariance}_{H,V,D}.npy`, `expected_level{L}_correlation_{H,V,D}.npy`).
+///
+/// # Errors
+/// If a file cannot be written.
+pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
+    write_npy(&dir.join("mean.npy"), &r.analysis.mean)?;
+    write_npy(&dir.join("variance.npy"), &r.analysis.variance)?;
+    for lm in &r.analysis.levels {
+        for d in Direction::ALL {
+            write_npy(&dir.join(format!("level{}_correlation_{d}.npy", lm.level)), lm.correlation(d))?;
+            write_npy(&dir.join(format!("level{}_covariance_{d}.npy", lm.level)), lm.covariance(d))?;
+        }
+    }
+    for (l, maps) in r.expected.iter().flatten().enumerate() {
+        for d in Direction::ALL {
+            write_npy(&dir.join(format!("expected_level{}_correlation_{d}.npy", l + 1)), &maps[d as usize])?;
+        }
+    }
+    Ok(())
+}
+
+/// Column builder for one table: rows are appended job by job, and the swept parameters are
+/// added as columns at the end.
+struct Table<'a> {
+    plan: &'a Plan,
+    jobs: Vec<&'a Job>,
+    cols: Vec<(&'static str, Values)>,
+}
+
+/// Column types: string, i64, u64, nullable f64.
+#[derive(Clone, Copy)]
+enum Kind {
+    S,
+    I,
+    U,
+    F,
+}
+
+/// Column data.
+enum Values {
+    Str(Vec<String>),
+    Int(Vec<i64>),
+    UInt(Vec<u64>),
+    Float(Vec<Option<f64>>),
+}
+
+impl<'a> Table<'a> {
+    fn new(plan: &'a Plan, names: &[(&'static str, Kind)]) -> Self {
+        let cols = names
+            .iter()
+            .map(|&(n, k)| {
+                let empty = match k {
+                    Kind::S => Values::Str(vec![]),
+                    Kind::I => Values::Int(vec![]),
+                    Kind::U => Values::UInt(vec![]),
+                    Kind::F => Values::Float(vec![]),
+                };
+                (n, empty)
+            })
+            .collect();
+        Table { plan, jobs: vec![], cols }
+    }
+
+    fn col(&mut self, name: &str) -> &mut Values {
+        &mut self.cols.iter_mut().find(|(n, _)| *n == name).expect("declared column").1
+    }
+
+    fn s(&mut self, name: &str, v: impl Into<String>) {
+        if let Values::Str(c) = self.col(name) {
+            c.push(v.into())
+        }
+    }
+    fn i(&mut self, name: &str, v: i64) {
+        if let Values::Int(c) = self.col(name) {
+            c.push(v)
+        }
+    }
+    fn u(&mut self, name: &str, v: u64) {
+        if let Values::UInt(c) = self.col(name) {
+            c.push(v)
+        }
+    }
+    fn f(&mut self, name: &str, v: Option<f64>) {
+        if let Values::Float(c) = self.col(name) {
+            c.push(v)
+        }
+    }
+
+    /// Marks the end of one row of `job`.
+    fn row(&mut self, job: &'a Job) {
+        self.jobs.push(job);
+    }
+
+    fn finish(self) -> Result<DataFrame> {
+        let mut columns: Vec<Column> = self
+            .cols
+            .into_iter()
+            .map(|(n, v)| match v {
+                Values::Str(v) => Column::new(n.into(), v),
+                Values::Int(v) => Column::new(n.into(), v),
+                Values::UInt(v) => Column::new(n.into(), v),
+                Values::Float(v) => Column::new(n.into(), v),
+            })
+            .collect();
+        for key in &self.plan.param_keys {
+            let values: Vec<Option<&Json>> = self.jobs.iter().map(|j| j.params.get(key)).collect();
+            let numeric = values.iter().flatten().all(|v| v.is_number());
+            let name: PlSmallStr = key.as_str().into();
+            columns.push(if numeric {
+                Column::new(name, values.iter().map(|v| v.and_then(Json::as_f64)).collect::<Vec<_>>())
+            } else {
+                let text = |v: &Json| match v {
+                    Json::String(s) => s.clone(),
+                    other => other.to_string(),
+                };
+                Column::new(name, values.iter().map(|v| v.map(text)).collect::<Vec<_>>())
+            });
+        }
+        Ok(DataFrame::new_infer_height(columns)?)
+    }
+}
+
+fn opt(v: f64) -> Option<f64> {
+    Some(v)
+}
+
+/// `analysis_maps`: one row per job, level, direction and cell.
+pub fn analysis_maps(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("level", Kind::I),
+            ("direction", Kind::S),
+            ("row", Kind::I),
+            ("col", Kind::I),
+            ("correlation", Kind::F),
+            ("covariance", Kind::F),
+            ("expected_correlation", Kind::F),
+        ],
+    );
+    for (job, r) in ok(plan, outcomes) {
+        for lm in &r.analysis.levels {
+            for d in Direction::ALL {
+                let expected = r.expected.as_ref().map(|e| &e[lm.level - 1][d as usize]);
+                for ((rc, &corr), &cov) in lm.correlation(d).indexed_iter().zip(lm.covariance(d).iter()) {
+                    t.s("job", &job.id);
+                    t.s("dataset", &job.dataset_id);
+                    t.i("level", lm.level as i64);
+                    t.s("direction", d.as_str());
+                    t.i("row", rc.0 as i64);
+                    t.i("col", rc.1 as i64);
+                    t.f("correlation", opt(corr));
+                    t.f("covariance", opt(cov));
+                    t.f("expected_correlation", expected.map(|e| e[rc]));
+                    t.row(job);
+                }
+            }
+        }
+    }
+    t.finish()
+}
+
+/// `analysis_summary`: NaN-aware means per job, level and direction.
+pub fn analysis_summary(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("level", Kind::I),
+            ("direction", Kind::S),
+            ("mean_correlation", Kind::F),
+            ("mean_covariance", Kind::F),
+            ("nan_cells", Kind::I),
+            ("cells", Kind::I),
+            ("rows", Kind::I),
+            ("cols", Kind::I),
+            ("expected_mean_correlation", Kind::F),
+        ],
+    );
+    for (job, r) in ok(plan, outcomes) {
+        for lm in &r.analysis.levels {
+            for d in Direction::ALL {
+                let s = lm.summary(d);
+                let (rows, cols) = lm.shape();
+                let expected = r.expected.as_ref().map(|e| crate::analysis::nan_mean(&e[lm.level - 1][d as usize]).0);
+                t.s("job", &job.id);
+                t.s("dataset", &job.dataset_id);
+                t.i("level", lm.level as i64);
+                t.s("direction", d.as_str());
+                t.f("mean_correlation", opt(s.mean_correlation));
+                t.f("mean_covariance", opt(s.mean_covariance));
+                t.i("nan_cells", s.nan_cells as i64);
+                t.i("cells", (rows * cols) as i64);
+                t.i("rows", rows as i64);
+                t.i("cols", cols as i64);
+                t.f("expected_mean_correlation", expected);
+                t.row(job);
+            }
+        }
+    }
+    t.finish()
+}
+
+/// `pixel_stats`: per-pixel mean (real, imaginary) and variance.
+pub fn pixel_stats(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("row", Kind::I),
+            ("col", Kind::I),
+            ("mean_re", Kind::F),
+            ("mean_im", Kind::F),
+            ("variance", Kind::F),
+        ],
+    );
+    for (job, r) in ok(plan, outcomes) {
+        for ((rc, m), &v) in r.analysis.mean.indexed_iter().zip(r.analysis.variance.iter()) {
+            t.s("job", &job.id);
+            t.s("dataset", &job.dataset_id);
+            t.i("row", rc.0 as i64);
+            t.i("col", rc.1 as i64);
+            t.f("mean_re", opt(m.re));
+            t.f("mean_im", opt(m.im));
+            t.f("variance", opt(v));
+            t.row(job);
+        }
+    }
+    t.finish()
+}
+
+/// `filter_correlation`: lag correlations of uniform synthetic filters (Table 3).
+pub fn filter_correlation(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("direction", Kind::S),
+            ("lag", Kind::I),
+            ("filter_coefficient", Kind::F),
+            ("correlation", Kind::F),
+        ],
+    );
+    for (job, r) in ok(plan, outcomes) {
+        for row in &r.filter_rows {
+            t.s("job", &job.id);
+            t.s("dataset", &job.dataset_id);
+            t.s("direction", row.direction.as_str());
+            t.i("lag", row.lag as i64);
+            t.f("filter_coefficient", opt(row.coefficient));
+            t.f("correlation", opt(row.correlation));
+            t.row(job);
+        }
+    }
+    t.finish()
+}
+
+/// `jobs`: one row per job with status, error, seeds, timing and parameters.
+pub fn jobs_table(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("kind", Kind::S),
+            ("status", Kind::S),
+            ("error", Kind::S),
+            ("seed", Kind::U),
+            ("data_seed", Kind::U),
+            ("samples", Kind::I),
+            ("height", Kind::I),
+            ("width", Kind::I),
+            ("levels", Kind::I),
+            ("elapsed_s", Kind::F),
+        ],
+    );
+    for o in outcomes {
+        let job = &plan.jobs[o.index];
+        let (n, h, w) = job.dataset.shape();
+        t.s("job", &job.id);
+        t.s("dataset", &job.dataset_id);
+        t.s("kind", job.dataset.kind());
+        t.s("status", if o.result.is_ok() { "ok" } else { "failed" });
+        t.s("error", o.result.as_ref().err().cloned().unwrap_or_default());
+        t.u("seed", job.seed);
+        t.u("data_seed", job.data_seed);
+        t.i("samples", n as i64);
+        t.i("height", h as i64);
+        t.i("width", w as i64);
+        t.i("levels", job.analysis.levels as i64);
+        t.f("elapsed_s", opt(o.elapsed_s));
+        t.row(job);
+    }
+    t.finish()
+}
+
+/// Successful outcomes with their jobs, in plan order.
+fn ok<'a>(plan: &'a Plan, outcomes: &'a [JobOutcome]) -> impl Iterator<Item = (&'a Job, &'a JobResult)> {
+    outcomes.iter().filter_map(move |o| o.result.as_ref().ok().map(|r| (&plan.jobs[o.index], r)))
+}

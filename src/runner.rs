@@ -1,0 +1,259 @@
+//! Runs a validated plan: jobs in parallel on a rayon pool of the requested size, a progress
+//! bar on a terminal (plain lines otherwise), per-job failures recorded without stopping the
+//! others, then the Parquet tables, the `.npy` maps and `manifest.json`, all written
+//! atomically into the output folder.
+
+use crate::analysis::Direction;
+use crate::data::materialise;
+use crate::filters::{expected_maps, lag_correlation};
+use crate::plan::{Job, Plan};
+use crate::results::{self, FilterRow, JobOutcome, JobResult};
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde_json::json;
+use std::io::IsTerminal;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Largest image (pixels) for which exact expected maps of spatially varying filters are
+/// computed; above it `expected_correlation` is null (the pair sums grow as `4^L` per pixel).
+pub const MAX_EXACT_PIXELS: usize = 256 * 256;
+
+/// How to run.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Output folder.
+    pub out: PathBuf,
+    /// Worker threads.
+    pub threads: usize,
+    /// Show a progress bar (otherwise one line per finished job on stderr).
+    pub progress_bar: bool,
+    /// Print progress at all.
+    pub quiet: bool,
+}
+
+impl RunOptions {
+    /// Options with a progress bar when stderr is a terminal.
+    pub fn new(out: PathBuf, threads: usize) -> Self {
+        RunOptions { out, threads, progress_bar: std::io::stderr().is_terminal(), quiet: false }
+    }
+}
+
+/// What a run did.
+#[derive(Debug, Clone)]
+pub struct RunSummary {
+    /// Jobs run.
+    pub total: usize,
+    /// Jobs that failed.
+    pub failed: Vec<(String, String)>,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Wall time in seconds.
+    pub elapsed_s: f64,
+}
+
+/// Default number of worker threads: the machine's available parallelism.
+pub fn default_threads() -> usize {
+    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+}
+
+/// Runs every job of `plan` and writes the outputs.
+///
+/// # Errors
+/// Only for failures outside the jobs (output folder, tables, manifest); a failed job is
+/// recorded in `jobs.parquet` and in the returned summary.
+pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
+    let start = Instant::now();
+    std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(opts.threads.max(1)).build()?;
+    let bar = progress(plan.jobs.len(), opts);
+    let outcomes: Vec<JobOutcome> = pool.install(|| {
+        plan.jobs
+            .par_iter()
+            .enumerate()
+            .map(|(index, job)| {
+                let t = Instant::now();
+                let result = catch_unwind(AssertUnwindSafe(|| run_job(plan, job, &opts.out)))
+                    .unwrap_or_else(|p| Err(anyhow::anyhow!("job panicked: {}", panic_message(&p))))
+                    .map_err(|e| format!("{e:#}"));
+                let outcome = JobOutcome { index, result, elapsed_s: t.elapsed().as_secs_f64() };
+                report(&bar, opts, job, &outcome);
+                outcome
+            })
+            .collect()
+    });
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let t_tables = Instant::now();
+    write_tables(plan, &outcomes, &opts.out)?;
+    let tables_s = t_tables.elapsed().as_secs_f64();
+    let failed: Vec<(String, String)> = outcomes
+        .iter()
+        .filter_map(|o| o.result.as_ref().err().map(|e| (plan.jobs[o.index].id.clone(), e.clone())))
+        .collect();
+    let elapsed_s = start.elapsed().as_secs_f64();
+    write_manifest(plan, &outcomes, opts, elapsed_s, tables_s)?;
+    Ok(RunSummary { total: outcomes.len(), failed, out: opts.out.clone(), elapsed_s })
+}
+
+fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
+    (opts.progress_bar && !opts.quiet).then(|| {
+        let bar = ProgressBar::new(n as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} jobs [{elapsed_precise}] {msg}")
+                .expect("valid template"),
+        );
+        bar
+    })
+}
+
+fn report(bar: &Option<ProgressBar>, opts: &RunOptions, job: &Job, o: &JobOutcome) {
+    let status = match &o.result {
+        Ok(_) => "ok".to_string(),
+        Err(e) => format!("FAILED: {e}"),
+    };
+    match bar {
+        Some(b) => {
+            if o.result.is_err() {
+                b.println(format!("{}: {status}", job.id));
+            }
+            b.set_message(job.id.clone());
+            b.inc(1);
+        }
+        None if !opts.quiet => eprintln!("{} {status} ({:.3} s)", job.id, o.elapsed_s),
+        None => {}
+    }
+}
+
+fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+/// Runs one job: materialise, analyse, compute the ground truth, write its maps.
+fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
+    let t = Instant::now();
+    let data = materialise(&job.dataset, job.data_seed).with_context(|| format!("dataset {}", job.dataset_id))?;
+    let data_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let analysis = data.stack.analyse(data.hwn, job.analysis.levels).with_context(|| format!("analysing dataset {}", job.dataset_id))?;
+    let analysis_s = t.elapsed().as_secs_f64();
+    let (mut expected, mut filter_rows) = (None, vec![]);
+    if let Some((bank, std)) = &data.truth {
+        let uniform = bank.is_uniform();
+        if uniform || bank.height * bank.width <= MAX_EXACT_PIXELS {
+            expected = Some(expected_maps(bank, std, job.analysis.levels));
+        }
+        if uniform {
+            let lags = plan.spec.outputs.filter_lags.unwrap_or(bank.half_width);
+            for (direction, taps) in [(Direction::H, &bank.horizontal[0]), (Direction::V, &bank.vertical[0])] {
+                for lag in 0..=lags {
+                    filter_rows.push(FilterRow {
+                        direction,
+                        lag,
+                        coefficient: taps.get(bank.half_width + lag).copied().unwrap_or(0.0),
+                        correlation: lag_correlation(taps, lag),
+                    });
+                }
+            }
+        }
+    }
+    let (n, h, w) = job.dataset.shape();
+    let result = JobResult { analysis, expected, filter_rows, shape: (n, h, w), data_s, analysis_s, bytes: data.stack.bytes() };
+    if plan.spec.outputs.npy_maps {
+        results::write_job_maps(&out.join("maps").join(&job.id), &result)?;
+    }
+    Ok(result)
+}
+
+fn write_tables(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()> {
+    type Build = fn(&Plan, &[JobOutcome]) -> Result<polars::prelude::DataFrame>;
+    let tables: [(&str, Build); 5] = [
+        ("analysis_maps.parquet", results::analysis_maps),
+        ("analysis_summary.parquet", results::analysis_summary),
+        ("pixel_stats.parquet", results::pixel_stats),
+        ("filter_correlation.parquet", results::filter_correlation),
+        ("jobs.parquet", results::jobs_table),
+    ];
+    for (name, build) in tables {
+        let mut df = build(plan, outcomes).with_context(|| format!("building {name}"))?;
+        results::write_parquet(&out.join(name), &mut df)?;
+    }
+    Ok(())
+}
+
+/// Commit and dirty flag of the source tree the binary was built from (null outside git).
+fn git_state() -> serde_json::Value {
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .arg("-C")
+            .arg(dir)
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    match git(&["rev-parse", "HEAD"]) {
+        Some(commit) => json!({
+            "commit": commit,
+            "dirty": git(&["status", "--porcelain", "--untracked-files=no"]).is_none_or(|s| !s.is_empty()),
+        }),
+        None => serde_json::Value::Null,
+    }
+}
+
+fn write_manifest(plan: &Plan, outcomes: &[JobOutcome], opts: &RunOptions, total_s: f64, tables_s: f64) -> Result<()> {
+    let jobs: Vec<serde_json::Value> = outcomes
+        .iter()
+        .map(|o| {
+            let job = &plan.jobs[o.index];
+            let timing = o.result.as_ref().ok().map(|r| {
+                json!({
+                    "data_s": r.data_s,
+                    "analysis_s": r.analysis_s,
+                    "input_bytes": r.bytes,
+                    "analysis_gb_per_s": r.bytes as f64 / r.analysis_s / 1e9,
+                    "shape": [r.shape.0, r.shape.1, r.shape.2],
+                })
+            });
+            json!({
+                "job": job.id,
+                "dataset": job.dataset_id,
+                "identity": job.identity,
+                "seed": job.seed,
+                "data_seed": job.data_seed,
+                "params": job.params,
+                "status": if o.result.is_ok() { "ok" } else { "failed" },
+                "error": o.result.as_ref().err(),
+                "elapsed_s": o.elapsed_s,
+                "timing": timing,
+            })
+        })
+        .collect();
+    let unix = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let manifest = json!({
+        "format": "isar-clutter-manifest/1",
+        "tool": { "name": env!("CARGO_PKG_NAME"), "version": env!("CARGO_PKG_VERSION") },
+        "git": git_state(),
+        "spec_file": plan.file.display().to_string(),
+        "spec_hash_sha256": plan.spec_hash,
+        "spec": plan.spec,
+        "master_seed": plan.spec.seed,
+        "seed_derivation": "first 8 bytes (LE) of SHA-256('isar-clutter/v1/<job|data>/<master seed>/<identity>'); samples use ChaCha20 seeded with data_seed, stream = sample index",
+        "threads": opts.threads,
+        "finished_unix_s": unix,
+        "timings": { "total_s": total_s, "tables_s": tables_s },
+        "jobs": jobs,
+    });
+    results::atomic_write(&opts.out.join("manifest.json"), |w| {
+        serde_json::to_writer_pretty(&mut *w, &manifest)?;
+        Ok(())
+    })
+}

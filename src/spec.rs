@@ -1,0 +1,688 @@
+//! The experiment spec (v1): the YAML a user writes, parsed by serde with unknown keys
+//! refused, and validated once into typed parameters. Every error names the spec file, the
+//! YAML path (`datasets[0].alpha_h`) and, where the parser knows it, the line and column.
+//!
+//! The format is documented with a complete example in `docs/spec.md`.
+
+use crate::analysis::check_levels;
+use crate::npy::{self, NpyHeader};
+use serde::de::{self, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// A spec problem, located in the file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}: {path}{loc}: {message}", file = file.display(), loc = location(*line, *column))]
+pub struct SpecError {
+    /// The spec file.
+    pub file: PathBuf,
+    /// YAML path of the offending value (`.` for the document).
+    pub path: String,
+    /// 1-based line, when the parser reports it.
+    pub line: Option<usize>,
+    /// 1-based column, when the parser reports it.
+    pub column: Option<usize>,
+    /// What is wrong.
+    pub message: String,
+}
+
+fn location(line: Option<usize>, column: Option<usize>) -> String {
+    match (line, column) {
+        (Some(l), Some(c)) => format!(" (line {l}, column {c})"),
+        (Some(l), None) => format!(" (line {l})"),
+        _ => String::new(),
+    }
+}
+
+impl SpecError {
+    /// An error at `path` with no line information.
+    pub fn at(file: &Path, path: impl Into<String>, message: impl Into<String>) -> Self {
+        SpecError {
+            file: file.to_path_buf(),
+            path: path.into(),
+            line: None,
+            column: None,
+            message: message.into(),
+        }
+    }
+}
+
+/// Top level of a spec file, as written.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSpec {
+    /// Experiment name; also the default output folder `outputs/<name>`.
+    pub name: String,
+    /// Master seed from which every job's seed is derived.
+    pub seed: u64,
+    /// Free text for the report.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Datasets to analyse.
+    pub datasets: Vec<DatasetSpec>,
+    /// Multiscale analysis settings.
+    pub analysis: AnalysisSpec,
+    /// Parameter sweeps.
+    #[serde(default)]
+    pub sweep: SweepSpec,
+    /// Output options.
+    #[serde(default)]
+    pub outputs: OutputsSpec,
+}
+
+/// `analysis:` section.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AnalysisSpec {
+    /// Number of decomposition levels `L` (maps for levels `1..=L`).
+    pub levels: usize,
+}
+
+/// `outputs:` section.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OutputsSpec {
+    /// Write every map as `.npy` under `maps/<job>/` (default true).
+    #[serde(default = "yes")]
+    pub npy_maps: bool,
+    /// Largest lag of `filter_correlation.parquet` (default: the filter's half-width).
+    #[serde(default)]
+    pub filter_lags: Option<usize>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl Default for OutputsSpec {
+    fn default() -> Self {
+        OutputsSpec {
+            npy_maps: true,
+            filter_lags: None,
+        }
+    }
+}
+
+/// `sweep:` section: `grid` axes combine in all combinations, `zip` axes are paired.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    /// Field path -> values; every combination is a sweep point.
+    #[serde(default)]
+    pub grid: BTreeMap<String, Vec<serde_yaml_ng::Value>>,
+    /// Field path -> values; all lists have one length and vary together.
+    #[serde(default)]
+    pub zip: BTreeMap<String, Vec<serde_yaml_ng::Value>>,
+}
+
+/// Dataset kinds.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DatasetKind {
+    /// Synthetic stack: white complex seed through a separable correlating filter.
+    FilteredNoise,
+    /// A stack read from a `.npy` file.
+    Npy,
+}
+
+/// Filter families of `filtered_noise`.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Family {
+    /// `exp(-|d| / alpha)` per direction (`alpha_h`, `alpha_v`).
+    Exponential,
+    /// Dyadic steps `r_1..r_L` per direction (`r_h`, `r_v`).
+    Dyadic,
+}
+
+/// Axis order of an `npy` stack.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Layout {
+    /// `[N, H, W]` (default).
+    #[default]
+    Nhw,
+    /// `[H, W, N]` (MATLAB exports).
+    Hwn,
+}
+
+/// One dataset entry as written. Fields apply per kind; a field that does not belong to the
+/// kind is an error.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetSpec {
+    /// Identifier used in job ids and tables.
+    pub id: String,
+    /// `filtered_noise` or `npy`.
+    pub kind: DatasetKind,
+    /// `filtered_noise`: filter family.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub family: Option<Family>,
+    /// `filtered_noise`, exponential: horizontal alpha (scalar or map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha_h: Option<ParamMap>,
+    /// `filtered_noise`, exponential: vertical alpha (scalar or map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha_v: Option<ParamMap>,
+    /// `filtered_noise`, dyadic: horizontal `r_1..r_L`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r_h: Option<Vec<ParamMap>>,
+    /// `filtered_noise`, dyadic: vertical `r_1..r_L`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r_v: Option<Vec<ParamMap>>,
+    /// `filtered_noise`: image size `[H, W]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<[usize; 2]>,
+    /// `filtered_noise`: number of samples `N`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
+    /// `filtered_noise`: filter half-width `K` (default 8; the seed grid is padded by it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_width: Option<usize>,
+    /// `filtered_noise`: real part of the mean map (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean: Option<ParamMap>,
+    /// `filtered_noise`: imaginary part of the mean map (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_im: Option<ParamMap>,
+    /// `filtered_noise`: standard-deviation map (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub std: Option<ParamMap>,
+    /// `npy`: path of the stack, relative to the spec file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathBuf>,
+    /// `npy`: axis order (`nhw` default, `hwn`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout: Option<Layout>,
+}
+
+/// A parameter that is a scalar or a spatial map.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum ParamMap {
+    /// The same value everywhere.
+    Scalar(f64),
+    /// A pattern or a `.npy` map.
+    Pattern(PatternSpec),
+}
+
+/// Pattern kinds of a [`PatternSpec`].
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PatternKind {
+    /// `value` everywhere.
+    Constant,
+    /// `left` on columns `< W/2`, `right` on the rest.
+    LeftRight,
+    /// `top` on rows `< H/2`, `bottom` on the rest.
+    TopBottom,
+    /// Linear from `from` (first column or row) to `to` (last) along `axis`.
+    Ramp,
+    /// An `[H, W]` real `.npy` file at `path` (relative to the spec file).
+    Npy,
+}
+
+/// Axis of a ramp.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RampAxis {
+    /// Varies along columns.
+    Horizontal,
+    /// Varies along rows.
+    Vertical,
+}
+
+/// A spatial map pattern as written: `{pattern: left_right, left: 0.5, right: 2}`.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PatternSpec {
+    /// Which pattern.
+    pub pattern: PatternKind,
+    /// `constant`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+    /// `left_right`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub left: Option<f64>,
+    /// `left_right`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub right: Option<f64>,
+    /// `top_bottom`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub top: Option<f64>,
+    /// `top_bottom`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bottom: Option<f64>,
+    /// `ramp`: direction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<RampAxis>,
+    /// `ramp`: first value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<f64>,
+    /// `ramp`: last value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<f64>,
+    /// `npy`: file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathBuf>,
+}
+
+impl<'de> Deserialize<'de> for ParamMap {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ParamMap;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or a pattern mapping such as {pattern: ramp, axis: horizontal, from: 0.5, to: 2}")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<ParamMap, E> {
+                Ok(ParamMap::Scalar(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<ParamMap, E> {
+                Ok(ParamMap::Scalar(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<ParamMap, E> {
+                Ok(ParamMap::Scalar(v as f64))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<ParamMap, A::Error> {
+                PatternSpec::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(ParamMap::Pattern)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A [`ParamMap`] after validation.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Map {
+    /// One value everywhere.
+    Constant(f64),
+    /// Left and right halves.
+    LeftRight(f64, f64),
+    /// Top and bottom halves.
+    TopBottom(f64, f64),
+    /// Linear ramp.
+    Ramp(RampAxis, f64, f64),
+    /// A loaded `[H, W]` map.
+    File(PathBuf, ndarray::Array2<f64>),
+}
+
+impl Map {
+    /// The map evaluated on an `h x w` grid.
+    pub fn grid(&self, h: usize, w: usize) -> ndarray::Array2<f64> {
+        let lerp = |a: f64, b: f64, i: usize, n: usize| {
+            if n <= 1 {
+                a
+            } else {
+                a + (b - a) * i as f64 / (n - 1) as f64
+            }
+        };
+        ndarray::Array2::from_shape_fn((h, w), |(r, c)| match self {
+            Map::Constant(v) => *v,
+            Map::LeftRight(l, rv) => {
+                if c < w / 2 {
+                    *l
+                } else {
+                    *rv
+                }
+            }
+            Map::TopBottom(t, b) => {
+                if r < h / 2 {
+                    *t
+                } else {
+                    *b
+                }
+            }
+            Map::Ramp(RampAxis::Horizontal, a, b) => lerp(*a, *b, c, w),
+            Map::Ramp(RampAxis::Vertical, a, b) => lerp(*a, *b, r, h),
+            Map::File(_, m) => m[[r, c]],
+        })
+    }
+
+    /// Whether the map is the same value everywhere.
+    pub fn is_constant(&self) -> bool {
+        match self {
+            Map::Constant(_) => true,
+            Map::LeftRight(a, b) | Map::TopBottom(a, b) | Map::Ramp(_, a, b) => a == b,
+            Map::File(_, m) => m.iter().all(|v| *v == m[[0, 0]]),
+        }
+    }
+
+    /// All values the map takes (for range checks).
+    fn values(&self) -> Vec<f64> {
+        match self {
+            Map::Constant(v) => vec![*v],
+            Map::LeftRight(a, b) | Map::TopBottom(a, b) | Map::Ramp(_, a, b) => vec![*a, *b],
+            Map::File(_, m) => m.iter().copied().collect(),
+        }
+    }
+}
+
+/// A validated `filtered_noise` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FilteredNoise {
+    /// Filter parameters.
+    pub filter: FilterParams,
+    /// Image height.
+    pub height: usize,
+    /// Image width.
+    pub width: usize,
+    /// Samples.
+    pub samples: usize,
+    /// Filter half-width `K`.
+    pub half_width: usize,
+    /// Mean, real part.
+    pub mean: Map,
+    /// Mean, imaginary part.
+    pub mean_im: Map,
+    /// Standard deviation.
+    pub std: Map,
+}
+
+/// Filter parameters per direction.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FilterParams {
+    /// Exponential: `alpha_h`, `alpha_v`.
+    Exponential {
+        /// Horizontal alpha map.
+        alpha_h: Map,
+        /// Vertical alpha map.
+        alpha_v: Map,
+    },
+    /// Dyadic: `r_h`, `r_v`.
+    Dyadic {
+        /// Horizontal `r_1..r_L` maps.
+        r_h: Vec<Map>,
+        /// Vertical `r_1..r_L` maps.
+        r_v: Vec<Map>,
+    },
+}
+
+/// A validated `npy` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NpyDataset {
+    /// Resolved path.
+    pub path: PathBuf,
+    /// Axis order.
+    pub layout: Layout,
+    /// Header of the file.
+    pub header: NpyHeader,
+}
+
+/// A validated dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Dataset {
+    /// Synthetic filtered noise.
+    FilteredNoise(FilteredNoise),
+    /// A stack on disk.
+    Npy(NpyDataset),
+}
+
+impl Dataset {
+    /// `(N, H, W)` of the stack this dataset yields.
+    pub fn shape(&self) -> (usize, usize, usize) {
+        match self {
+            Dataset::FilteredNoise(f) => (f.samples, f.height, f.width),
+            Dataset::Npy(n) => n.stack_shape(),
+        }
+    }
+
+    /// The kind name used in tables.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Dataset::FilteredNoise(_) => "filtered_noise",
+            Dataset::Npy(_) => "npy",
+        }
+    }
+}
+
+impl NpyDataset {
+    /// `(N, H, W)` after applying the layout.
+    pub fn stack_shape(&self) -> (usize, usize, usize) {
+        let s = &self.header.shape;
+        match self.layout {
+            Layout::Nhw => (s[0], s[1], s[2]),
+            Layout::Hwn => (s[2], s[0], s[1]),
+        }
+    }
+}
+
+/// Parses spec text, reporting errors against `file`.
+///
+/// # Errors
+/// A [`SpecError`] naming the YAML path and, where known, the line and column.
+pub fn parse(text: &str, file: &Path) -> Result<RawSpec, SpecError> {
+    let de = serde_yaml_ng::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let loc = inner.location();
+        let mut message = inner.to_string();
+        // serde_yaml_ng appends "at line L column C"; the location is reported separately.
+        if let Some(i) = message.find(" at line ") {
+            message.truncate(i);
+        }
+        SpecError {
+            file: file.to_path_buf(),
+            path,
+            line: loc.as_ref().map(|l| l.line()),
+            column: loc.as_ref().map(|l| l.column()),
+            message,
+        }
+    })
+}
+
+/// Validation context: the spec file (for messages and relative paths).
+pub struct Ctx<'a> {
+    /// Spec file.
+    pub file: &'a Path,
+}
+
+impl Ctx<'_> {
+    /// Resolves a path relative to the spec file's folder.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.file.parent().unwrap_or(Path::new(".")).join(p)
+        }
+    }
+
+    pub(crate) fn err(&self, path: impl Into<String>, msg: impl Into<String>) -> SpecError {
+        SpecError::at(self.file, path, msg)
+    }
+}
+
+impl ParamMap {
+    /// Validates into a [`Map`] on an `h x w` grid (loads `.npy` maps).
+    pub fn check(&self, ctx: &Ctx, at: &str, h: usize, w: usize) -> Result<Map, SpecError> {
+        let p = match self {
+            ParamMap::Scalar(v) => return Ok(Map::Constant(*v)),
+            ParamMap::Pattern(p) => p,
+        };
+        let need = |v: Option<f64>, field: &str| {
+            v.ok_or_else(|| ctx.err(format!("{at}.{field}"), format!("pattern {:?} needs `{field}`", p.pattern)))
+        };
+        let allowed: &[&str] = match p.pattern {
+            PatternKind::Constant => &["value"],
+            PatternKind::LeftRight => &["left", "right"],
+            PatternKind::TopBottom => &["top", "bottom"],
+            PatternKind::Ramp => &["axis", "from", "to"],
+            PatternKind::Npy => &["path"],
+        };
+        let present = [
+            ("value", p.value.is_some()),
+            ("left", p.left.is_some()),
+            ("right", p.right.is_some()),
+            ("top", p.top.is_some()),
+            ("bottom", p.bottom.is_some()),
+            ("axis", p.axis.is_some()),
+            ("from", p.from.is_some()),
+            ("to", p.to.is_some()),
+            ("path", p.path.is_some()),
+        ];
+        if let Some((f, _)) = present.iter().find(|(f, set)| *set && !allowed.contains(f)) {
+            return Err(ctx.err(
+                format!("{at}.{f}"),
+                format!("`{f}` does not belong to pattern {:?} (it takes {})", p.pattern, allowed.join(", ")),
+            ));
+        }
+        Ok(match p.pattern {
+            PatternKind::Constant => Map::Constant(need(p.value, "value")?),
+            PatternKind::LeftRight => Map::LeftRight(need(p.left, "left")?, need(p.right, "right")?),
+            PatternKind::TopBottom => Map::TopBottom(need(p.top, "top")?, need(p.bottom, "bottom")?),
+            PatternKind::Ramp => {
+                let axis = p.axis.ok_or_else(|| ctx.err(format!("{at}.axis"), "pattern ramp needs `axis` (horizontal or vertical)"))?;
+                Map::Ramp(axis, need(p.from, "from")?, need(p.to, "to")?)
+            }
+            PatternKind::Npy => {
+                let rel = p.path.as_ref().ok_or_else(|| ctx.err(format!("{at}.path"), "pattern npy needs `path`"))?;
+                let file = ctx.resolve(rel);
+                let m = npy::read_real_map(&file).map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
+                if m.dim() != (h, w) {
+                    return Err(ctx.err(
+                        format!("{at}.path"),
+                        format!("{} has shape {:?}, the images are {h}x{w}", file.display(), m.shape()),
+                    ));
+                }
+                Map::File(file, m)
+            }
+        })
+    }
+}
+
+/// Checks every value of a map against a predicate.
+fn check_range(ctx: &Ctx, at: &str, m: &Map, ok: impl Fn(f64) -> bool, what: &str) -> Result<(), SpecError> {
+    match m.values().into_iter().find(|v| !ok(*v)) {
+        Some(v) => Err(ctx.err(at, format!("{what}, got {v}"))),
+        None => Ok(()),
+    }
+}
+
+impl DatasetSpec {
+    /// Validates one dataset (`at` is its YAML path, e.g. `datasets[0]`).
+    pub fn check(&self, ctx: &Ctx, at: &str, levels: usize) -> Result<Dataset, SpecError> {
+        if self.id.is_empty() || !self.id.chars().all(|c| c.is_ascii_alphanumeric() || "_-".contains(c)) {
+            return Err(ctx.err(format!("{at}.id"), format!("dataset id {:?} must be non-empty ASCII letters, digits, `_` or `-`", self.id)));
+        }
+        let fields = [
+            ("family", self.family.is_some()),
+            ("alpha_h", self.alpha_h.is_some()),
+            ("alpha_v", self.alpha_v.is_some()),
+            ("r_h", self.r_h.is_some()),
+            ("r_v", self.r_v.is_some()),
+            ("size", self.size.is_some()),
+            ("samples", self.samples.is_some()),
+            ("half_width", self.half_width.is_some()),
+            ("mean", self.mean.is_some()),
+            ("mean_im", self.mean_im.is_some()),
+            ("std", self.std.is_some()),
+            ("path", self.path.is_some()),
+            ("layout", self.layout.is_some()),
+        ];
+        let allowed: &[&str] = match (self.kind, self.family) {
+            (DatasetKind::Npy, _) => &["path", "layout"],
+            (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => {
+                &["family", "r_h", "r_v", "size", "samples", "half_width", "mean", "mean_im", "std"]
+            }
+            (DatasetKind::FilteredNoise, _) => {
+                &["family", "alpha_h", "alpha_v", "size", "samples", "half_width", "mean", "mean_im", "std"]
+            }
+        };
+        if let Some((f, _)) = fields.iter().find(|(f, set)| *set && !allowed.contains(f)) {
+            return Err(ctx.err(
+                format!("{at}.{f}"),
+                format!("`{f}` does not apply to this dataset (kind {:?}{}); it takes: {}", self.kind,
+                    self.family.map(|f| format!(", family {f:?}")).unwrap_or_default(), allowed.join(", ")),
+            ));
+        }
+        let dataset = match self.kind {
+            DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
+            DatasetKind::FilteredNoise => Dataset::FilteredNoise(self.check_noise(ctx, at)?),
+        };
+        let (n, h, w) = dataset.shape();
+        if n < 2 {
+            let field = if self.kind == DatasetKind::Npy { "path" } else { "samples" };
+            return Err(ctx.err(format!("{at}.{field}"), format!("the stack has {n} sample(s); at least 2 are needed")));
+        }
+        check_levels(levels, h, w).map_err(|e| ctx.err("analysis.levels", format!("dataset {}: {e}", self.id)))?;
+        Ok(dataset)
+    }
+
+    fn check_npy(&self, ctx: &Ctx, at: &str) -> Result<NpyDataset, SpecError> {
+        let rel = self.path.as_ref().ok_or_else(|| ctx.err(format!("{at}.path"), "kind npy needs `path`"))?;
+        let path = ctx.resolve(rel);
+        let header = npy::read_header(&path).map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
+        if header.shape.len() != 3 {
+            return Err(ctx.err(
+                format!("{at}.path"),
+                format!("{} has shape {:?}; a stack is 3-D ([N, H, W], or [H, W, N] with layout: hwn)", path.display(), header.shape),
+            ));
+        }
+        Ok(NpyDataset { path, layout: self.layout.unwrap_or_default(), header })
+    }
+
+    fn check_noise(&self, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecError> {
+        let family = self.family.ok_or_else(|| ctx.err(format!("{at}.family"), "kind filtered_noise needs `family` (exponential or dyadic)"))?;
+        let [h, w] = self.size.ok_or_else(|| ctx.err(format!("{at}.size"), "kind filtered_noise needs `size: [H, W]`"))?;
+        if h == 0 || w == 0 {
+            return Err(ctx.err(format!("{at}.size"), format!("size must be positive, got [{h}, {w}]")));
+        }
+        let samples = self.samples.ok_or_else(|| ctx.err(format!("{at}.samples"), "kind filtered_noise needs `samples`"))?;
+        let half_width = self.half_width.unwrap_or(8);
+        let map = |p: &Option<ParamMap>, name: &str, default: f64| -> Result<Map, SpecError> {
+            match p {
+                Some(p) => p.check(ctx, &format!("{at}.{name}"), h, w),
+                None => Ok(Map::Constant(default)),
+            }
+        };
+        let filter = match family {
+            Family::Exponential => {
+                let need = |p: &Option<ParamMap>, name: &str| -> Result<Map, SpecError> {
+                    let p = p.as_ref().ok_or_else(|| ctx.err(format!("{at}.{name}"), format!("family exponential needs `{name}`")))?;
+                    let m = p.check(ctx, &format!("{at}.{name}"), h, w)?;
+                    check_range(ctx, &format!("{at}.{name}"), &m, |v| v != 0.0 && !v.is_nan(), "alpha must be non-zero (negative alpha: sign-alternating filter)")?;
+                    Ok(m)
+                };
+                FilterParams::Exponential { alpha_h: need(&self.alpha_h, "alpha_h")?, alpha_v: need(&self.alpha_v, "alpha_v")? }
+            }
+            Family::Dyadic => {
+                let list = |p: &Option<Vec<ParamMap>>, name: &str| -> Result<Vec<Map>, SpecError> {
+                    let p = p.as_ref().ok_or_else(|| ctx.err(format!("{at}.{name}"), format!("family dyadic needs `{name}: [r_1, ..., r_L]`")))?;
+                    if p.is_empty() {
+                        return Err(ctx.err(format!("{at}.{name}"), "needs at least one parameter"));
+                    }
+                    let reach = crate::filters::dyadic_reach(p.len());
+                    if half_width < reach {
+                        return Err(ctx.err(format!("{at}.half_width"), format!("a {}-level dyadic filter reaches offset {reach}; half_width {half_width} would truncate it", p.len())));
+                    }
+                    p.iter().enumerate().map(|(i, m)| {
+                        let m = m.check(ctx, &format!("{at}.{name}[{i}]"), h, w)?;
+                        check_range(ctx, &format!("{at}.{name}[{i}]"), &m, f64::is_finite, "r must be finite")?;
+                        Ok(m)
+                    }).collect()
+                };
+                let (r_h, r_v) = (list(&self.r_h, "r_h")?, list(&self.r_v, "r_v")?);
+                if r_h.len() != r_v.len() {
+                    return Err(ctx.err(format!("{at}.r_v"), format!("r_h has {} parameters, r_v {}; they must match", r_h.len(), r_v.len())));
+                }
+                FilterParams::Dyadic { r_h, r_v }
+            }
+        };
+        let std = map(&self.std, "std", 1.0)?;
+        check_range(ctx, &format!("{at}.std"), &std, |v| v >= 0.0 && v.is_finite(), "std must be finite and >= 0")?;
+        Ok(FilteredNoise {
+            filter,
+            height: h,
+            width: w,
+            samples,
+            half_width,
+            mean: map(&self.mean, "mean", 0.0)?,
+            mean_im: map(&self.mean_im, "mean_im", 0.0)?,
+            std,
+        })
+    }
+}

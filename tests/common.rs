@@ -1,0 +1,43 @@
+//! Shared helpers for the integration tests: seeded random stacks and tolerances.
+#![allow(dead_code)]
+
+use ndarray::Array3;
+use num_complex::Complex64;
+use rand::SeedableRng;
+use rand_chacha::ChaCha20Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// Agreement expected between two f64 evaluations of the same estimator by different
+/// summation orders on stacks of at most a few hundred samples.
+pub const REORDER_TOL: f64 = 1e-9;
+
+/// A seeded random stack with spatially varying mean, variance and neighbour correlation:
+/// `x = mu + s * (z + 0.6 * shift(z))` with complex Gaussian `z`.
+pub fn random_stack(seed: u64, n: usize, h: usize, w: usize) -> Array3<Complex64> {
+    let mut rng = ChaCha20Rng::seed_from_u64(seed);
+    let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
+    let z = Array3::from_shape_simple_fn((n, h + 1, w + 1), || Complex64::new(g(), g()));
+    let scale = Array3::from_shape_simple_fn((1, h, w), || 0.5 + g().abs());
+    let mean = Array3::from_shape_simple_fn((1, h, w), || Complex64::new(3.0 * g(), g()));
+    Array3::from_shape_fn((n, h, w), |(s, r, c)| {
+        let v = z[[s, r, c]] + z[[s, r, c + 1]] * 0.6 + z[[s, r + 1, c]] * 0.3 + z[[s, r + 1, c + 1]] * 0.2;
+        mean[[0, r, c]] + v * scale[[0, r, c]]
+    })
+}
+
+/// Largest absolute difference of two equally shaped maps, NaN equal to NaN.
+pub fn max_diff(a: &ndarray::Array2<f64>, b: &ndarray::Array2<f64>) -> f64 {
+    assert_eq!(a.dim(), b.dim(), "shapes differ");
+    a.iter()
+        .zip(b.iter())
+        .map(|(x, y)| {
+            if x.is_nan() && y.is_nan() {
+                0.0
+            } else if x.is_nan() || y.is_nan() {
+                f64::INFINITY
+            } else {
+                (x - y).abs()
+            }
+        })
+        .fold(0.0, f64::max)
+}

@@ -1,0 +1,134 @@
+//! Correlating filters: the fast separable convolution against the direct per-pixel sum
+//! (eq. 33), the generated data's moments, exact expected maps (pair sums vs the 1-D group
+//! correlations), dyadic taps and the sign-alternating filter.
+
+mod common;
+
+use common::max_diff;
+use isar_clutter::analysis::analyse;
+use isar_clutter::data::{filter_bank, generate, white_seed};
+use isar_clutter::filters::*;
+use isar_clutter::spec::{FilterParams, FilteredNoise, Map, RampAxis};
+use ndarray::Array2;
+use num_complex::Complex64;
+
+fn dataset(filter: FilterParams, h: usize, w: usize, n: usize, k: usize) -> FilteredNoise {
+    FilteredNoise {
+        filter,
+        height: h,
+        width: w,
+        samples: n,
+        half_width: k,
+        mean: Map::Constant(0.0),
+        mean_im: Map::Constant(0.0),
+        std: Map::Constant(1.0),
+    }
+}
+
+fn direct(bank: &FilterBank, seed: &Array2<Complex64>) -> Vec<Complex64> {
+    let s = seed.as_slice().unwrap();
+    let sw = seed.dim().1;
+    (0..bank.height * bank.width).map(|p| filter_pixel_direct(bank, s, sw, p / bank.width, p % bank.width)).collect()
+}
+
+#[test]
+fn separable_fast_path_matches_direct_sum() {
+    let d = dataset(FilterParams::Exponential { alpha_h: Map::Constant(1.7), alpha_v: Map::Constant(-0.6) }, 9, 13, 1, 5);
+    let bank = filter_bank(&d);
+    assert!(bank.is_uniform());
+    let seed = white_seed(99, 0, 9 + 10, 13 + 10);
+    let mut fast = vec![Complex64::new(0.0, 0.0); 9 * 13];
+    filter_seed(&bank, seed.view(), &mut fast);
+    for (a, b) in fast.iter().zip(direct(&bank, &seed)) {
+        assert!((a - b).norm() < 1e-12);
+    }
+}
+
+#[test]
+fn white_seed_is_unit_power_and_stream_separated() {
+    let a = white_seed(5, 0, 200, 200);
+    let power = a.iter().map(|z| z.norm_sqr()).sum::<f64>() / a.len() as f64;
+    // 40,000 draws of |z|^2 (exponential, sd 1): standard error 0.005.
+    assert!((power - 1.0).abs() < 0.025, "E|z|^2 = {power}");
+    assert_ne!(white_seed(5, 1, 4, 4), white_seed(5, 0, 4, 4));
+    assert_eq!(white_seed(5, 1, 4, 4), white_seed(5, 1, 4, 4));
+}
+
+#[test]
+fn generated_data_has_the_requested_mean_and_variance() {
+    let mut d = dataset(FilterParams::Exponential { alpha_h: Map::Constant(1.0), alpha_v: Map::Ramp(RampAxis::Vertical, 0.5, 2.0) }, 16, 16, 4000, 8);
+    d.mean = Map::LeftRight(1.0, -2.0);
+    d.std = Map::TopBottom(0.5, 3.0);
+    let bank = filter_bank(&d);
+    let stack = generate(&d, &bank, 3);
+    let a = analyse(stack.view(), 1).unwrap();
+    let std = d.std.grid(16, 16);
+    let mean = d.mean.grid(16, 16);
+    for ((rc, m), v) in a.mean.indexed_iter().zip(a.variance.iter()) {
+        let s2 = std[rc] * std[rc];
+        // Variance of the sample variance of a complex Gaussian: s^4 / N -> relative sd 1.6 %.
+        assert!((v / s2 - 1.0).abs() < 0.08, "variance at {rc:?}: {v} vs {s2}");
+        // Sample mean sd: s / sqrt(N) <= 3 / 63 = 0.047 per component.
+        assert!((m.re - mean[rc]).abs() < 0.25 && m.im.abs() < 0.25, "mean at {rc:?}");
+    }
+}
+
+#[test]
+fn exact_pair_sums_equal_group_correlations_for_uniform_filters() {
+    let d = dataset(FilterParams::Exponential { alpha_h: Map::Constant(0.8), alpha_v: Map::Constant(2.0) }, 16, 16, 2, 8);
+    let bank = filter_bank(&d);
+    // A non-uniform but everywhere-equal std map forces the pair-sum path.
+    let mut std = Array2::from_elem((16, 16), 2.0);
+    let fast = expected_maps(&bank, &std, 3);
+    std[[0, 0]] = 2.0 + 1e-300;
+    let slow = expected_maps(&bank, &std, 3);
+    for (f, s) in fast.iter().zip(&slow) {
+        for d in 0..3 {
+            assert!(max_diff(&f[d], &s[d]) < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn spatially_varying_analysis_recovers_the_exact_maps() {
+    let d = dataset(
+        FilterParams::Exponential { alpha_h: Map::Ramp(RampAxis::Horizontal, 0.3, 3.0), alpha_v: Map::TopBottom(0.5, 2.0) },
+        16,
+        16,
+        3000,
+        8,
+    );
+    let bank = filter_bank(&d);
+    assert!(!bank.is_uniform());
+    let stack = generate(&d, &bank, 4);
+    let a = analyse(stack.view(), 2).unwrap();
+    let exact = expected_maps(&bank, &d.std.grid(16, 16), 2);
+    for (lm, e) in a.levels.iter().zip(&exact) {
+        for (i, dir) in isar_clutter::analysis::Direction::ALL.iter().enumerate() {
+            // Per-cell sd of a correlation estimate: (1 - rho^2) / sqrt(2N) <= 0.013; 5 sd.
+            let diff = max_diff(lm.correlation(*dir), &e[i]);
+            assert!(diff < 0.065, "level {} {dir}: max deviation {diff}", lm.level);
+        }
+    }
+    // The map really varies: left and right of the ramp differ by more than the noise.
+    let h1 = &exact[0][0];
+    assert!(h1[[0, 7]] - h1[[0, 0]] > 0.3);
+}
+
+#[test]
+fn dyadic_taps_follow_the_octaves() {
+    let t = dyadic_taps(&[0.5, -0.25, 0.125], 9);
+    let want = [0.0, 0.0, 0.125, 0.125, 0.125, 0.125, -0.25, -0.25, 0.5, 1.0];
+    assert_eq!(&t[..10], &want);
+    assert_eq!(t.len(), 19);
+    assert_eq!(t[10..], t[..9].iter().rev().copied().collect::<Vec<_>>()[..]);
+}
+
+#[test]
+fn sign_alternating_filter_negates_odd_lag_correlations() {
+    let (p, n) = (exponential_taps(1.3, 8), exponential_taps(-1.3, 8));
+    for lag in 0..=8 {
+        let sign = if lag % 2 == 1 { -1.0 } else { 1.0 };
+        assert!((lag_correlation(&n, lag) - sign * lag_correlation(&p, lag)).abs() < 1e-12);
+    }
+}
