@@ -355,7 +355,10 @@ impl LevelAcc {
         let mut maps: [Vec<f64>; 6] = std::array::from_fn(|_| Vec::with_capacity(crows * ccols));
         let moments = |k: usize| {
             let (mr, mi) = (self.sre[k] * inv, self.sim[k] * inv);
-            ((mr, mi), (self.sq[k] * inv - mr * mr - mi * mi).max(0.0).sqrt())
+            (
+                (mr, mi),
+                non_negative(self.sq[k] * inv - mr * mr - mi * mi).sqrt(),
+            )
         };
         for r in 0..crows {
             for c in 0..ccols {
@@ -399,6 +402,16 @@ pub(crate) fn cell_stats(csum: f64, denom: f64) -> (f64, f64) {
     }
 }
 
+/// Clamps rounding-negative variances to 0 and keeps NaN (unlike `f64::max`).
+#[inline]
+fn non_negative(v: f64) -> f64 {
+    if v < 0.0 {
+        0.0
+    } else {
+        v
+    }
+}
+
 /// Analyses rows `r0 .. r0 + rows` of every sample.
 fn analyse_band(
     data: &[impl Sample],
@@ -434,7 +447,7 @@ fn analyse_band(
     for k in 0..rows * w {
         let (mr, mi) = (pixels.sre[k] * inv, pixels.sim[k] * inv);
         mean.push(pixels.shift[k] + Complex64::new(mr, mi));
-        variance.push((pixels.sq[k] * inv - mr * mr - mi * mi).max(0.0));
+        variance.push(non_negative(pixels.sq[k] * inv - mr * mr - mi * mi));
     }
     BandResult {
         mean,

@@ -34,20 +34,31 @@ pub fn filter_bank(d: &FilteredNoise) -> FilterBank {
     let (vertical, horizontal): (Vec<Vec<f64>>, Vec<Vec<f64>>) = match &d.filter {
         FilterParams::Exponential { alpha_h, alpha_v } => {
             let (ah, av) = (grid(alpha_h), grid(alpha_v));
-            ah.iter().zip(av.iter()).map(|(&a_h, &a_v)| (exponential_taps(a_v, k), exponential_taps(a_h, k))).unzip()
+            ah.iter()
+                .zip(av.iter())
+                .map(|(&a_h, &a_v)| (exponential_taps(a_v, k), exponential_taps(a_h, k)))
+                .unzip()
         }
         FilterParams::Dyadic { r_h, r_v } => {
             let rh: Vec<Array2<f64>> = r_h.iter().map(grid).collect();
             let rv: Vec<Array2<f64>> = r_v.iter().map(grid).collect();
             (0..h * w)
                 .map(|p| {
-                    let at = |maps: &[Array2<f64>]| maps.iter().map(|m| m[[p / w, p % w]]).collect::<Vec<_>>();
+                    let at = |maps: &[Array2<f64>]| {
+                        maps.iter().map(|m| m[[p / w, p % w]]).collect::<Vec<_>>()
+                    };
                     (dyadic_taps(&at(&rv), k), dyadic_taps(&at(&rh), k))
                 })
                 .unzip()
         }
     };
-    FilterBank { half_width: k, height: h, width: w, vertical, horizontal }
+    FilterBank {
+        half_width: k,
+        height: h,
+        width: w,
+        vertical,
+        horizontal,
+    }
 }
 
 /// Draws the padded white seed of sample `index` from the data seed.
@@ -66,17 +77,25 @@ pub fn white_seed(data_seed: u64, index: usize, rows: usize, cols: usize) -> Arr
 pub fn generate(d: &FilteredNoise, bank: &FilterBank, data_seed: u64) -> Array3<Complex64> {
     let (h, w, k) = (d.height, d.width, d.half_width);
     let (mean, mean_im, std) = (d.mean.grid(h, w), d.mean_im.grid(h, w), d.std.grid(h, w));
-    let gain: Vec<f64> = (0..h * w).map(|p| std[[p / w, p % w]] / bank.output_sd(p)).collect();
-    let mu: Vec<Complex64> = mean.iter().zip(mean_im.iter()).map(|(&a, &b)| Complex64::new(a, b)).collect();
+    let gain: Vec<f64> = (0..h * w)
+        .map(|p| std[[p / w, p % w]] / bank.output_sd(p))
+        .collect();
+    let mu: Vec<Complex64> = mean
+        .iter()
+        .zip(mean_im.iter())
+        .map(|(&a, &b)| Complex64::new(a, b))
+        .collect();
     let mut out = Array3::zeros((d.samples, h, w));
     let data = out.as_slice_mut().expect("standard layout");
-    data.par_chunks_mut(h * w).enumerate().for_each(|(s, plane)| {
-        let seed = white_seed(data_seed, s, h + 2 * k, w + 2 * k);
-        filter_seed(bank, seed.view(), plane);
-        for ((x, g), m) in plane.iter_mut().zip(&gain).zip(&mu) {
-            *x = m + *x * *g;
-        }
-    });
+    data.par_chunks_mut(h * w)
+        .enumerate()
+        .for_each(|(s, plane)| {
+            let seed = white_seed(data_seed, s, h + 2 * k, w + 2 * k);
+            filter_seed(bank, seed.view(), plane);
+            for ((x, g), m) in plane.iter_mut().zip(&gain).zip(&mu) {
+                *x = m + *x * *g;
+            }
+        });
     out
 }
 
@@ -90,8 +109,16 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
             let bank = filter_bank(d);
             let stack = generate(d, &bank, data_seed);
             let std = d.std.grid(d.height, d.width);
-            Materialised { stack: Stack::C128(stack), hwn: false, truth: Some((bank, std)) }
+            Materialised {
+                stack: Stack::C128(stack),
+                hwn: false,
+                truth: Some((bank, std)),
+            }
         }
-        Dataset::Npy(n) => Materialised { stack: Stack::load(&n.path)?, hwn: n.layout == Layout::Hwn, truth: None },
+        Dataset::Npy(n) => Materialised {
+            stack: Stack::load(&n.path)?,
+            hwn: n.layout == Layout::Hwn,
+            truth: None,
+        },
     })
 }

@@ -20,7 +20,10 @@ use num_complex::Complex64;
 /// # Panics
 /// If `alpha` is zero or NaN.
 pub fn exponential_taps(alpha: f64, half_width: usize) -> Vec<f64> {
-    assert!(alpha != 0.0 && !alpha.is_nan(), "alpha must be non-zero, got {alpha}");
+    assert!(
+        alpha != 0.0 && !alpha.is_nan(),
+        "alpha must be non-zero, got {alpha}"
+    );
     let k = half_width as i64;
     (-k..=k)
         .map(|d| {
@@ -114,7 +117,11 @@ impl FilterBank {
     /// A bank where every pixel uses the same taps.
     pub fn uniform(vertical: Vec<f64>, horizontal: Vec<f64>, height: usize, width: usize) -> Self {
         let half_width = horizontal.len() / 2;
-        assert_eq!(vertical.len(), horizontal.len(), "taps must share a half-width");
+        assert_eq!(
+            vertical.len(),
+            horizontal.len(),
+            "taps must share a half-width"
+        );
         FilterBank {
             half_width,
             height,
@@ -164,7 +171,11 @@ impl FilterBank {
 /// per-pixel double sum of eq. 33. `scratch` holds the horizontal pass of the uniform path.
 pub fn filter_seed(bank: &FilterBank, seed: ArrayView2<Complex64>, out: &mut [Complex64]) {
     let (h, w, k) = (bank.height, bank.width, bank.half_width);
-    assert_eq!(seed.dim(), (h + 2 * k, w + 2 * k), "seed must be padded by the half-width");
+    assert_eq!(
+        seed.dim(),
+        (h + 2 * k, w + 2 * k),
+        "seed must be padded by the half-width"
+    );
     assert_eq!(out.len(), h * w);
     let seed = seed.as_standard_layout();
     let s = seed.as_slice().expect("standard layout");
@@ -193,7 +204,13 @@ pub fn filter_seed(bank: &FilterBank, seed: ArrayView2<Complex64>, out: &mut [Co
 }
 
 /// Direct double sum of eq. 33 for one output pixel (also the oracle of the uniform path).
-pub fn filter_pixel_direct(bank: &FilterBank, seed: &[Complex64], seed_width: usize, i: usize, j: usize) -> Complex64 {
+pub fn filter_pixel_direct(
+    bank: &FilterBank,
+    seed: &[Complex64],
+    seed_width: usize,
+    i: usize,
+    j: usize,
+) -> Complex64 {
     let p = i * bank.width + j;
     let (fv, fh) = (&bank.vertical[p], &bank.horizontal[p]);
     let n = 2 * bank.half_width + 1;
@@ -233,8 +250,9 @@ pub fn expected_maps(bank: &FilterBank, std: &Array2<f64>, levels: usize) -> Vec
         .collect()
 }
 
-/// Pixel-pair summation of [`expected_maps`] for one level.
-fn exact_level(bank: &FilterBank, std: &Array2<f64>, level: usize) -> [Array2<f64>; 3] {
+/// Pixel-pair summation of [`expected_maps`] for one level (`[H, V, D]`), valid for any bank
+/// and `std` map; the oracle of the uniform fast path.
+pub fn exact_level(bank: &FilterBank, std: &Array2<f64>, level: usize) -> [Array2<f64>; 3] {
     let g = 1usize << (level - 1);
     let shape = (bank.height >> level, bank.width >> level);
     let scale = |i: usize, j: usize| std[[i, j]] / bank.output_sd(i * bank.width + j);
@@ -256,7 +274,12 @@ fn exact_level(bank: &FilterBank, std: &Array2<f64>, level: usize) -> [Array2<f6
     let mut maps: [Array2<f64>; 3] = std::array::from_fn(|_| Array2::zeros(shape));
     for r in 0..shape.0 {
         for c in 0..shape.1 {
-            let u = [(2 * r, 2 * c), (2 * r, 2 * c + 1), (2 * r + 1, 2 * c), (2 * r + 1, 2 * c + 1)];
+            let u = [
+                (2 * r, 2 * c),
+                (2 * r, 2 * c + 1),
+                (2 * r + 1, 2 * c),
+                (2 * r + 1, 2 * c + 1),
+            ];
             let s: Vec<f64> = u.iter().map(|&a| unit_cov(a, a).sqrt()).collect();
             let cv = |i: usize, j: usize| unit_cov(u[i], u[j]);
             let dirs = [

@@ -59,7 +59,13 @@ fn real_main() -> Result<ExitCode> {
             println!("{}: valid, {} job(s)", spec.display(), plan.jobs.len());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Run { spec, out, jobs, dry_run, quiet } => {
+        Command::Run {
+            spec,
+            out,
+            jobs,
+            dry_run,
+            quiet,
+        } => {
             let plan = plan::load(&spec)?;
             if dry_run {
                 print_jobs(&plan);
@@ -80,7 +86,11 @@ fn real_main() -> Result<ExitCode> {
             for (job, err) in &summary.failed {
                 eprintln!("  failed: {job}: {err}");
             }
-            Ok(if summary.failed.is_empty() { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+            Ok(if summary.failed.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            })
         }
     }
 }
@@ -104,10 +114,20 @@ fn print_jobs(plan: &Plan) {
         .collect();
     let head = ["job", "kind", "NxHxW", "levels", "seed", "params"];
     let width: Vec<usize> = (0..6)
-        .map(|c| rows.iter().map(|r| r[c].len()).chain([head[c].len()]).max().unwrap_or(0))
+        .map(|c| {
+            rows.iter()
+                .map(|r| r[c].len())
+                .chain([head[c].len()])
+                .max()
+                .unwrap_or(0)
+        })
         .collect();
     let line = |cells: [&str; 6]| {
-        let s: Vec<String> = cells.iter().zip(&width).map(|(c, w)| format!("{c:<w$}")).collect();
+        let s: Vec<String> = cells
+            .iter()
+            .zip(&width)
+            .map(|(c, w)| format!("{c:<w$}"))
+            .collect();
         println!("{}", s.join("  ").trim_end());
     };
     line(head);

@@ -89,8 +89,14 @@ pub struct NpyHeader {
 /// # Errors
 /// [`NpyError`] if the file is missing, not `.npy`, or of an unsupported dtype.
 pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
-    let io = |source| NpyError::Io { path: path.to_path_buf(), source };
-    let bad = |reason: &str| NpyError::Header { path: path.to_path_buf(), reason: reason.to_string() };
+    let io = |source| NpyError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let bad = |reason: &str| NpyError::Header {
+        path: path.to_path_buf(),
+        reason: reason.to_string(),
+    };
     let mut f = BufReader::new(File::open(path).map_err(io)?);
     let mut pre = [0u8; 8];
     f.read_exact(&mut pre).map_err(|_| bad("file too short"))?;
@@ -111,7 +117,8 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
         v => return Err(bad(&format!("unknown format version {v}"))),
     };
     let mut text = vec![0u8; len];
-    f.read_exact(&mut text).map_err(|_| bad("truncated header"))?;
+    f.read_exact(&mut text)
+        .map_err(|_| bad("truncated header"))?;
     let text = String::from_utf8_lossy(&text);
     let descr = dict_value(&text, "descr").ok_or_else(|| bad("no 'descr'"))?;
     let descr = descr.trim_matches(|c| c == '\'' || c == '"').to_string();
@@ -120,7 +127,12 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
         "<c16" => Dtype::Complex128,
         "<f4" => Dtype::Float32,
         "<f8" => Dtype::Float64,
-        _ => return Err(NpyError::Dtype { path: path.to_path_buf(), descr }),
+        _ => {
+            return Err(NpyError::Dtype {
+                path: path.to_path_buf(),
+                descr,
+            })
+        }
     };
     let fortran_order = match dict_value(&text, "fortran_order").as_deref() {
         Some("True") => true,
@@ -136,7 +148,11 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
         .map(|s| s.trim_end_matches('L').parse::<usize>())
         .collect::<Result<Vec<_>, _>>()
         .map_err(|_| bad("unreadable 'shape'"))?;
-    Ok(NpyHeader { dtype, fortran_order, shape })
+    Ok(NpyHeader {
+        dtype,
+        fortran_order,
+        shape,
+    })
 }
 
 /// The raw text of `key`'s value in a numpy header dict literal.
@@ -183,9 +199,15 @@ impl Stack {
         let f = || {
             File::open(path)
                 .map(BufReader::new)
-                .map_err(|source| NpyError::Io { path: path.to_path_buf(), source })
+                .map_err(|source| NpyError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })
         };
-        let data = |e: ndarray_npy::ReadNpyError| NpyError::Data { path: path.to_path_buf(), reason: e.to_string() };
+        let data = |e: ndarray_npy::ReadNpyError| NpyError::Data {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        };
         let stack = match header.dtype {
             Dtype::Complex64 => Stack::C64(Array3::read_npy(f()?).map_err(data)?),
             Dtype::Complex128 => Stack::C128(Array3::read_npy(f()?).map_err(data)?),
@@ -200,7 +222,11 @@ impl Stack {
     /// # Errors
     /// [`AnalysisError`] as for [`analyse`].
     pub fn analyse(&self, hwn: bool, levels: usize) -> Result<Analysis, AnalysisError> {
-        fn go<T: Sample>(a: &Array3<T>, hwn: bool, levels: usize) -> Result<Analysis, AnalysisError> {
+        fn go<T: Sample>(
+            a: &Array3<T>,
+            hwn: bool,
+            levels: usize,
+        ) -> Result<Analysis, AnalysisError> {
             analyse(view(a, hwn), levels)
         }
         match self {
@@ -228,14 +254,29 @@ impl Stack {
 /// [`NpyError`] if the file is missing, complex, or not 2-D.
 pub fn read_real_map(path: &Path) -> Result<Array2<f64>, NpyError> {
     let header = read_header(path)?;
-    let data = |reason: String| NpyError::Data { path: path.to_path_buf(), reason };
+    let data = |reason: String| NpyError::Data {
+        path: path.to_path_buf(),
+        reason,
+    };
     if header.shape.len() != 2 {
-        return Err(data(format!("a map must be 2-D [H, W], this one has shape {:?}", header.shape)));
+        return Err(data(format!(
+            "a map must be 2-D [H, W], this one has shape {:?}",
+            header.shape
+        )));
     }
-    let f = File::open(path).map(BufReader::new).map_err(|source| NpyError::Io { path: path.to_path_buf(), source })?;
+    let f = File::open(path)
+        .map(BufReader::new)
+        .map_err(|source| NpyError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     match header.dtype {
         Dtype::Float64 => Array2::<f64>::read_npy(f).map_err(|e| data(e.to_string())),
-        Dtype::Float32 => Array2::<f32>::read_npy(f).map(|a| a.mapv(f64::from)).map_err(|e| data(e.to_string())),
-        _ => Err(data("a parameter map must be real (float32 or float64)".into())),
+        Dtype::Float32 => Array2::<f32>::read_npy(f)
+            .map(|a| a.mapv(f64::from))
+            .map_err(|e| data(e.to_string())),
+        _ => Err(data(
+            "a parameter map must be real (float32 or float64)".into(),
+        )),
     }
 }

@@ -43,7 +43,10 @@ pub fn pair_covariance(units: &Array3<Complex64>, a: (usize, usize), b: (usize, 
 }
 
 /// Correlation and covariance maps `[H, V, D]` of one level from direct pair covariances.
-pub fn direct_level(stack: &Array3<Complex64>, level: usize) -> ([Array2<f64>; 3], [Array2<f64>; 3]) {
+pub fn direct_level(
+    stack: &Array3<Complex64>,
+    level: usize,
+) -> ([Array2<f64>; 3], [Array2<f64>; 3]) {
     let units = unit_images(stack, level);
     let (_, uh, uw) = units.dim();
     let shape = (uh / 2, uw / 2);
@@ -51,8 +54,16 @@ pub fn direct_level(stack: &Array3<Complex64>, level: usize) -> ([Array2<f64>; 3
     let mut cov: [Array2<f64>; 3] = std::array::from_fn(|_| Array2::zeros(shape));
     for r in 0..shape.0 {
         for c in 0..shape.1 {
-            let u = [(2 * r, 2 * c), (2 * r, 2 * c + 1), (2 * r + 1, 2 * c), (2 * r + 1, 2 * c + 1)];
-            let s: Vec<f64> = u.iter().map(|&p| pair_covariance(&units, p, p).sqrt()).collect();
+            let u = [
+                (2 * r, 2 * c),
+                (2 * r, 2 * c + 1),
+                (2 * r + 1, 2 * c),
+                (2 * r + 1, 2 * c + 1),
+            ];
+            let s: Vec<f64> = u
+                .iter()
+                .map(|&p| pair_covariance(&units, p, p).sqrt())
+                .collect();
             let cv = |i: usize, j: usize| pair_covariance(&units, u[i], u[j]);
             let dirs = [
                 (cv(0, 1) + cv(2, 3), s[0] * s[1] + s[2] * s[3]),
@@ -116,7 +127,10 @@ pub fn solve4(mut a: [[f64; 4]; 4], mut b: [f64; 4]) -> [f64; 4] {
 /// (SPEC-NOTES' signs; the dissertation's printed eq. 43/54 flips those of `H` and `V`).
 /// The unknown vector is `[1, rhoH, rhoV, rhoD]`; its first entry is solved too and returned
 /// as the fourth element of each cell's check value (it must come out as 1).
-pub fn haar_solve_level(stack: &Array3<Complex64>, level: usize) -> ([Array2<f64>; 3], Array2<f64>) {
+pub fn haar_solve_level(
+    stack: &Array3<Complex64>,
+    level: usize,
+) -> ([Array2<f64>; 3], Array2<f64>) {
     let units = unit_images(stack, level);
     let (n, uh, uw) = units.dim();
     let shape = (uh / 2, uw / 2);

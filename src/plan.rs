@@ -65,7 +65,10 @@ pub fn derive_seed(master: u64, domain: &str, identity: &str) -> u64 {
 
 /// Hex SHA-256 of bytes.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// A parsed sweep axis.
@@ -98,10 +101,13 @@ impl Axis {
 /// # Errors
 /// A [`SpecError`] naming the file, the YAML path and (when the parser gives it) the line.
 pub fn load(file: &Path) -> Result<Plan, SpecError> {
-    let bytes = std::fs::read(file).map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;
-    let text = String::from_utf8(bytes.clone()).map_err(|_| SpecError::at(file, ".", "the spec is not UTF-8 text"))?;
+    let bytes = std::fs::read(file)
+        .map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;
+    let text = String::from_utf8(bytes.clone())
+        .map_err(|_| SpecError::at(file, ".", "the spec is not UTF-8 text"))?;
     let spec = spec::parse(&text, file)?;
-    let raw: Yaml = serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
+    let raw: Yaml =
+        serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
     let ctx = Ctx { file };
     check_top(&spec, &ctx)?;
     let axes = parse_axes(&spec, &ctx)?;
@@ -110,13 +116,23 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     let mut seen = HashMap::new();
     for (i, ds) in spec.datasets.iter().enumerate() {
         for point in &points {
-            let applied: Vec<&(usize, usize)> = point.iter().filter(|(a, _)| axes[*a].applies_to(&ds.id)).collect();
+            let applied: Vec<&(usize, usize)> = point
+                .iter()
+                .filter(|(a, _)| axes[*a].applies_to(&ds.id))
+                .collect();
             let mut params = BTreeMap::new();
             for &&(a, v) in &applied {
                 let axis = &axes[a];
                 let value = serde_json::to_value(&axis.values[v]).expect("YAML values are JSON");
                 if params.insert(axis.short(), value).is_some() {
-                    return Err(ctx.err(&axis.at, format!("another sweep axis also sets `{}` of dataset {}", axis.short(), ds.id)));
+                    return Err(ctx.err(
+                        &axis.at,
+                        format!(
+                            "another sweep axis also sets `{}` of dataset {}",
+                            axis.short(),
+                            ds.id
+                        ),
+                    ));
                 }
             }
             let identity = identity(&ds.id, &params);
@@ -131,12 +147,24 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
     param_keys.sort();
     param_keys.dedup();
-    Ok(Plan { file: file.to_path_buf(), spec_hash: sha256_hex(text.as_bytes()), spec, jobs, param_keys })
+    Ok(Plan {
+        file: file.to_path_buf(),
+        spec_hash: sha256_hex(text.as_bytes()),
+        spec,
+        jobs,
+        param_keys,
+    })
 }
 
 /// Document-level checks: name, unique dataset ids.
 fn check_top(spec: &RawSpec, ctx: &Ctx) -> Result<(), SpecError> {
-    if spec.name.is_empty() || !spec.name.chars().all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c)) || spec.name.starts_with('.') {
+    if spec.name.is_empty()
+        || !spec
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c))
+        || spec.name.starts_with('.')
+    {
         return Err(ctx.err("name", format!("name {:?} must be non-empty ASCII letters, digits, `_`, `-` or `.` (it names the output folder)", spec.name)));
     }
     if spec.datasets.is_empty() {
@@ -145,7 +173,10 @@ fn check_top(spec: &RawSpec, ctx: &Ctx) -> Result<(), SpecError> {
     let mut ids = HashMap::new();
     for (i, d) in spec.datasets.iter().enumerate() {
         if let Some(j) = ids.insert(d.id.clone(), i) {
-            return Err(ctx.err(format!("datasets[{i}].id"), format!("dataset id {:?} is already used by datasets[{j}]", d.id)));
+            return Err(ctx.err(
+                format!("datasets[{i}].id"),
+                format!("dataset id {:?} is already used by datasets[{j}]", d.id),
+            ));
         }
     }
     Ok(())
@@ -168,7 +199,10 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
                 }
                 Some("analysis") if parts.len() >= 2 => (None, parts[1..].to_vec()),
                 _ => {
-                    return Err(ctx.err(at, "a sweep axis is `datasets.<id>.<field>` or `analysis.<field>`"));
+                    return Err(ctx.err(
+                        at,
+                        "a sweep axis is `datasets.<id>.<field>` or `analysis.<field>`",
+                    ));
                 }
             };
             if field.first().is_some_and(|f| f == "id" || f == "kind") {
@@ -177,7 +211,13 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
             if values.is_empty() {
                 return Err(ctx.err(at, "a sweep axis needs at least one value"));
             }
-            axes.push(Axis { key: key.clone(), at, dataset, field, values: values.clone() });
+            axes.push(Axis {
+                key: key.clone(),
+                at,
+                dataset,
+                field,
+                values: values.clone(),
+            });
         }
     }
     Ok(axes)
@@ -185,8 +225,12 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
 
 /// Sweep points as lists of `(axis index, value index)`.
 fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, SpecError> {
-    let grid: Vec<usize> = (0..axes.len()).filter(|&a| axes[a].at.starts_with("sweep.grid.")).collect();
-    let zip: Vec<usize> = (0..axes.len()).filter(|&a| axes[a].at.starts_with("sweep.zip.")).collect();
+    let grid: Vec<usize> = (0..axes.len())
+        .filter(|&a| axes[a].at.starts_with("sweep.grid."))
+        .collect();
+    let zip: Vec<usize> = (0..axes.len())
+        .filter(|&a| axes[a].at.starts_with("sweep.zip."))
+        .collect();
     let mut points: Vec<Vec<(usize, usize)>> = vec![vec![]];
     for &a in &grid {
         points = points
@@ -203,7 +247,15 @@ fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, Sp
     if let Some(&first) = zip.first() {
         let n = axes[first].values.len();
         if let Some(&bad) = zip.iter().find(|&&a| axes[a].values.len() != n) {
-            return Err(ctx.err(&axes[bad].at, format!("zip axes must have equal lengths: {} has {n} values, {} has {}", axes[first].key, axes[bad].key, axes[bad].values.len())));
+            return Err(ctx.err(
+                &axes[bad].at,
+                format!(
+                    "zip axes must have equal lengths: {} has {n} values, {} has {}",
+                    axes[first].key,
+                    axes[bad].key,
+                    axes[bad].values.len()
+                ),
+            ));
         }
         points = points
             .into_iter()
@@ -248,9 +300,12 @@ fn build_job(
     let mut data_params = BTreeMap::new();
     for &&(a, v) in applied {
         let axis = &axes[a];
-        let target = if axis.dataset.is_some() { &mut ds_value } else { &mut an_value };
-        set_path(target, &axis.field, axis.values[v].clone())
-            .map_err(|m| ctx.err(&axis.at, m))?;
+        let target = if axis.dataset.is_some() {
+            &mut ds_value
+        } else {
+            &mut an_value
+        };
+        set_path(target, &axis.field, axis.values[v].clone()).map_err(|m| ctx.err(&axis.at, m))?;
         if axis.dataset.is_some() {
             data_params.insert(axis.short(), params[&axis.short()].clone());
         }
@@ -258,27 +313,43 @@ fn build_job(
     let swept = || {
         applied
             .iter()
-            .map(|&&(a, v)| format!("{} = {}", axes[a].key, serde_json::to_string(&axes[a].values[v]).unwrap_or_default()))
+            .map(|&&(a, v)| {
+                format!(
+                    "{} = {}",
+                    axes[a].key,
+                    serde_json::to_string(&axes[a].values[v]).unwrap_or_default()
+                )
+            })
             .collect::<Vec<_>>()
             .join(", ")
     };
     let typed = |e: serde_path_to_error::Error<serde_yaml_ng::Error>, section: &str| {
-        let first = applied.first().map(|&&(a, _)| axes[a].at.clone()).unwrap_or_else(|| section.to_string());
-        ctx.err(first, format!("with {}: {section}.{}: {}", swept(), e.path(), e.inner()))
+        let first = applied
+            .first()
+            .map(|&&(a, _)| axes[a].at.clone())
+            .unwrap_or_else(|| section.to_string());
+        ctx.err(
+            first,
+            format!("with {}: {section}.{}: {}", swept(), e.path(), e.inner()),
+        )
     };
     let (dataset_spec, analysis) = if applied.is_empty() {
         (ds.clone(), spec.analysis.clone())
     } else {
-        let d: DatasetSpec = serde_path_to_error::deserialize(ds_value).map_err(|e| typed(e, &format!("datasets[{index}]")))?;
-        let a: AnalysisSpec = serde_path_to_error::deserialize(an_value).map_err(|e| typed(e, "analysis"))?;
+        let d: DatasetSpec = serde_path_to_error::deserialize(ds_value)
+            .map_err(|e| typed(e, &format!("datasets[{index}]")))?;
+        let a: AnalysisSpec =
+            serde_path_to_error::deserialize(an_value).map_err(|e| typed(e, "analysis"))?;
         (d, a)
     };
-    let dataset = dataset_spec.check(ctx, &format!("datasets[{index}]"), analysis.levels).map_err(|mut e| {
-        if !applied.is_empty() {
-            e.message = format!("{} (with {})", e.message, swept());
-        }
-        e
-    })?;
+    let dataset = dataset_spec
+        .check(ctx, &format!("datasets[{index}]"), analysis.levels)
+        .map_err(|mut e| {
+            if !applied.is_empty() {
+                e.message = format!("{} (with {})", e.message, swept());
+            }
+            e
+        })?;
     let data_identity = self::identity(&ds.id, &data_params);
     Ok(Job {
         id: String::new(),
@@ -305,9 +376,12 @@ fn set_path(target: &mut Yaml, field: &[String], value: Yaml) -> Result<(), Stri
             Ok(())
         }
         Yaml::Sequence(s) => {
-            let i: usize = last.parse().map_err(|_| format!("`{last}` is not a list index"))?;
+            let i: usize = last
+                .parse()
+                .map_err(|_| format!("`{last}` is not a list index"))?;
             let len = s.len();
-            *s.get_mut(i).ok_or(format!("index {i} is past the list's {len} entries"))? = value;
+            *s.get_mut(i)
+                .ok_or(format!("index {i} is past the list's {len} entries"))? = value;
             Ok(())
         }
         _ => Err(format!("cannot set `{last}` inside a scalar")),
@@ -316,9 +390,13 @@ fn set_path(target: &mut Yaml, field: &[String], value: Yaml) -> Result<(), Stri
 
 fn step<'a>(cur: &'a mut Yaml, part: &str) -> Result<&'a mut Yaml, String> {
     match cur {
-        Yaml::Mapping(m) => m.get_mut(part).ok_or(format!("no field `{part}` to descend into (set it in the dataset first)")),
+        Yaml::Mapping(m) => m.get_mut(part).ok_or(format!(
+            "no field `{part}` to descend into (set it in the dataset first)"
+        )),
         Yaml::Sequence(s) => {
-            let i: usize = part.parse().map_err(|_| format!("`{part}` is not a list index"))?;
+            let i: usize = part
+                .parse()
+                .map_err(|_| format!("`{part}` is not a list index"))?;
             s.get_mut(i).ok_or(format!("no list entry {i}"))
         }
         _ => Err(format!("cannot descend into `{part}` of a scalar")),
@@ -335,7 +413,15 @@ fn id_value(v: &Json) -> String {
 
 /// Makes a string safe as a file name.
 fn sanitize(s: &str) -> String {
-    s.chars().map(|c| if c.is_ascii_alphanumeric() || "._=+-".contains(c) { c } else { '_' }).collect()
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._=+-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 /// Assigns readable ids; a short hash of the identity is appended only where ids collide

@@ -61,17 +61,23 @@ pub struct JobOutcome {
 ///
 /// # Errors
 /// If the temporary file cannot be written or renamed; the temporary file is removed.
-pub fn atomic_write(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<()> {
+pub fn atomic_write(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
+) -> Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
     let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     let result = (|| {
-        let mut w = BufWriter::new(File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?);
+        let mut w = BufWriter::new(
+            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?,
+        );
         write(&mut w)?;
         w.flush()?;
         w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+        fs::rename(&tmp, path)
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
@@ -94,7 +100,10 @@ pub fn write_parquet(path: &Path, df: &mut DataFrame) -> Result<()> {
 ///
 /// # Errors
 /// If writing fails.
-pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(path: &Path, a: &ndarray::Array<A, D>) -> Result<()> {
+pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
+    path: &Path,
+    a: &ndarray::Array<A, D>,
+) -> Result<()> {
     use ndarray_npy::WriteNpyExt;
     atomic_write(path, |w| {
         a.write_npy(w)?;
@@ -112,13 +121,22 @@ pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
     write_npy(&dir.join("variance.npy"), &r.analysis.variance)?;
     for lm in &r.analysis.levels {
         for d in Direction::ALL {
-            write_npy(&dir.join(format!("level{}_correlation_{d}.npy", lm.level)), lm.correlation(d))?;
-            write_npy(&dir.join(format!("level{}_covariance_{d}.npy", lm.level)), lm.covariance(d))?;
+            write_npy(
+                &dir.join(format!("level{}_correlation_{d}.npy", lm.level)),
+                lm.correlation(d),
+            )?;
+            write_npy(
+                &dir.join(format!("level{}_covariance_{d}.npy", lm.level)),
+                lm.covariance(d),
+            )?;
         }
     }
     for (l, maps) in r.expected.iter().flatten().enumerate() {
         for d in Direction::ALL {
-            write_npy(&dir.join(format!("expected_level{}_correlation_{d}.npy", l + 1)), &maps[d as usize])?;
+            write_npy(
+                &dir.join(format!("expected_level{}_correlation_{d}.npy", l + 1)),
+                &maps[d as usize],
+            )?;
         }
     }
     Ok(())
@@ -163,11 +181,20 @@ impl<'a> Table<'a> {
                 (n, empty)
             })
             .collect();
-        Table { plan, jobs: vec![], cols }
+        Table {
+            plan,
+            jobs: vec![],
+            cols,
+        }
     }
 
     fn col(&mut self, name: &str) -> &mut Values {
-        &mut self.cols.iter_mut().find(|(n, _)| *n == name).expect("declared column").1
+        &mut self
+            .cols
+            .iter_mut()
+            .find(|(n, _)| *n == name)
+            .expect("declared column")
+            .1
     }
 
     fn s(&mut self, name: &str, v: impl Into<String>) {
@@ -208,11 +235,22 @@ impl<'a> Table<'a> {
             })
             .collect();
         for key in &self.plan.param_keys {
+            // `jobs.parquet` always has `samples` and `levels`; a swept field of that name
+            // holds the same value, so it is not repeated.
+            if columns.iter().any(|c| c.name().as_str() == key) {
+                continue;
+            }
             let values: Vec<Option<&Json>> = self.jobs.iter().map(|j| j.params.get(key)).collect();
             let numeric = values.iter().flatten().all(|v| v.is_number());
             let name: PlSmallStr = key.as_str().into();
             columns.push(if numeric {
-                Column::new(name, values.iter().map(|v| v.and_then(Json::as_f64)).collect::<Vec<_>>())
+                Column::new(
+                    name,
+                    values
+                        .iter()
+                        .map(|v| v.and_then(Json::as_f64))
+                        .collect::<Vec<_>>(),
+                )
             } else {
                 let text = |v: &Json| match v {
                     Json::String(s) => s.clone(),
@@ -249,7 +287,11 @@ pub fn analysis_maps(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> 
         for lm in &r.analysis.levels {
             for d in Direction::ALL {
                 let expected = r.expected.as_ref().map(|e| &e[lm.level - 1][d as usize]);
-                for ((rc, &corr), &cov) in lm.correlation(d).indexed_iter().zip(lm.covariance(d).iter()) {
+                for ((rc, &corr), &cov) in lm
+                    .correlation(d)
+                    .indexed_iter()
+                    .zip(lm.covariance(d).iter())
+                {
                     t.s("job", &job.id);
                     t.s("dataset", &job.dataset_id);
                     t.i("level", lm.level as i64);
@@ -290,7 +332,10 @@ pub fn analysis_summary(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFram
             for d in Direction::ALL {
                 let s = lm.summary(d);
                 let (rows, cols) = lm.shape();
-                let expected = r.expected.as_ref().map(|e| crate::analysis::nan_mean(&e[lm.level - 1][d as usize]).0);
+                let expected = r
+                    .expected
+                    .as_ref()
+                    .map(|e| crate::analysis::nan_mean(&e[lm.level - 1][d as usize]).0);
                 t.s("job", &job.id);
                 t.s("dataset", &job.dataset_id);
                 t.i("level", lm.level as i64);
@@ -324,7 +369,12 @@ pub fn pixel_stats(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         ],
     );
     for (job, r) in ok(plan, outcomes) {
-        for ((rc, m), &v) in r.analysis.mean.indexed_iter().zip(r.analysis.variance.iter()) {
+        for ((rc, m), &v) in r
+            .analysis
+            .mean
+            .indexed_iter()
+            .zip(r.analysis.variance.iter())
+        {
             t.s("job", &job.id);
             t.s("dataset", &job.dataset_id);
             t.i("row", rc.0 as i64);
@@ -391,7 +441,10 @@ pub fn jobs_table(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         t.s("dataset", &job.dataset_id);
         t.s("kind", job.dataset.kind());
         t.s("status", if o.result.is_ok() { "ok" } else { "failed" });
-        t.s("error", o.result.as_ref().err().cloned().unwrap_or_default());
+        t.s(
+            "error",
+            o.result.as_ref().err().cloned().unwrap_or_default(),
+        );
         t.u("seed", job.seed);
         t.u("data_seed", job.data_seed);
         t.i("samples", n as i64);
@@ -405,6 +458,11 @@ pub fn jobs_table(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
 }
 
 /// Successful outcomes with their jobs, in plan order.
-fn ok<'a>(plan: &'a Plan, outcomes: &'a [JobOutcome]) -> impl Iterator<Item = (&'a Job, &'a JobResult)> {
-    outcomes.iter().filter_map(move |o| o.result.as_ref().ok().map(|r| (&plan.jobs[o.index], r)))
+fn ok<'a>(
+    plan: &'a Plan,
+    outcomes: &'a [JobOutcome],
+) -> impl Iterator<Item = (&'a Job, &'a JobResult)> {
+    outcomes
+        .iter()
+        .filter_map(move |o| o.result.as_ref().ok().map(|r| (&plan.jobs[o.index], r)))
 }

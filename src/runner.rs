@@ -37,7 +37,12 @@ pub struct RunOptions {
 impl RunOptions {
     /// Options with a progress bar when stderr is a terminal.
     pub fn new(out: PathBuf, threads: usize) -> Self {
-        RunOptions { out, threads, progress_bar: std::io::stderr().is_terminal(), quiet: false }
+        RunOptions {
+            out,
+            threads,
+            progress_bar: std::io::stderr().is_terminal(),
+            quiet: false,
+        }
     }
 }
 
@@ -56,7 +61,9 @@ pub struct RunSummary {
 
 /// Default number of worker threads: the machine's available parallelism.
 pub fn default_threads() -> usize {
-    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
 }
 
 /// Runs every job of `plan` and writes the outputs.
@@ -66,8 +73,11 @@ pub fn default_threads() -> usize {
 /// recorded in `jobs.parquet` and in the returned summary.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let start = Instant::now();
-    std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(opts.threads.max(1)).build()?;
+    std::fs::create_dir_all(&opts.out)
+        .with_context(|| format!("cannot create {}", opts.out.display()))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads.max(1))
+        .build()?;
     let bar = progress(plan.jobs.len(), opts);
     let outcomes: Vec<JobOutcome> = pool.install(|| {
         plan.jobs
@@ -78,7 +88,11 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
                 let result = catch_unwind(AssertUnwindSafe(|| run_job(plan, job, &opts.out)))
                     .unwrap_or_else(|p| Err(anyhow::anyhow!("job panicked: {}", panic_message(&p))))
                     .map_err(|e| format!("{e:#}"));
-                let outcome = JobOutcome { index, result, elapsed_s: t.elapsed().as_secs_f64() };
+                let outcome = JobOutcome {
+                    index,
+                    result,
+                    elapsed_s: t.elapsed().as_secs_f64(),
+                };
                 report(&bar, opts, job, &outcome);
                 outcome
             })
@@ -92,11 +106,21 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let tables_s = t_tables.elapsed().as_secs_f64();
     let failed: Vec<(String, String)> = outcomes
         .iter()
-        .filter_map(|o| o.result.as_ref().err().map(|e| (plan.jobs[o.index].id.clone(), e.clone())))
+        .filter_map(|o| {
+            o.result
+                .as_ref()
+                .err()
+                .map(|e| (plan.jobs[o.index].id.clone(), e.clone()))
+        })
         .collect();
     let elapsed_s = start.elapsed().as_secs_f64();
     write_manifest(plan, &outcomes, opts, elapsed_s, tables_s)?;
-    Ok(RunSummary { total: outcomes.len(), failed, out: opts.out.clone(), elapsed_s })
+    Ok(RunSummary {
+        total: outcomes.len(),
+        failed,
+        out: opts.out.clone(),
+        elapsed_s,
+    })
 }
 
 fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
@@ -138,10 +162,14 @@ fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
 /// Runs one job: materialise, analyse, compute the ground truth, write its maps.
 fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
     let t = Instant::now();
-    let data = materialise(&job.dataset, job.data_seed).with_context(|| format!("dataset {}", job.dataset_id))?;
+    let data = materialise(&job.dataset, job.data_seed)
+        .with_context(|| format!("dataset {}", job.dataset_id))?;
     let data_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let analysis = data.stack.analyse(data.hwn, job.analysis.levels).with_context(|| format!("analysing dataset {}", job.dataset_id))?;
+    let analysis = data
+        .stack
+        .analyse(data.hwn, job.analysis.levels)
+        .with_context(|| format!("analysing dataset {}", job.dataset_id))?;
     let analysis_s = t.elapsed().as_secs_f64();
     let (mut expected, mut filter_rows) = (None, vec![]);
     if let Some((bank, std)) = &data.truth {
@@ -151,7 +179,10 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
         }
         if uniform {
             let lags = plan.spec.outputs.filter_lags.unwrap_or(bank.half_width);
-            for (direction, taps) in [(Direction::H, &bank.horizontal[0]), (Direction::V, &bank.vertical[0])] {
+            for (direction, taps) in [
+                (Direction::H, &bank.horizontal[0]),
+                (Direction::V, &bank.vertical[0]),
+            ] {
                 for lag in 0..=lags {
                     filter_rows.push(FilterRow {
                         direction,
@@ -164,7 +195,15 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
         }
     }
     let (n, h, w) = job.dataset.shape();
-    let result = JobResult { analysis, expected, filter_rows, shape: (n, h, w), data_s, analysis_s, bytes: data.stack.bytes() };
+    let result = JobResult {
+        analysis,
+        expected,
+        filter_rows,
+        shape: (n, h, w),
+        data_s,
+        analysis_s,
+        bytes: data.stack.bytes(),
+    };
     if plan.spec.outputs.npy_maps {
         results::write_job_maps(&out.join("maps").join(&job.id), &result)?;
     }
@@ -209,7 +248,13 @@ fn git_state() -> serde_json::Value {
     }
 }
 
-fn write_manifest(plan: &Plan, outcomes: &[JobOutcome], opts: &RunOptions, total_s: f64, tables_s: f64) -> Result<()> {
+fn write_manifest(
+    plan: &Plan,
+    outcomes: &[JobOutcome],
+    opts: &RunOptions,
+    total_s: f64,
+    tables_s: f64,
+) -> Result<()> {
     let jobs: Vec<serde_json::Value> = outcomes
         .iter()
         .map(|o| {
@@ -237,7 +282,10 @@ fn write_manifest(plan: &Plan, outcomes: &[JobOutcome], opts: &RunOptions, total
             })
         })
         .collect();
-    let unix = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let unix = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
     let manifest = json!({
         "format": "isar-clutter-manifest/1",
         "tool": { "name": env!("CARGO_PKG_NAME"), "version": env!("CARGO_PKG_VERSION") },

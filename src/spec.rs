@@ -504,7 +504,12 @@ impl ParamMap {
             ParamMap::Pattern(p) => p,
         };
         let need = |v: Option<f64>, field: &str| {
-            v.ok_or_else(|| ctx.err(format!("{at}.{field}"), format!("pattern {:?} needs `{field}`", p.pattern)))
+            v.ok_or_else(|| {
+                ctx.err(
+                    format!("{at}.{field}"),
+                    format!("pattern {:?} needs `{field}`", p.pattern),
+                )
+            })
         };
         let allowed: &[&str] = match p.pattern {
             PatternKind::Constant => &["value"],
@@ -527,25 +532,46 @@ impl ParamMap {
         if let Some((f, _)) = present.iter().find(|(f, set)| *set && !allowed.contains(f)) {
             return Err(ctx.err(
                 format!("{at}.{f}"),
-                format!("`{f}` does not belong to pattern {:?} (it takes {})", p.pattern, allowed.join(", ")),
+                format!(
+                    "`{f}` does not belong to pattern {:?} (it takes {})",
+                    p.pattern,
+                    allowed.join(", ")
+                ),
             ));
         }
         Ok(match p.pattern {
             PatternKind::Constant => Map::Constant(need(p.value, "value")?),
-            PatternKind::LeftRight => Map::LeftRight(need(p.left, "left")?, need(p.right, "right")?),
-            PatternKind::TopBottom => Map::TopBottom(need(p.top, "top")?, need(p.bottom, "bottom")?),
+            PatternKind::LeftRight => {
+                Map::LeftRight(need(p.left, "left")?, need(p.right, "right")?)
+            }
+            PatternKind::TopBottom => {
+                Map::TopBottom(need(p.top, "top")?, need(p.bottom, "bottom")?)
+            }
             PatternKind::Ramp => {
-                let axis = p.axis.ok_or_else(|| ctx.err(format!("{at}.axis"), "pattern ramp needs `axis` (horizontal or vertical)"))?;
+                let axis = p.axis.ok_or_else(|| {
+                    ctx.err(
+                        format!("{at}.axis"),
+                        "pattern ramp needs `axis` (horizontal or vertical)",
+                    )
+                })?;
                 Map::Ramp(axis, need(p.from, "from")?, need(p.to, "to")?)
             }
             PatternKind::Npy => {
-                let rel = p.path.as_ref().ok_or_else(|| ctx.err(format!("{at}.path"), "pattern npy needs `path`"))?;
+                let rel = p
+                    .path
+                    .as_ref()
+                    .ok_or_else(|| ctx.err(format!("{at}.path"), "pattern npy needs `path`"))?;
                 let file = ctx.resolve(rel);
-                let m = npy::read_real_map(&file).map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
+                let m = npy::read_real_map(&file)
+                    .map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
                 if m.dim() != (h, w) {
                     return Err(ctx.err(
                         format!("{at}.path"),
-                        format!("{} has shape {:?}, the images are {h}x{w}", file.display(), m.shape()),
+                        format!(
+                            "{} has shape {:?}, the images are {h}x{w}",
+                            file.display(),
+                            m.shape()
+                        ),
                     ));
                 }
                 Map::File(file, m)
@@ -555,7 +581,13 @@ impl ParamMap {
 }
 
 /// Checks every value of a map against a predicate.
-fn check_range(ctx: &Ctx, at: &str, m: &Map, ok: impl Fn(f64) -> bool, what: &str) -> Result<(), SpecError> {
+fn check_range(
+    ctx: &Ctx,
+    at: &str,
+    m: &Map,
+    ok: impl Fn(f64) -> bool,
+    what: &str,
+) -> Result<(), SpecError> {
     match m.values().into_iter().find(|v| !ok(*v)) {
         Some(v) => Err(ctx.err(at, format!("{what}, got {v}"))),
         None => Ok(()),
@@ -565,8 +597,19 @@ fn check_range(ctx: &Ctx, at: &str, m: &Map, ok: impl Fn(f64) -> bool, what: &st
 impl DatasetSpec {
     /// Validates one dataset (`at` is its YAML path, e.g. `datasets[0]`).
     pub fn check(&self, ctx: &Ctx, at: &str, levels: usize) -> Result<Dataset, SpecError> {
-        if self.id.is_empty() || !self.id.chars().all(|c| c.is_ascii_alphanumeric() || "_-".contains(c)) {
-            return Err(ctx.err(format!("{at}.id"), format!("dataset id {:?} must be non-empty ASCII letters, digits, `_` or `-`", self.id)));
+        if self.id.is_empty()
+            || !self
+                .id
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "_-".contains(c))
+        {
+            return Err(ctx.err(
+                format!("{at}.id"),
+                format!(
+                    "dataset id {:?} must be non-empty ASCII letters, digits, `_` or `-`",
+                    self.id
+                ),
+            ));
         }
         let fields = [
             ("family", self.family.is_some()),
@@ -585,18 +628,40 @@ impl DatasetSpec {
         ];
         let allowed: &[&str] = match (self.kind, self.family) {
             (DatasetKind::Npy, _) => &["path", "layout"],
-            (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => {
-                &["family", "r_h", "r_v", "size", "samples", "half_width", "mean", "mean_im", "std"]
-            }
-            (DatasetKind::FilteredNoise, _) => {
-                &["family", "alpha_h", "alpha_v", "size", "samples", "half_width", "mean", "mean_im", "std"]
-            }
+            (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => &[
+                "family",
+                "r_h",
+                "r_v",
+                "size",
+                "samples",
+                "half_width",
+                "mean",
+                "mean_im",
+                "std",
+            ],
+            (DatasetKind::FilteredNoise, _) => &[
+                "family",
+                "alpha_h",
+                "alpha_v",
+                "size",
+                "samples",
+                "half_width",
+                "mean",
+                "mean_im",
+                "std",
+            ],
         };
         if let Some((f, _)) = fields.iter().find(|(f, set)| *set && !allowed.contains(f)) {
             return Err(ctx.err(
                 format!("{at}.{f}"),
-                format!("`{f}` does not apply to this dataset (kind {:?}{}); it takes: {}", self.kind,
-                    self.family.map(|f| format!(", family {f:?}")).unwrap_or_default(), allowed.join(", ")),
+                format!(
+                    "`{f}` does not apply to this dataset (kind {:?}{}); it takes: {}",
+                    self.kind,
+                    self.family
+                        .map(|f| format!(", family {f:?}"))
+                        .unwrap_or_default(),
+                    allowed.join(", ")
+                ),
             ));
         }
         let dataset = match self.kind {
@@ -605,33 +670,71 @@ impl DatasetSpec {
         };
         let (n, h, w) = dataset.shape();
         if n < 2 {
-            let field = if self.kind == DatasetKind::Npy { "path" } else { "samples" };
-            return Err(ctx.err(format!("{at}.{field}"), format!("the stack has {n} sample(s); at least 2 are needed")));
+            let field = if self.kind == DatasetKind::Npy {
+                "path"
+            } else {
+                "samples"
+            };
+            return Err(ctx.err(
+                format!("{at}.{field}"),
+                format!("the stack has {n} sample(s); at least 2 are needed"),
+            ));
         }
-        check_levels(levels, h, w).map_err(|e| ctx.err("analysis.levels", format!("dataset {}: {e}", self.id)))?;
+        check_levels(levels, h, w)
+            .map_err(|e| ctx.err("analysis.levels", format!("dataset {}: {e}", self.id)))?;
         Ok(dataset)
     }
 
     fn check_npy(&self, ctx: &Ctx, at: &str) -> Result<NpyDataset, SpecError> {
-        let rel = self.path.as_ref().ok_or_else(|| ctx.err(format!("{at}.path"), "kind npy needs `path`"))?;
+        let rel = self
+            .path
+            .as_ref()
+            .ok_or_else(|| ctx.err(format!("{at}.path"), "kind npy needs `path`"))?;
         let path = ctx.resolve(rel);
-        let header = npy::read_header(&path).map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
+        let header =
+            npy::read_header(&path).map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
         if header.shape.len() != 3 {
             return Err(ctx.err(
                 format!("{at}.path"),
-                format!("{} has shape {:?}; a stack is 3-D ([N, H, W], or [H, W, N] with layout: hwn)", path.display(), header.shape),
+                format!(
+                    "{} has shape {:?}; a stack is 3-D ([N, H, W], or [H, W, N] with layout: hwn)",
+                    path.display(),
+                    header.shape
+                ),
             ));
         }
-        Ok(NpyDataset { path, layout: self.layout.unwrap_or_default(), header })
+        Ok(NpyDataset {
+            path,
+            layout: self.layout.unwrap_or_default(),
+            header,
+        })
     }
 
     fn check_noise(&self, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecError> {
-        let family = self.family.ok_or_else(|| ctx.err(format!("{at}.family"), "kind filtered_noise needs `family` (exponential or dyadic)"))?;
-        let [h, w] = self.size.ok_or_else(|| ctx.err(format!("{at}.size"), "kind filtered_noise needs `size: [H, W]`"))?;
+        let family = self.family.ok_or_else(|| {
+            ctx.err(
+                format!("{at}.family"),
+                "kind filtered_noise needs `family` (exponential or dyadic)",
+            )
+        })?;
+        let [h, w] = self.size.ok_or_else(|| {
+            ctx.err(
+                format!("{at}.size"),
+                "kind filtered_noise needs `size: [H, W]`",
+            )
+        })?;
         if h == 0 || w == 0 {
-            return Err(ctx.err(format!("{at}.size"), format!("size must be positive, got [{h}, {w}]")));
+            return Err(ctx.err(
+                format!("{at}.size"),
+                format!("size must be positive, got [{h}, {w}]"),
+            ));
         }
-        let samples = self.samples.ok_or_else(|| ctx.err(format!("{at}.samples"), "kind filtered_noise needs `samples`"))?;
+        let samples = self.samples.ok_or_else(|| {
+            ctx.err(
+                format!("{at}.samples"),
+                "kind filtered_noise needs `samples`",
+            )
+        })?;
         let half_width = self.half_width.unwrap_or(8);
         let map = |p: &Option<ParamMap>, name: &str, default: f64| -> Result<Map, SpecError> {
             match p {
@@ -642,16 +745,35 @@ impl DatasetSpec {
         let filter = match family {
             Family::Exponential => {
                 let need = |p: &Option<ParamMap>, name: &str| -> Result<Map, SpecError> {
-                    let p = p.as_ref().ok_or_else(|| ctx.err(format!("{at}.{name}"), format!("family exponential needs `{name}`")))?;
+                    let p = p.as_ref().ok_or_else(|| {
+                        ctx.err(
+                            format!("{at}.{name}"),
+                            format!("family exponential needs `{name}`"),
+                        )
+                    })?;
                     let m = p.check(ctx, &format!("{at}.{name}"), h, w)?;
-                    check_range(ctx, &format!("{at}.{name}"), &m, |v| v != 0.0 && !v.is_nan(), "alpha must be non-zero (negative alpha: sign-alternating filter)")?;
+                    check_range(
+                        ctx,
+                        &format!("{at}.{name}"),
+                        &m,
+                        |v| v != 0.0 && !v.is_nan(),
+                        "alpha must be non-zero (negative alpha: sign-alternating filter)",
+                    )?;
                     Ok(m)
                 };
-                FilterParams::Exponential { alpha_h: need(&self.alpha_h, "alpha_h")?, alpha_v: need(&self.alpha_v, "alpha_v")? }
+                FilterParams::Exponential {
+                    alpha_h: need(&self.alpha_h, "alpha_h")?,
+                    alpha_v: need(&self.alpha_v, "alpha_v")?,
+                }
             }
             Family::Dyadic => {
                 let list = |p: &Option<Vec<ParamMap>>, name: &str| -> Result<Vec<Map>, SpecError> {
-                    let p = p.as_ref().ok_or_else(|| ctx.err(format!("{at}.{name}"), format!("family dyadic needs `{name}: [r_1, ..., r_L]`")))?;
+                    let p = p.as_ref().ok_or_else(|| {
+                        ctx.err(
+                            format!("{at}.{name}"),
+                            format!("family dyadic needs `{name}: [r_1, ..., r_L]`"),
+                        )
+                    })?;
                     if p.is_empty() {
                         return Err(ctx.err(format!("{at}.{name}"), "needs at least one parameter"));
                     }
@@ -659,21 +781,43 @@ impl DatasetSpec {
                     if half_width < reach {
                         return Err(ctx.err(format!("{at}.half_width"), format!("a {}-level dyadic filter reaches offset {reach}; half_width {half_width} would truncate it", p.len())));
                     }
-                    p.iter().enumerate().map(|(i, m)| {
-                        let m = m.check(ctx, &format!("{at}.{name}[{i}]"), h, w)?;
-                        check_range(ctx, &format!("{at}.{name}[{i}]"), &m, f64::is_finite, "r must be finite")?;
-                        Ok(m)
-                    }).collect()
+                    p.iter()
+                        .enumerate()
+                        .map(|(i, m)| {
+                            let m = m.check(ctx, &format!("{at}.{name}[{i}]"), h, w)?;
+                            check_range(
+                                ctx,
+                                &format!("{at}.{name}[{i}]"),
+                                &m,
+                                f64::is_finite,
+                                "r must be finite",
+                            )?;
+                            Ok(m)
+                        })
+                        .collect()
                 };
                 let (r_h, r_v) = (list(&self.r_h, "r_h")?, list(&self.r_v, "r_v")?);
                 if r_h.len() != r_v.len() {
-                    return Err(ctx.err(format!("{at}.r_v"), format!("r_h has {} parameters, r_v {}; they must match", r_h.len(), r_v.len())));
+                    return Err(ctx.err(
+                        format!("{at}.r_v"),
+                        format!(
+                            "r_h has {} parameters, r_v {}; they must match",
+                            r_h.len(),
+                            r_v.len()
+                        ),
+                    ));
                 }
                 FilterParams::Dyadic { r_h, r_v }
             }
         };
         let std = map(&self.std, "std", 1.0)?;
-        check_range(ctx, &format!("{at}.std"), &std, |v| v >= 0.0 && v.is_finite(), "std must be finite and >= 0")?;
+        check_range(
+            ctx,
+            &format!("{at}.std"),
+            &std,
+            |v| v >= 0.0 && v.is_finite(),
+            "std must be finite and >= 0",
+        )?;
         Ok(FilteredNoise {
             filter,
             height: h,

@@ -20,7 +20,10 @@ pub fn random_stack(seed: u64, n: usize, h: usize, w: usize) -> Array3<Complex64
     let scale = Array3::from_shape_simple_fn((1, h, w), || 0.5 + g().abs());
     let mean = Array3::from_shape_simple_fn((1, h, w), || Complex64::new(3.0 * g(), g()));
     Array3::from_shape_fn((n, h, w), |(s, r, c)| {
-        let v = z[[s, r, c]] + z[[s, r, c + 1]] * 0.6 + z[[s, r + 1, c]] * 0.3 + z[[s, r + 1, c + 1]] * 0.2;
+        let v = z[[s, r, c]]
+            + z[[s, r, c + 1]] * 0.6
+            + z[[s, r + 1, c]] * 0.3
+            + z[[s, r + 1, c + 1]] * 0.2;
         mean[[0, r, c]] + v * scale[[0, r, c]]
     })
 }

@@ -21,7 +21,11 @@ const TABLE_3: [(usize, f64, f64); 9] = [
 ];
 
 /// Table 4 as exact expected values (SPEC-NOTES section 2): level -> (H, V, D).
-const TABLE_4_EXACT: [(f64, f64, f64); 3] = [(0.6481, 0.6481, 0.4200), (0.4534, 0.4534, 0.2056), (0.2347, 0.2347, 0.0551)];
+const TABLE_4_EXACT: [(f64, f64, f64); 3] = [
+    (0.6481, 0.6481, 0.4200),
+    (0.4534, 0.4534, 0.2056),
+    (0.2347, 0.2347, 0.0551),
+];
 
 fn round4(x: f64) -> f64 {
     (x * 1e4).round() / 1e4
@@ -48,7 +52,10 @@ fn table_4_exact_group_correlations() {
 
 fn table4_dataset() -> FilteredNoise {
     FilteredNoise {
-        filter: FilterParams::Exponential { alpha_h: Map::Constant(1.0), alpha_v: Map::Constant(1.0) },
+        filter: FilterParams::Exponential {
+            alpha_h: Map::Constant(1.0),
+            alpha_v: Map::Constant(1.0),
+        },
         height: 64,
         width: 64,
         samples: 1000,
@@ -69,7 +76,11 @@ fn table_4_estimates_within_0_01_of_exact() {
     for (lm, (h, v, dg)) in a.levels.iter().zip(TABLE_4_EXACT) {
         for (dir, want) in [(Direction::H, h), (Direction::V, v), (Direction::D, dg)] {
             let got = lm.summary(dir).mean_correlation;
-            assert!((got - want).abs() < 0.01, "level {} {dir}: {got:.4} vs {want}", lm.level);
+            assert!(
+                (got - want).abs() < 0.01,
+                "level {} {dir}: {got:.4} vs {want}",
+                lm.level
+            );
         }
     }
 }

@@ -1,0 +1,345 @@
+//! End-to-end runs of the `isar-clutter` binary in temporary folders: the output layout and
+//! columns (a public contract), readback of the Parquet tables, sweeps and job ids,
+//! thread-count invariance, and a failing job that does not take the others down.
+
+use ndarray::Array3;
+use ndarray_npy::WriteNpyExt;
+use num_complex::Complex;
+use polars::prelude::*;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const SPEC: &str = "name: e2e
+seed: 42
+datasets:
+  - id: held
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 1.0
+    alpha_v: {pattern: left_right, left: 0.5, right: 2.0}
+    size: [16, 24]
+    samples: 50
+    half_width: 4
+  - id: measured
+    kind: npy
+    path: stack.npy
+analysis:
+  levels: 2
+sweep:
+  grid:
+    datasets.held.alpha_h: [0.5, 2]
+    analysis.levels: [1, 2]
+";
+
+fn bin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn read(dir: &Path, name: &str) -> DataFrame {
+    ParquetReader::new(File::open(dir.join(name)).unwrap())
+        .finish()
+        .unwrap()
+}
+
+fn setup(dir: &Path) -> PathBuf {
+    let stack = Array3::from_shape_fn((6, 8, 8), |(n, r, c)| {
+        Complex::new((n * r) as f32 + c as f32 * 0.5, (n + c) as f32 % 3.0)
+    });
+    stack
+        .write_npy(File::create(dir.join("stack.npy")).unwrap())
+        .unwrap();
+    let spec = dir.join("spec.yaml");
+    std::fs::write(&spec, SPEC).unwrap();
+    spec
+}
+
+fn run(spec: &Path, out: &Path, jobs: &str) -> Output {
+    bin(&[
+        "run",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--jobs",
+        jobs,
+        "--quiet",
+    ])
+}
+
+fn names(df: &DataFrame) -> Vec<String> {
+    df.get_column_names()
+        .iter()
+        .map(|s| s.to_string())
+        .collect()
+}
+
+#[test]
+fn run_writes_the_documented_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = setup(dir.path());
+    let out = dir.path().join("out");
+    let o = run(&spec, &out, "2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let jobs = read(&out, "jobs.parquet");
+    let ids: Vec<String> = jobs
+        .column("job")
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(|s| s.unwrap().to_string())
+        .collect();
+    // held: 2 alpha_h x 2 levels; measured: only the analysis axis applies -> 2 jobs. Grid
+    // axes are ordered by key (`analysis.levels` before `datasets.held.alpha_h`), the last
+    // varying fastest; ids list the swept values by key.
+    assert_eq!(
+        ids,
+        [
+            "held.alpha_h=0.5.levels=1",
+            "held.alpha_h=2.levels=1",
+            "held.alpha_h=0.5.levels=2",
+            "held.alpha_h=2.levels=2",
+            "measured.levels=1",
+            "measured.levels=2"
+        ]
+    );
+    for c in [
+        "job",
+        "status",
+        "error",
+        "seed",
+        "data_seed",
+        "elapsed_s",
+        "alpha_h",
+        "levels",
+    ] {
+        assert!(
+            names(&jobs).contains(&c.to_string()),
+            "jobs.parquet lacks {c}"
+        );
+    }
+    // Jobs that differ only in analysis levels analyse the same data (same data seed).
+    let ds = jobs.column("data_seed").unwrap().u64().unwrap();
+    assert_eq!(ds.get(0), ds.get(2));
+    assert_ne!(ds.get(0), ds.get(1));
+
+    let maps = read(&out, "analysis_maps.parquet");
+    for c in [
+        "job",
+        "dataset",
+        "level",
+        "direction",
+        "row",
+        "col",
+        "correlation",
+        "covariance",
+        "expected_correlation",
+        "alpha_h",
+        "levels",
+    ] {
+        assert!(
+            names(&maps).contains(&c.to_string()),
+            "analysis_maps lacks {c}"
+        );
+    }
+    // Rows: held 16x24 -> level 1: 8x12 = 96 cells, level 2: 4x6 = 24; measured 8x8 -> 16 + 4.
+    let per_dir = 2 * 96 + 2 * (96 + 24) + 16 + (16 + 4);
+    assert_eq!(maps.height(), 3 * per_dir);
+
+    let summary = read(&out, "analysis_summary.parquet");
+    for c in [
+        "job",
+        "dataset",
+        "level",
+        "direction",
+        "mean_correlation",
+        "mean_covariance",
+        "nan_cells",
+    ] {
+        assert!(
+            names(&summary).contains(&c.to_string()),
+            "analysis_summary lacks {c}"
+        );
+    }
+    assert_eq!(summary.height(), 3 * (2 + 2 * 2 + 1 + 2));
+    let pixels = read(&out, "pixel_stats.parquet");
+    for c in [
+        "job", "dataset", "row", "col", "mean_re", "mean_im", "variance",
+    ] {
+        assert!(
+            names(&pixels).contains(&c.to_string()),
+            "pixel_stats lacks {c}"
+        );
+    }
+    assert_eq!(pixels.height(), 4 * 16 * 24 + 2 * 64);
+
+    // The npy stack's pixel (r=2, c=1) over n = 0..5: re = 2n + 0.5 (mean 5.5, variance
+    // 4 * 35/12), im = (n + 1) % 3 = 1,2,0,1,2,0 (mean 1, variance 2/3).
+    let (mre, mim, var) = pixels.pixel("measured.levels=1", 2, 1);
+    assert!(
+        (mre - 5.5).abs() < 1e-12 && (mim - 1.0).abs() < 1e-12,
+        "mean {mre} {mim}"
+    );
+    assert!((var - 37.0 / 3.0).abs() < 1e-12, "variance {var}");
+
+    let manifest: serde_json::Value =
+        serde_json::from_reader(File::open(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["master_seed"], 42);
+    assert_eq!(manifest["jobs"].as_array().unwrap().len(), 6);
+    assert_eq!(manifest["spec_hash_sha256"].as_str().unwrap().len(), 64);
+    assert!(out
+        .join("maps/held.alpha_h=2.levels=2/level2_correlation_H.npy")
+        .exists());
+    assert!(out.join("maps/measured.levels=1/mean.npy").exists());
+    // No temporary files are left behind.
+    assert!(std::fs::read_dir(&out).unwrap().all(|e| !e
+        .unwrap()
+        .file_name()
+        .to_string_lossy()
+        .contains(".tmp")));
+}
+
+/// Pixel lookup helper for the readback check.
+trait PixelLookup {
+    fn pixel(&self, job: &str, row: i64, col: i64) -> (f64, f64, f64);
+}
+
+impl PixelLookup for DataFrame {
+    fn pixel(&self, job: &str, row: i64, col: i64) -> (f64, f64, f64) {
+        let jobs = self.column("job").unwrap().str().unwrap();
+        let rows = self.column("row").unwrap().i64().unwrap();
+        let cols = self.column("col").unwrap().i64().unwrap();
+        let i = (0..self.height())
+            .find(|&i| {
+                jobs.get(i) == Some(job) && rows.get(i) == Some(row) && cols.get(i) == Some(col)
+            })
+            .expect("pixel row present");
+        let f = |c: &str| self.column(c).unwrap().f64().unwrap().get(i).unwrap();
+        (f("mean_re"), f("mean_im"), f("variance"))
+    }
+}
+
+#[test]
+fn tables_do_not_depend_on_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = setup(dir.path());
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    assert!(run(&spec, &a, "1").status.success());
+    assert!(run(&spec, &b, "2").status.success());
+    for t in [
+        "analysis_maps.parquet",
+        "analysis_summary.parquet",
+        "pixel_stats.parquet",
+        "filter_correlation.parquet",
+        "jobs.parquet",
+    ] {
+        let (mut x, mut y) = (read(&a, t), read(&b, t));
+        if t == "jobs.parquet" {
+            x = x.drop("elapsed_s").unwrap();
+            y = y.drop("elapsed_s").unwrap();
+        }
+        assert!(
+            x.equals_missing(&y),
+            "{t} differs between --jobs 1 and --jobs 2"
+        );
+    }
+    let npy = "maps/held.alpha_h=0.5.levels=2/level2_covariance_D.npy";
+    assert_eq!(
+        std::fs::read(a.join(npy)).unwrap(),
+        std::fs::read(b.join(npy)).unwrap()
+    );
+}
+
+#[test]
+fn a_failing_job_is_recorded_and_the_others_finish() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = setup(dir.path());
+    // A valid header with too little data: validation passes, loading fails.
+    let bytes = std::fs::read(dir.path().join("stack.npy")).unwrap();
+    std::fs::write(dir.path().join("stack.npy"), &bytes[..bytes.len() - 40]).unwrap();
+    let out = dir.path().join("out");
+    let o = run(&spec, &out, "2");
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "failed jobs make the exit code non-zero"
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("failed: measured.levels=1") && stderr.contains("stack.npy"),
+        "{stderr}"
+    );
+    let jobs = read(&out, "jobs.parquet");
+    let status: Vec<&str> = jobs
+        .column("status")
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(Option::unwrap)
+        .collect();
+    assert_eq!(status, ["ok", "ok", "ok", "ok", "failed", "failed"]);
+    let err = jobs
+        .column("error")
+        .unwrap()
+        .str()
+        .unwrap()
+        .get(4)
+        .unwrap()
+        .to_string();
+    assert!(err.contains("stack.npy"), "{err}");
+    assert_eq!(read(&out, "analysis_summary.parquet").height(), 3 * 6);
+}
+
+#[test]
+fn dry_run_prints_the_job_table_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = setup(dir.path());
+    let out = dir.path().join("out");
+    let o = bin(&[
+        "run",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--dry-run",
+    ]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("held.alpha_h=0.5.levels=1") && text.contains("6 job(s)"),
+        "{text}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn table3_spec_writes_the_filter_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments/table3_filter_correlation.yaml");
+    let out = dir.path().join("t3");
+    assert!(run(&spec, &out, "2").status.success());
+    let t = read(&out, "filter_correlation.parquet");
+    let lag = t.column("lag").unwrap().i64().unwrap();
+    let corr = t.column("correlation").unwrap().f64().unwrap();
+    let dir_col = t.column("direction").unwrap().str().unwrap();
+    let want = [
+        1.0, 0.6481, 0.3415, 0.1635, 0.0741, 0.0324, 0.0138, 0.0057, 0.0023,
+    ];
+    let mut seen = 0;
+    for i in 0..t.height() {
+        if dir_col.get(i) == Some("H") {
+            let l = lag.get(i).unwrap() as usize;
+            assert!(
+                (corr.get(i).unwrap() - want[l]).abs() < 5e-5,
+                "Table 3 lag {l}"
+            );
+            seen += 1;
+        }
+    }
+    assert_eq!(seen, 9);
+}

@@ -1,0 +1,219 @@
+//! Bad input is refused before anything runs: every error names the spec file and the YAML
+//! path (and the line where the parser knows it), the binary exits non-zero and writes
+//! nothing.
+
+use isar_clutter::plan;
+use ndarray::Array3;
+use ndarray_npy::WriteNpyExt;
+use num_complex::Complex;
+use std::path::Path;
+use std::process::Command;
+
+const GOOD: &str = "name: t
+seed: 1
+datasets:
+  - id: d
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 1.0
+    alpha_v: 1.0
+    size: [16, 16]
+    samples: 10
+analysis:
+  levels: 2
+";
+
+fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Loads `text` as a spec and returns the error message.
+fn error_of(text: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "spec.yaml", text);
+    let e = plan::load(&p).expect_err("the spec must be refused");
+    e.to_string()
+}
+
+fn npy_stack(dir: &Path, name: &str, shape: (usize, usize, usize)) {
+    let a = Array3::<Complex<f32>>::from_elem(shape, Complex::new(1.0, 0.0));
+    a.write_npy(std::fs::File::create(dir.join(name)).unwrap())
+        .unwrap();
+}
+
+#[test]
+fn the_good_spec_is_accepted() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "spec.yaml", GOOD);
+    assert_eq!(plan::load(&p).unwrap().jobs.len(), 1);
+}
+
+#[test]
+fn unknown_key_names_path_and_line() {
+    let e = error_of(&GOOD.replace("    samples: 10\n", "    samples: 10\n    smaples: 3\n"));
+    assert!(e.contains("spec.yaml: datasets[0]"), "{e}");
+    assert!(e.contains("unknown field `smaples`"), "{e}");
+    assert!(e.contains("line 11"), "{e}");
+}
+
+#[test]
+fn unknown_top_level_key() {
+    let e = error_of(&format!("{GOOD}analysys:\n  levels: 2\n"));
+    assert!(e.contains("unknown field `analysys`"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_the_field() {
+    let e = error_of(&GOOD.replace("alpha_h: 1.0", "alpha_h: fast"));
+    assert!(e.contains("datasets[0].alpha_h"), "{e}");
+    assert!(e.contains("line 7"), "{e}");
+    let e = error_of(&GOOD.replace("samples: 10", "samples: -3"));
+    assert!(e.contains("datasets[0].samples"), "{e}");
+    let e = error_of(&GOOD.replace(
+        "alpha_h: 1.0",
+        "alpha_h: {pattern: ramp, axis: diagonal, from: 1, to: 2}",
+    ));
+    assert!(e.contains("datasets[0].alpha_h.axis"), "{e}");
+}
+
+#[test]
+fn field_of_another_kind_is_refused() {
+    let e = error_of(&GOOD.replace("alpha_h: 1.0", "alpha_h: 1.0\n    layout: hwn"));
+    assert!(
+        e.contains("datasets[0].layout") && e.contains("does not apply"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace(
+        "alpha_h: 1.0",
+        "alpha_h: {pattern: left_right, left: 1, top: 2}",
+    ));
+    assert!(e.contains("datasets[0].alpha_h.top"), "{e}");
+}
+
+#[test]
+fn missing_files_are_named() {
+    let e = error_of("name: t\nseed: 1\ndatasets:\n  - id: m\n    kind: npy\n    path: nowhere.npy\nanalysis:\n  levels: 1\n");
+    assert!(
+        e.contains("datasets[0].path") && e.contains("nowhere.npy"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("alpha_h: 1.0", "alpha_h: {pattern: npy, path: alpha.npy}"));
+    assert!(
+        e.contains("datasets[0].alpha_h.path") && e.contains("alpha.npy"),
+        "{e}"
+    );
+}
+
+#[test]
+fn levels_too_deep_for_the_image() {
+    let e = error_of(&GOOD.replace("levels: 2", "levels: 5"));
+    assert!(
+        e.contains("analysis.levels") && e.contains("32x32") && e.contains("16x16"),
+        "{e}"
+    );
+}
+
+#[test]
+fn fewer_than_two_samples() {
+    let e = error_of(&GOOD.replace("samples: 10", "samples: 1"));
+    assert!(
+        e.contains("datasets[0].samples") && e.contains("at least 2"),
+        "{e}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    npy_stack(dir.path(), "one.npy", (1, 8, 8));
+    let p = write(dir.path(), "s.yaml", "name: t\nseed: 1\ndatasets:\n  - id: m\n    kind: npy\n    path: one.npy\nanalysis:\n  levels: 1\n");
+    let e = plan::load(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("datasets[0].path") && e.contains("1 sample"),
+        "{e}"
+    );
+    // [H, W, N] layout: the last axis is the sample axis.
+    npy_stack(dir.path(), "hwn.npy", (8, 8, 1));
+    let p = write(dir.path(), "s.yaml", "name: t\nseed: 1\ndatasets:\n  - id: m\n    kind: npy\n    path: hwn.npy\n    layout: hwn\nanalysis:\n  levels: 1\n");
+    assert!(plan::load(&p).unwrap_err().to_string().contains("1 sample"));
+}
+
+#[test]
+fn not_a_stack() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("junk.npy"), b"not numpy").unwrap();
+    let p = write(dir.path(), "s.yaml", "name: t\nseed: 1\ndatasets:\n  - id: m\n    kind: npy\n    path: junk.npy\nanalysis:\n  levels: 1\n");
+    let e = plan::load(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("junk.npy") && e.contains("not a valid .npy"),
+        "{e}"
+    );
+}
+
+#[test]
+fn sweep_errors_name_the_axis() {
+    let e = error_of(&format!(
+        "{GOOD}sweep:\n  grid:\n    datasets.nope.alpha_h: [1, 2]\n"
+    ));
+    assert!(
+        e.contains("sweep.grid.datasets.nope.alpha_h") && e.contains("no dataset"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{GOOD}sweep:\n  grid:\n    datasets.d.alpha_h: [1, 0]\n"
+    ));
+    assert!(
+        e.contains("datasets[0].alpha_h") && e.contains("non-zero"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{GOOD}sweep:\n  zip:\n    datasets.d.alpha_h: [1, 2]\n    datasets.d.alpha_v: [1]\n"
+    ));
+    assert!(e.contains("equal lengths"), "{e}");
+    let e = error_of(&format!(
+        "{GOOD}sweep:\n  grid:\n    datasets.d.colour: [red]\n"
+    ));
+    assert!(e.contains("unknown field `colour`"), "{e}");
+    let e = error_of(&format!(
+        "{GOOD}sweep:\n  grid:\n    analysis.levels: [2, 9]\n"
+    ));
+    assert!(
+        e.contains("analysis.levels") && e.contains("levels = 9"),
+        "{e}"
+    );
+}
+
+#[test]
+fn duplicate_dataset_ids() {
+    let dup = GOOD.replace(
+        "analysis:",
+        "  - id: d\n    kind: npy\n    path: x.npy\nanalysis:",
+    );
+    let e = error_of(&dup);
+    assert!(
+        e.contains("datasets[1].id") && e.contains("already used"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_binary_exits_non_zero_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "bad.yaml",
+        &GOOD.replace("levels: 2", "levels: 7"),
+    );
+    let out = dir.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
+        .args(["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("bad.yaml: analysis.levels"), "{stderr}");
+    assert!(!out.exists(), "nothing may be written for an invalid spec");
+    let o = Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
+        .args(["validate", p.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+}
