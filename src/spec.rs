@@ -416,7 +416,7 @@ pub struct NpyDataset {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Dataset {
     /// Synthetic filtered noise.
-    FilteredNoise(FilteredNoise),
+    FilteredNoise(Box<FilteredNoise>),
     /// A stack on disk.
     Npy(NpyDataset),
 }
@@ -666,7 +666,7 @@ impl DatasetSpec {
         }
         let dataset = match self.kind {
             DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
-            DatasetKind::FilteredNoise => Dataset::FilteredNoise(self.check_noise(ctx, at)?),
+            DatasetKind::FilteredNoise => Dataset::FilteredNoise(Box::new(self.check_noise(ctx, at)?)),
         };
         let (n, h, w) = dataset.shape();
         if n < 2 {
