@@ -38,7 +38,7 @@ fmt:
 ## bench-deps: a virtualenv with numpy for the side-by-side baselines
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
-	$(VENV)/bin/pip install --quiet numpy==2.2.6 pyarrow==20.0.0
+	$(VENV)/bin/pip install --quiet numpy==2.3.5
 bench-deps: $(VENV)/bin/python
 
 ## bench: analysis benchmark (isar-clutter run vs numpy baselines); see BENCHMARKS.md

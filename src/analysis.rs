@@ -64,35 +64,73 @@ impl fmt::Display for Direction {
 
 /// An element type the analysis can read: complex or real, single or double precision.
 pub trait Sample: Copy + Send + Sync + 'static {
-    /// Real and imaginary parts in f64.
-    fn parts(self) -> (f64, f64);
+    /// Writes the interleaved components `[re0, im0, re1, im1, ...]` of `src`, minus `shift`,
+    /// into `x` (length `2 * src.len()`), and adds them and their squares to `s` and `q`.
+    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]);
+}
+
+/// The shared body of [`Sample::load_shifted`] over a flat slice of components.
+#[inline(always)]
+fn load_components<C: Copy + Into<f64>>(
+    comp: &[C],
+    shift: &[f64],
+    x: &mut [f64],
+    s: &mut [f64],
+    q: &mut [f64],
+) {
+    let n = comp.len();
+    let (shift, x, s, q) = (&shift[..n], &mut x[..n], &mut s[..n], &mut q[..n]);
+    for k in 0..n {
+        let v = comp[k].into() - shift[k];
+        x[k] = v;
+        s[k] += v;
+        q[k] += v * v;
+    }
 }
 
 impl Sample for Complex<f32> {
     #[inline(always)]
-    fn parts(self) -> (f64, f64) {
-        (self.re as f64, self.im as f64)
+    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+        load_components(bytemuck::cast_slice::<_, f32>(src), shift, x, s, q)
     }
 }
 
 impl Sample for Complex<f64> {
     #[inline(always)]
-    fn parts(self) -> (f64, f64) {
-        (self.re, self.im)
+    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+        load_components(bytemuck::cast_slice::<_, f64>(src), shift, x, s, q)
+    }
+}
+
+/// Real input: the imaginary component is zero (and so is its shift).
+#[inline(always)]
+fn load_real<C: Copy + Into<f64>>(
+    src: &[C],
+    shift: &[f64],
+    x: &mut [f64],
+    s: &mut [f64],
+    q: &mut [f64],
+) {
+    for (k, v) in src.iter().enumerate() {
+        let v = (*v).into() - shift[2 * k];
+        x[2 * k] = v;
+        x[2 * k + 1] = 0.0;
+        s[2 * k] += v;
+        q[2 * k] += v * v;
     }
 }
 
 impl Sample for f32 {
     #[inline(always)]
-    fn parts(self) -> (f64, f64) {
-        (self as f64, 0.0)
+    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+        load_real(src, shift, x, s, q)
     }
 }
 
 impl Sample for f64 {
     #[inline(always)]
-    fn parts(self) -> (f64, f64) {
-        (self, 0.0)
+    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+        load_real(src, shift, x, s, q)
     }
 }
 
@@ -255,7 +293,18 @@ pub fn analyse<T: Sample>(stack: ArrayView3<T>, levels: usize) -> Result<Analysi
         .into_par_iter()
         .map(|b| {
             let r0 = b * band;
-            analyse_band(data, n, h, w, r0, band.min(h - r0), levels)
+            let rows = band.min(h - r0);
+            analyse_band(
+                data,
+                Band {
+                    n,
+                    h,
+                    w,
+                    r0,
+                    rows,
+                    levels,
+                },
+            )
         })
         .collect();
     Ok(assemble(bands, n, h, w, levels))
@@ -271,78 +320,93 @@ struct BandResult {
     levels: Vec<[Vec<f64>; 6]>,
 }
 
-/// Running sums of one level inside a band: unit moments and the six pair products.
+/// Accumulators of one cell: twelve lane sums, the real and imaginary halves of the six pair
+/// products `Re(a conj b) = a.re b.re + a.im b.im`, kept apart so the loop is element-wise.
+const CELL: usize = 12;
+/// Lane offsets inside a cell's accumulators (real half; the imaginary half follows).
+const P13: usize = 0;
+const P24: usize = 2;
+const P14: usize = 4;
+const P23: usize = 6;
+const P12: usize = 8;
+const P34: usize = 10;
+
+/// Running sums of one level inside a band. Unit values are stored interleaved
+/// (`[re, im]` per unit, row-major), as are their sums and sums of squares per component.
 struct LevelAcc {
     /// Unit grid of this level inside the band.
     urows: usize,
     ucols: usize,
-    /// Unit values of the current sample (shifted), planar.
-    re: Vec<f64>,
-    im: Vec<f64>,
-    /// Unit values of sample 0, the shift (used at level 1 only: covariances are shift
-    /// invariant, so coarser levels inherit the block sums of the shifted pixels).
-    shift: Vec<Complex64>,
-    /// Sums of shifted unit values and of their squared moduli.
-    sre: Vec<f64>,
-    sim: Vec<f64>,
-    sq: Vec<f64>,
-    /// Pair sums per cell: 12, 34, 13, 24, 14, 23.
-    pairs: [Vec<f64>; 6],
+    /// Unit components of the current sample (shifted).
+    x: Vec<f64>,
+    /// Sums of shifted components.
+    s: Vec<f64>,
+    /// Sums of squared shifted components.
+    q: Vec<f64>,
+    /// Pair sums, `CELL` lanes per complete cell.
+    pairs: Vec<f64>,
 }
 
 impl LevelAcc {
     fn new(urows: usize, ucols: usize) -> Self {
-        let units = urows * ucols;
-        let cells = (urows / 2) * (ucols / 2);
+        let comps = 2 * urows * ucols;
         LevelAcc {
             urows,
             ucols,
-            re: vec![0.0; units],
-            im: vec![0.0; units],
-            shift: vec![Complex64::new(0.0, 0.0); units],
-            sre: vec![0.0; units],
-            sim: vec![0.0; units],
-            sq: vec![0.0; units],
-            pairs: std::array::from_fn(|_| vec![0.0; cells]),
+            x: vec![0.0; comps],
+            s: vec![0.0; comps],
+            q: vec![0.0; comps],
+            pairs: vec![0.0; (urows / 2) * (ucols / 2) * CELL],
         }
     }
 
-    /// Adds the current unit values to the unit sums.
+    /// Adds the current unit values to the unit sums (levels above 1; level 1 does this while
+    /// loading).
+    #[inline(always)]
     fn add_moments(&mut self) {
-        for k in 0..self.re.len() {
-            let (a, b) = (self.re[k], self.im[k]);
-            self.sre[k] += a;
-            self.sim[k] += b;
-            self.sq[k] += a * a + b * b;
+        for ((x, s), q) in self.x.iter().zip(&mut self.s).zip(&mut self.q) {
+            *s += x;
+            *q += x * x;
         }
     }
 
     /// Adds the pair products of every complete cell, and writes the cell sums (the next
     /// level's units) into `next` when given.
-    fn add_pairs(&mut self, mut next: Option<(&mut [f64], &mut [f64])>) {
-        let (crows, ccols, uc) = (self.urows / 2, self.ucols / 2, self.ucols);
-        let [p12, p34, p13, p24, p14, p23] = &mut self.pairs;
+    #[inline(always)]
+    fn add_pairs(&mut self, mut next: Option<&mut [f64]>) {
+        let (crows, ccols, row) = (self.urows / 2, self.ucols / 2, 2 * self.ucols);
         for r in 0..crows {
-            let top = 2 * r * uc;
-            let bot = top + uc;
-            let (tre, tim) = (&self.re[top..top + uc], &self.im[top..top + uc]);
-            let (bre, bim) = (&self.re[bot..bot + uc], &self.im[bot..bot + uc]);
-            let out = r * ccols;
-            for c in 0..ccols {
-                let (a1, b1) = (tre[2 * c], tim[2 * c]);
-                let (a2, b2) = (tre[2 * c + 1], tim[2 * c + 1]);
-                let (a3, b3) = (bre[2 * c], bim[2 * c]);
-                let (a4, b4) = (bre[2 * c + 1], bim[2 * c + 1]);
-                let k = out + c;
-                p12[k] += a1 * a2 + b1 * b2;
-                p34[k] += a3 * a4 + b3 * b4;
-                p13[k] += a1 * a3 + b1 * b3;
-                p24[k] += a2 * a4 + b2 * b4;
-                p14[k] += a1 * a4 + b1 * b4;
-                p23[k] += a2 * a3 + b2 * b3;
-                if let Some((nre, nim)) = next.as_mut() {
-                    nre[k] = a1 + a2 + a3 + a4;
-                    nim[k] = b1 + b2 + b3 + b4;
+            let top = &self.x[2 * r * row..][..4 * ccols];
+            let bot = &self.x[(2 * r + 1) * row..][..4 * ccols];
+            let acc = &mut self.pairs[r * ccols * CELL..][..ccols * CELL];
+            for ((t, b), a) in top
+                .chunks_exact(4)
+                .zip(bot.chunks_exact(4))
+                .zip(acc.chunks_exact_mut(CELL))
+            {
+                // t = [u1.re, u1.im, u2.re, u2.im], b = [u3.re, u3.im, u4.re, u4.im].
+                a[P13] += t[0] * b[0];
+                a[P13 + 1] += t[1] * b[1];
+                a[P24] += t[2] * b[2];
+                a[P24 + 1] += t[3] * b[3];
+                a[P14] += t[0] * b[2];
+                a[P14 + 1] += t[1] * b[3];
+                a[P23] += t[2] * b[0];
+                a[P23 + 1] += t[3] * b[1];
+                a[P12] += t[0] * t[2];
+                a[P12 + 1] += t[1] * t[3];
+                a[P34] += b[0] * b[2];
+                a[P34 + 1] += b[1] * b[3];
+            }
+            if let Some(next) = next.as_deref_mut() {
+                let out = &mut next[r * 2 * ccols..][..2 * ccols];
+                for ((t, b), o) in top
+                    .chunks_exact(4)
+                    .zip(bot.chunks_exact(4))
+                    .zip(out.chunks_exact_mut(2))
+                {
+                    o[0] = t[0] + t[2] + b[0] + b[2];
+                    o[1] = t[1] + t[3] + b[1] + b[3];
                 }
             }
         }
@@ -353,12 +417,11 @@ impl LevelAcc {
         let inv = 1.0 / n as f64;
         let (crows, ccols, uc) = (self.urows / 2, self.ucols / 2, self.ucols);
         let mut maps: [Vec<f64>; 6] = std::array::from_fn(|_| Vec::with_capacity(crows * ccols));
+        // Shifted mean and standard deviation of unit k.
         let moments = |k: usize| {
-            let (mr, mi) = (self.sre[k] * inv, self.sim[k] * inv);
-            (
-                (mr, mi),
-                non_negative(self.sq[k] * inv - mr * mr - mi * mi).sqrt(),
-            )
+            let (mr, mi) = (self.s[2 * k] * inv, self.s[2 * k + 1] * inv);
+            let var = (self.q[2 * k] + self.q[2 * k + 1]) * inv - mr * mr - mi * mi;
+            ((mr, mi), non_negative(var).sqrt())
         };
         for r in 0..crows {
             for c in 0..ccols {
@@ -369,15 +432,14 @@ impl LevelAcc {
                     (2 * r + 1) * uc + 2 * c + 1,
                 ];
                 let [(m1, s1), (m2, s2), (m3, s3), (m4, s4)] = units.map(moments);
-                let k = r * ccols + c;
-                let cov = |p: &Vec<f64>, a: (f64, f64), b: (f64, f64)| {
-                    p[k] * inv - (a.0 * b.0 + a.1 * b.1)
+                let a = &self.pairs[(r * ccols + c) * CELL..][..CELL];
+                let cov = |lane: usize, x: (f64, f64), y: (f64, f64)| {
+                    (a[lane] + a[lane + 1]) * inv - (x.0 * y.0 + x.1 * y.1)
                 };
-                let [p12, p34, p13, p24, p14, p23] = &self.pairs;
                 let sums = [
-                    (cov(p12, m1, m2) + cov(p34, m3, m4), s1 * s2 + s3 * s4),
-                    (cov(p13, m1, m3) + cov(p24, m2, m4), s1 * s3 + s2 * s4),
-                    (cov(p14, m1, m4) + cov(p23, m2, m3), s1 * s4 + s2 * s3),
+                    (cov(P12, m1, m2) + cov(P34, m3, m4), s1 * s2 + s3 * s4),
+                    (cov(P13, m1, m3) + cov(P24, m2, m4), s1 * s3 + s2 * s4),
+                    (cov(P14, m1, m4) + cov(P23, m2, m3), s1 * s4 + s2 * s3),
                 ];
                 for (d, (csum, denom)) in sums.into_iter().enumerate() {
                     let (corr, cov) = cell_stats(csum, denom);
@@ -412,63 +474,98 @@ fn non_negative(v: f64) -> f64 {
     }
 }
 
-/// Analyses rows `r0 .. r0 + rows` of every sample.
-fn analyse_band(
-    data: &[impl Sample],
+/// Geometry of one band: `rows` rows starting at `r0` of an `n x h x w` stack.
+#[derive(Clone, Copy)]
+struct Band {
     n: usize,
     h: usize,
     w: usize,
     r0: usize,
     rows: usize,
     levels: usize,
-) -> BandResult {
+}
+
+/// Analyses one band, with AVX2 code generation where the CPU has it (the arithmetic and its
+/// order are the same on every path, so results are bitwise identical).
+fn analyse_band<T: Sample>(data: &[T], band: Band) -> BandResult {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { analyse_band_avx2(data, band) };
+        }
+    }
+    analyse_band_body(data, band)
+}
+
+/// [`analyse_band_body`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn analyse_band_avx2<T: Sample>(data: &[T], band: Band) -> BandResult {
+    analyse_band_body(data, band)
+}
+
+/// Analyses rows `r0 .. r0 + rows` of every sample.
+#[inline(always)]
+fn analyse_band_body<T: Sample>(data: &[T], band: Band) -> BandResult {
+    let Band {
+        n,
+        h,
+        w,
+        r0,
+        rows,
+        levels,
+    } = band;
     let mut accs: Vec<LevelAcc> = (0..levels)
         .map(|l| LevelAcc::new(rows >> l, w >> l))
         .collect();
     let plane = h * w;
-    let base = r0 * w;
-    for s in 0..n {
-        let src = &data[s * plane + base..s * plane + base + rows * w];
-        load_units(src, &mut accs[0], s == 0);
+    let span = r0 * w..(r0 + rows) * w;
+    // The shift: sample 0's pixel components.
+    let mut shift = vec![0.0; 2 * rows * w];
+    {
+        let (mut x, mut s, mut q) = (
+            vec![0.0; shift.len()],
+            vec![0.0; shift.len()],
+            vec![0.0; shift.len()],
+        );
+        T::load_shifted(
+            &data[span.clone()],
+            &vec![0.0; shift.len()],
+            &mut x,
+            &mut s,
+            &mut q,
+        );
+        shift.copy_from_slice(&x);
+    }
+    for sample in 0..n {
+        let src = &data[sample * plane + span.start..sample * plane + span.end];
+        let first = &mut accs[0];
+        T::load_shifted(src, &shift, &mut first.x, &mut first.s, &mut first.q);
         for l in 0..levels {
             let (cur, rest) = accs[l..].split_first_mut().expect("level exists");
-            cur.add_moments();
-            match rest.first_mut() {
-                Some(next) => cur.add_pairs(Some((&mut next.re, &mut next.im))),
-                None => cur.add_pairs(None),
+            if l > 0 {
+                cur.add_moments();
             }
+            cur.add_pairs(rest.first_mut().map(|next| next.x.as_mut_slice()));
         }
     }
     let finished = accs.iter().map(|a| a.finish(n)).collect();
-    let pixels = &accs[0];
+    let px = &accs[0];
     let inv = 1.0 / n as f64;
     let mut mean = Vec::with_capacity(rows * w);
     let mut variance = Vec::with_capacity(rows * w);
     for k in 0..rows * w {
-        let (mr, mi) = (pixels.sre[k] * inv, pixels.sim[k] * inv);
-        mean.push(pixels.shift[k] + Complex64::new(mr, mi));
-        variance.push(non_negative(pixels.sq[k] * inv - mr * mr - mi * mi));
+        let (mr, mi) = (px.s[2 * k] * inv, px.s[2 * k + 1] * inv);
+        mean.push(Complex64::new(shift[2 * k] + mr, shift[2 * k + 1] + mi));
+        variance.push(non_negative(
+            (px.q[2 * k] + px.q[2 * k + 1]) * inv - mr * mr - mi * mi,
+        ));
     }
     BandResult {
         mean,
         variance,
         levels: finished,
-    }
-}
-
-/// Loads one sample's band into the level-1 unit buffers, shifted by sample 0.
-fn load_units(src: &[impl Sample], acc: &mut LevelAcc, first: bool) {
-    if first {
-        for (k, v) in src.iter().enumerate() {
-            let (a, b) = v.parts();
-            acc.shift[k] = Complex64::new(a, b);
-        }
-    }
-    for (k, v) in src.iter().enumerate() {
-        let (a, b) = v.parts();
-        let s = acc.shift[k];
-        acc.re[k] = a - s.re;
-        acc.im[k] = b - s.im;
     }
 }
 

@@ -5,7 +5,6 @@
 
 use crate::analysis::{analyse, Analysis, AnalysisError, Sample};
 use ndarray::{Array2, Array3, ArrayView3};
-use ndarray_npy::ReadNpyExt;
 use num_complex::Complex;
 use std::fs::File;
 use std::io::{BufReader, Read};
@@ -76,6 +75,8 @@ impl Dtype {
 /// The parsed header of an `.npy` file.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct NpyHeader {
+    /// Byte offset of the data.
+    pub data_offset: usize,
     /// Element type.
     pub dtype: Dtype,
     /// Whether the data is stored in column-major order.
@@ -103,16 +104,16 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
     if &pre[..6] != b"\x93NUMPY" {
         return Err(bad("missing the \\x93NUMPY magic string"));
     }
-    let len = match pre[6] {
+    let (len, prefix) = match pre[6] {
         1 => {
             let mut b = [0u8; 2];
             f.read_exact(&mut b).map_err(|_| bad("truncated header"))?;
-            u16::from_le_bytes(b) as usize
+            (u16::from_le_bytes(b) as usize, 10)
         }
         2 | 3 => {
             let mut b = [0u8; 4];
             f.read_exact(&mut b).map_err(|_| bad("truncated header"))?;
-            u32::from_le_bytes(b) as usize
+            (u32::from_le_bytes(b) as usize, 12)
         }
         v => return Err(bad(&format!("unknown format version {v}"))),
     };
@@ -149,6 +150,7 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
         .collect::<Result<Vec<_>, _>>()
         .map_err(|_| bad("unreadable 'shape'"))?;
     Ok(NpyHeader {
+        data_offset: prefix + len,
         dtype,
         fortran_order,
         shape,
@@ -190,31 +192,25 @@ fn view<T>(a: &Array3<T>, hwn: bool) -> ArrayView3<'_, T> {
 }
 
 impl Stack {
-    /// Loads a stack from `path` in its stored axis order.
+    /// Loads a stack from `path` in its stored axis order, reading the data in place (memory is
+    /// the data's size).
     ///
     /// # Errors
-    /// [`NpyError`] if the file cannot be read or decoded.
+    /// [`NpyError`] if the file cannot be read, is truncated, or is not 3-D.
     pub fn load(path: &Path) -> Result<Stack, NpyError> {
         let header = read_header(path)?;
-        let f = || {
-            File::open(path)
-                .map(BufReader::new)
-                .map_err(|source| NpyError::Io {
-                    path: path.to_path_buf(),
-                    source,
-                })
-        };
-        let data = |e: ndarray_npy::ReadNpyError| NpyError::Data {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        };
-        let stack = match header.dtype {
-            Dtype::Complex64 => Stack::C64(Array3::read_npy(f()?).map_err(data)?),
-            Dtype::Complex128 => Stack::C128(Array3::read_npy(f()?).map_err(data)?),
-            Dtype::Float32 => Stack::F32(Array3::read_npy(f()?).map_err(data)?),
-            Dtype::Float64 => Stack::F64(Array3::read_npy(f()?).map_err(data)?),
-        };
-        Ok(stack)
+        if header.shape.len() != 3 {
+            return Err(NpyError::Data {
+                path: path.to_path_buf(),
+                reason: format!("a stack is 3-D, this array has shape {:?}", header.shape),
+            });
+        }
+        Ok(match header.dtype {
+            Dtype::Complex64 => Stack::C64(read_array(path, &header)?),
+            Dtype::Complex128 => Stack::C128(read_array(path, &header)?),
+            Dtype::Float32 => Stack::F32(read_array(path, &header)?),
+            Dtype::Float64 => Stack::F64(read_array(path, &header)?),
+        })
     }
 
     /// Runs the multiscale analysis on the stack (`hwn`: axes stored as `[H, W, N]`).
@@ -248,6 +244,85 @@ impl Stack {
     }
 }
 
+#[cfg(target_endian = "big")]
+compile_error!(
+    "isar-clutter reads little-endian .npy data in place; big-endian hosts are not supported"
+);
+
+/// An element of an `.npy` file that can be read in place (plain little-endian data).
+pub trait Element: bytemuck::Pod {}
+impl Element for f32 {}
+impl Element for f64 {}
+impl Element for Complex<f32> {}
+impl Element for Complex<f64> {}
+
+/// Asks the kernel to back a large allocation with transparent huge pages before it is first
+/// touched: on virtual machines a 4 KiB page fault costs microseconds, so filling a 32 MB
+/// stack page by page costs more than reading it. Advisory; errors are ignored.
+fn advise_huge_pages<T>(v: &Vec<T>) {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let start = v.as_ptr() as usize;
+        let end = start + v.capacity() * std::mem::size_of::<T>();
+        let aligned = start.next_multiple_of(HUGE);
+        if end > aligned + HUGE {
+            // SAFETY: madvise on a range inside our own allocation only changes how the kernel
+            // backs those pages; MADV_HUGEPAGE does not alter their contents or validity.
+            unsafe {
+                libc::madvise(
+                    aligned as *mut libc::c_void,
+                    (end - aligned) / HUGE * HUGE,
+                    libc::MADV_HUGEPAGE,
+                );
+            }
+        }
+    }
+}
+
+/// Reads the data of an `.npy` file into an array of its header's shape and memory order.
+fn read_array<T: Element, D: ndarray::Dimension>(
+    path: &Path,
+    header: &NpyHeader,
+) -> Result<ndarray::Array<T, D>, NpyError> {
+    use ndarray::ShapeBuilder;
+    use std::io::{Seek, SeekFrom};
+    let data_err = |reason: String| NpyError::Data {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let io = |source| NpyError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let count: usize = header.shape.iter().product();
+    let mut f = File::open(path).map_err(io)?;
+    let size = f.metadata().map_err(io)?.len() as usize;
+    if size < header.data_offset + count * std::mem::size_of::<T>() {
+        return Err(data_err(format!(
+            "truncated: the header promises {} bytes of data, the file holds {}",
+            count * std::mem::size_of::<T>(),
+            size.saturating_sub(header.data_offset)
+        )));
+    }
+    f.seek(SeekFrom::Start(header.data_offset as u64))
+        .map_err(io)?;
+    let mut out: Vec<T> = Vec::with_capacity(count);
+    advise_huge_pages(&out);
+    out.resize(count, T::zeroed());
+    f.read_exact(bytemuck::cast_slice_mut(&mut out))
+        .map_err(io)?;
+    let dim = D::from_dimension(&ndarray::IxDyn(&header.shape)).ok_or_else(|| {
+        data_err(format!(
+            "expected {} axes, found shape {:?}",
+            D::NDIM.unwrap_or(0),
+            header.shape
+        ))
+    })?;
+    ndarray::Array::from_shape_vec(dim.set_f(header.fortran_order), out)
+        .map_err(|e| data_err(e.to_string()))
+}
+
 /// Loads a real `[H, W]` map (float32 or float64).
 ///
 /// # Errors
@@ -264,17 +339,9 @@ pub fn read_real_map(path: &Path) -> Result<Array2<f64>, NpyError> {
             header.shape
         )));
     }
-    let f = File::open(path)
-        .map(BufReader::new)
-        .map_err(|source| NpyError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
     match header.dtype {
-        Dtype::Float64 => Array2::<f64>::read_npy(f).map_err(|e| data(e.to_string())),
-        Dtype::Float32 => Array2::<f32>::read_npy(f)
-            .map(|a| a.mapv(f64::from))
-            .map_err(|e| data(e.to_string())),
+        Dtype::Float64 => read_array::<f64, ndarray::Ix2>(path, &header),
+        Dtype::Float32 => read_array::<f32, ndarray::Ix2>(path, &header).map(|a| a.mapv(f64::from)),
         _ => Err(data(
             "a parameter map must be real (float32 or float64)".into(),
         )),

@@ -75,7 +75,6 @@ pub fn atomic_write(
         );
         write(&mut w)?;
         w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
         fs::rename(&tmp, path)
             .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
     })();
@@ -85,13 +84,15 @@ pub fn atomic_write(
     result.with_context(|| format!("writing {}", path.display()))
 }
 
-/// Writes a DataFrame as Parquet, atomically.
+/// Writes a DataFrame as Parquet (Snappy-compressed), atomically.
 ///
 /// # Errors
 /// If writing fails.
 pub fn write_parquet(path: &Path, df: &mut DataFrame) -> Result<()> {
     atomic_write(path, |w| {
-        ParquetWriter::new(w).finish(df)?;
+        ParquetWriter::new(w)
+            .with_compression(ParquetCompression::Snappy)
+            .finish(df)?;
         Ok(())
     })
 }

@@ -666,7 +666,9 @@ impl DatasetSpec {
         }
         let dataset = match self.kind {
             DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
-            DatasetKind::FilteredNoise => Dataset::FilteredNoise(Box::new(self.check_noise(ctx, at)?)),
+            DatasetKind::FilteredNoise => {
+                Dataset::FilteredNoise(Box::new(self.check_noise(ctx, at)?))
+            }
         };
         let (n, h, w) = dataset.shape();
         if n < 2 {
