@@ -331,20 +331,37 @@ const P23: usize = 6;
 const P12: usize = 8;
 const P34: usize = 10;
 
-/// Running sums of one level inside a band. Unit values are stored interleaved
-/// (`[re, im]` per unit, row-major), as are their sums and sums of squares per component.
+/// Running sums of one level inside a band. Components are interleaved (`[re, im]` per unit,
+/// row-major). Only level 1 accumulates unit moments per sample; a coarser unit is the sum of
+/// four finer ones, so its moments follow exactly from the finer level's moments and pair sums
+/// (see [`LevelAcc::coarser_moments`]).
 struct LevelAcc {
     /// Unit grid of this level inside the band.
     urows: usize,
     ucols: usize,
     /// Unit components of the current sample (shifted).
     x: Vec<f64>,
-    /// Sums of shifted components.
+    /// Sums of shifted components (level 1: accumulated; coarser: derived at the end).
     s: Vec<f64>,
-    /// Sums of squared shifted components.
+    /// Sums of squared shifted components, per component (as `s`).
     q: Vec<f64>,
     /// Pair sums, `CELL` lanes per complete cell.
     pairs: Vec<f64>,
+}
+
+/// The three 4-lane products of one cell (`t = [u1.re, u1.im, u2.re, u2.im]`,
+/// `b = [u3.re, u3.im, u4.re, u4.im]`) added to its accumulators, one vector multiply and add
+/// each on 256-bit targets; returns the cell sum (the coarser unit).
+#[inline(always)]
+fn accumulate_cell(t: [f64; 4], b: [f64; 4], a: &mut [f64; CELL]) -> [f64; 2] {
+    let swapped = [b[2], b[3], b[0], b[1]];
+    let (left, right) = ([t[0], t[1], b[0], b[1]], [t[2], t[3], b[2], b[3]]);
+    for i in 0..4 {
+        a[P13 + i] += t[i] * b[i]; // P13, then P24
+        a[P14 + i] += t[i] * swapped[i]; // P14, then P23
+        a[P12 + i] += left[i] * right[i]; // P12, then P34
+    }
+    [(t[0] + t[2]) + (b[0] + b[2]), (t[1] + t[3]) + (b[1] + b[3])]
 }
 
 impl LevelAcc {
@@ -360,18 +377,16 @@ impl LevelAcc {
         }
     }
 
-    /// Adds the current unit values to the unit sums (levels above 1; level 1 does this while
-    /// loading).
+    /// Level 1: loads one sample's band (shifted) into `x`, adds it to the moment sums, then
+    /// adds its pairs like any level.
     #[inline(always)]
-    fn add_moments(&mut self) {
-        for ((x, s), q) in self.x.iter().zip(&mut self.s).zip(&mut self.q) {
-            *s += x;
-            *q += x * x;
-        }
+    fn add_pixels<T: Sample>(&mut self, src: &[T], shift: &[f64], next: Option<&mut [f64]>) {
+        T::load_shifted(src, shift, &mut self.x, &mut self.s, &mut self.q);
+        self.add_pairs(next);
     }
 
-    /// Adds the pair products of every complete cell, and writes the cell sums (the next
-    /// level's units) into `next` when given.
+    /// Adds the pair products of every complete cell of the current unit values `x`, and
+    /// writes the cell sums (the next level's units) into `next` when given.
     #[inline(always)]
     fn add_pairs(&mut self, mut next: Option<&mut [f64]>) {
         let (crows, ccols, row) = (self.urows / 2, self.ucols / 2, 2 * self.ucols);
@@ -379,34 +394,48 @@ impl LevelAcc {
             let top = &self.x[2 * r * row..][..4 * ccols];
             let bot = &self.x[(2 * r + 1) * row..][..4 * ccols];
             let acc = &mut self.pairs[r * ccols * CELL..][..ccols * CELL];
-            for ((t, b), a) in top
+            let mut out = next
+                .as_deref_mut()
+                .map(|n| &mut n[r * 2 * ccols..][..2 * ccols]);
+            for (c, ((t, b), a)) in top
                 .chunks_exact(4)
                 .zip(bot.chunks_exact(4))
                 .zip(acc.chunks_exact_mut(CELL))
+                .enumerate()
             {
-                // t = [u1.re, u1.im, u2.re, u2.im], b = [u3.re, u3.im, u4.re, u4.im].
-                a[P13] += t[0] * b[0];
-                a[P13 + 1] += t[1] * b[1];
-                a[P24] += t[2] * b[2];
-                a[P24 + 1] += t[3] * b[3];
-                a[P14] += t[0] * b[2];
-                a[P14 + 1] += t[1] * b[3];
-                a[P23] += t[2] * b[0];
-                a[P23 + 1] += t[3] * b[1];
-                a[P12] += t[0] * t[2];
-                a[P12 + 1] += t[1] * t[3];
-                a[P34] += b[0] * b[2];
-                a[P34 + 1] += b[1] * b[3];
+                let t: [f64; 4] = t.try_into().expect("chunk of 4");
+                let b: [f64; 4] = b.try_into().expect("chunk of 4");
+                let sum = accumulate_cell(t, b, a.try_into().expect("chunk of CELL"));
+                if let Some(o) = out.as_deref_mut() {
+                    o[2 * c..2 * c + 2].copy_from_slice(&sum);
+                }
             }
-            if let Some(next) = next.as_deref_mut() {
-                let out = &mut next[r * 2 * ccols..][..2 * ccols];
-                for ((t, b), o) in top
-                    .chunks_exact(4)
-                    .zip(bot.chunks_exact(4))
-                    .zip(out.chunks_exact_mut(2))
-                {
-                    o[0] = t[0] + t[2] + b[0] + b[2];
-                    o[1] = t[1] + t[3] + b[1] + b[3];
+        }
+    }
+
+    /// Moment sums of the next level's units (this level's cells): for `U = u1 + u2 + u3 + u4`
+    /// and each component, `sum U = sum of sum u_i` and
+    /// `sum U^2 = sum of sum u_i^2 + 2 * sum over the six pairs of sum u_i u_j`.
+    fn coarser_moments(&self, next: &mut LevelAcc) {
+        let (ccols, uc) = (self.ucols / 2, self.ucols);
+        for r in 0..self.urows / 2 {
+            for c in 0..ccols {
+                let units = [
+                    2 * r * uc + 2 * c,
+                    2 * r * uc + 2 * c + 1,
+                    (2 * r + 1) * uc + 2 * c,
+                    (2 * r + 1) * uc + 2 * c + 1,
+                ];
+                let a = &self.pairs[(r * ccols + c) * CELL..][..CELL];
+                let k = r * ccols + c;
+                for lane in 0..2 {
+                    let pairs: f64 = [P13, P24, P14, P23, P12, P34]
+                        .iter()
+                        .map(|p| a[p + lane])
+                        .sum();
+                    next.s[2 * k + lane] = units.iter().map(|u| self.s[2 * u + lane]).sum();
+                    next.q[2 * k + lane] =
+                        units.iter().map(|u| self.q[2 * u + lane]).sum::<f64>() + 2.0 * pairs;
                 }
             }
         }
@@ -474,6 +503,23 @@ fn non_negative(v: f64) -> f64 {
     }
 }
 
+/// Hints the CPU to fetch `next` (the band of the next sample, one page-strided block that the
+/// hardware prefetcher does not predict) into the cache while the current sample is processed.
+#[inline(always)]
+fn prefetch<T>(next: &[T]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let bytes = std::mem::size_of_val(next);
+        let base = next.as_ptr() as *const i8;
+        for off in (0..bytes).step_by(64) {
+            // SAFETY: the address lies inside `next`; a prefetch never faults or writes.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(base.add(off))
+            };
+        }
+    }
+}
+
 /// Geometry of one band: `rows` rows starting at `r0` of an `n x h x w` stack.
 #[derive(Clone, Copy)]
 struct Band {
@@ -524,31 +570,29 @@ fn analyse_band_body<T: Sample>(data: &[T], band: Band) -> BandResult {
     // The shift: sample 0's pixel components.
     let mut shift = vec![0.0; 2 * rows * w];
     {
-        let (mut x, mut s, mut q) = (
-            vec![0.0; shift.len()],
-            vec![0.0; shift.len()],
-            vec![0.0; shift.len()],
-        );
-        T::load_shifted(
-            &data[span.clone()],
-            &vec![0.0; shift.len()],
-            &mut x,
-            &mut s,
-            &mut q,
-        );
-        shift.copy_from_slice(&x);
+        let zero = vec![0.0; shift.len()];
+        let (mut s, mut q) = (zero.clone(), zero.clone());
+        T::load_shifted(&data[span.clone()], &zero, &mut shift, &mut s, &mut q);
     }
     for sample in 0..n {
         let src = &data[sample * plane + span.start..sample * plane + span.end];
-        let first = &mut accs[0];
-        T::load_shifted(src, &shift, &mut first.x, &mut first.s, &mut first.q);
-        for l in 0..levels {
+        if sample + 1 < n {
+            prefetch(&data[(sample + 1) * plane + span.start..(sample + 1) * plane + span.end]);
+        }
+        let (first, rest) = accs.split_first_mut().expect("at least one level");
+        first.add_pixels(
+            src,
+            &shift,
+            rest.first_mut().map(|next| next.x.as_mut_slice()),
+        );
+        for l in 1..levels {
             let (cur, rest) = accs[l..].split_first_mut().expect("level exists");
-            if l > 0 {
-                cur.add_moments();
-            }
             cur.add_pairs(rest.first_mut().map(|next| next.x.as_mut_slice()));
         }
+    }
+    for l in 1..levels {
+        let (finer, coarser) = accs.split_at_mut(l);
+        finer[l - 1].coarser_moments(&mut coarser[0]);
     }
     let finished = accs.iter().map(|a| a.finish(n)).collect();
     let px = &accs[0];
