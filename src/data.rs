@@ -110,7 +110,7 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
             let stack = generate(d, &bank, data_seed);
             let std = d.std.grid(d.height, d.width);
             Materialised {
-                stack: Stack::C128(stack),
+                stack: Stack::Generated(stack),
                 hwn: false,
                 truth: Some((bank, std)),
             }

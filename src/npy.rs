@@ -169,48 +169,74 @@ fn dict_value(text: &str, key: &str) -> Option<String> {
     Some(rest[..end].trim().to_string())
 }
 
-/// A stack in its stored element type, `[N, H, W]`.
-#[derive(Debug, Clone, PartialEq)]
+/// A stack, `[N, H, W]` (or `[H, W, N]`), in its stored element type.
+#[derive(Debug)]
 pub enum Stack {
-    /// complex64.
-    C64(Array3<Complex<f32>>),
-    /// complex128.
-    C128(Array3<Complex<f64>>),
-    /// float32 (imaginary part 0).
-    F32(Array3<f32>),
-    /// float64 (imaginary part 0).
-    F64(Array3<f64>),
+    /// A generated stack (complex128).
+    Generated(Array3<Complex<f64>>),
+    /// An `.npy` file mapped read-only into memory: no copy and no page-by-page allocation of
+    /// the input (the file must not be modified while a run reads it).
+    Mapped(MappedNpy),
+}
+
+/// A memory-mapped `.npy` file and its header.
+#[derive(Debug)]
+pub struct MappedNpy {
+    /// The file.
+    pub path: PathBuf,
+    /// Its header.
+    pub header: NpyHeader,
+    map: memmap2::Mmap,
 }
 
 /// Whether axes are `[N, H, W]` or `[H, W, N]`.
-fn view<T>(a: &Array3<T>, hwn: bool) -> ArrayView3<'_, T> {
+fn view<T>(a: ArrayView3<'_, T>, hwn: bool) -> ArrayView3<'_, T> {
     if hwn {
-        a.view().permuted_axes([2, 0, 1])
+        a.permuted_axes([2, 0, 1])
     } else {
-        a.view()
+        a
     }
 }
 
 impl Stack {
-    /// Loads a stack from `path` in its stored axis order, reading the data in place (memory is
-    /// the data's size).
+    /// Maps a stack from `path`, checking its header and size.
     ///
     /// # Errors
     /// [`NpyError`] if the file cannot be read, is truncated, or is not 3-D.
     pub fn load(path: &Path) -> Result<Stack, NpyError> {
         let header = read_header(path)?;
+        let data_err = |reason: String| NpyError::Data {
+            path: path.to_path_buf(),
+            reason,
+        };
         if header.shape.len() != 3 {
-            return Err(NpyError::Data {
-                path: path.to_path_buf(),
-                reason: format!("a stack is 3-D, this array has shape {:?}", header.shape),
-            });
+            return Err(data_err(format!(
+                "a stack is 3-D, this array has shape {:?}",
+                header.shape
+            )));
         }
-        Ok(match header.dtype {
-            Dtype::Complex64 => Stack::C64(read_array(path, &header)?),
-            Dtype::Complex128 => Stack::C128(read_array(path, &header)?),
-            Dtype::Float32 => Stack::F32(read_array(path, &header)?),
-            Dtype::Float64 => Stack::F64(read_array(path, &header)?),
-        })
+        let file = File::open(path).map_err(|source| NpyError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        // SAFETY: the map is read-only and private to this process; it is undefined only if
+        // another process truncates or rewrites the file during the run (documented above).
+        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| NpyError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let need = header.shape.iter().product::<usize>() * header.dtype.size();
+        if map.len() < header.data_offset + need {
+            return Err(data_err(format!(
+                "truncated: the header promises {need} bytes of data, the file holds {}",
+                map.len().saturating_sub(header.data_offset)
+            )));
+        }
+        Ok(Stack::Mapped(MappedNpy {
+            path: path.to_path_buf(),
+            header,
+            map,
+        }))
     }
 
     /// Runs the multiscale analysis on the stack (`hwn`: axes stored as `[H, W, N]`).
@@ -218,28 +244,60 @@ impl Stack {
     /// # Errors
     /// [`AnalysisError`] as for [`analyse`].
     pub fn analyse(&self, hwn: bool, levels: usize) -> Result<Analysis, AnalysisError> {
-        fn go<T: Sample>(
-            a: &Array3<T>,
-            hwn: bool,
-            levels: usize,
-        ) -> Result<Analysis, AnalysisError> {
-            analyse(view(a, hwn), levels)
-        }
         match self {
-            Stack::C64(a) => go(a, hwn, levels),
-            Stack::C128(a) => go(a, hwn, levels),
-            Stack::F32(a) => go(a, hwn, levels),
-            Stack::F64(a) => go(a, hwn, levels),
+            Stack::Generated(a) => analyse(view(a.view(), hwn), levels),
+            Stack::Mapped(m) => match m.header.dtype {
+                Dtype::Complex64 => m.analyse::<Complex<f32>>(hwn, levels),
+                Dtype::Complex128 => m.analyse::<Complex<f64>>(hwn, levels),
+                Dtype::Float32 => m.analyse::<f32>(hwn, levels),
+                Dtype::Float64 => m.analyse::<f64>(hwn, levels),
+            },
         }
     }
 
-    /// Bytes of element data held.
+    /// Bytes of element data.
     pub fn bytes(&self) -> usize {
         match self {
-            Stack::C64(a) => a.len() * 8,
-            Stack::C128(a) => a.len() * 16,
-            Stack::F32(a) => a.len() * 4,
-            Stack::F64(a) => a.len() * 8,
+            Stack::Generated(a) => a.len() * 16,
+            Stack::Mapped(m) => m.header.shape.iter().product::<usize>() * m.header.dtype.size(),
+        }
+    }
+}
+
+impl MappedNpy {
+    /// Analyses the mapped data in place; data that is not aligned for `T` (a header whose
+    /// length is not a multiple of the element size) is copied first.
+    fn analyse<T: Element + Sample>(
+        &self,
+        hwn: bool,
+        levels: usize,
+    ) -> Result<Analysis, AnalysisError> {
+        use ndarray::ShapeBuilder;
+        let count: usize = self.header.shape.iter().product();
+        let bytes = &self.map[self.header.data_offset..][..count * std::mem::size_of::<T>()];
+        let s = &self.header.shape;
+        let shape = (s[0], s[1], s[2]).set_f(self.header.fortran_order);
+        match bytemuck::try_cast_slice::<u8, T>(bytes) {
+            Ok(data) => analyse(
+                view(
+                    ArrayView3::from_shape(shape, data).expect("size checked at load"),
+                    hwn,
+                ),
+                levels,
+            ),
+            Err(_) => {
+                let data: Vec<T> = bytes
+                    .chunks_exact(std::mem::size_of::<T>())
+                    .map(bytemuck::pod_read_unaligned)
+                    .collect();
+                analyse(
+                    view(
+                        ArrayView3::from_shape(shape, &data).expect("size checked at load"),
+                        hwn,
+                    ),
+                    levels,
+                )
+            }
         }
     }
 }
@@ -255,30 +313,6 @@ impl Element for f32 {}
 impl Element for f64 {}
 impl Element for Complex<f32> {}
 impl Element for Complex<f64> {}
-
-/// Asks the kernel to back a large allocation with transparent huge pages before it is first
-/// touched: on virtual machines a 4 KiB page fault costs microseconds, so filling a 32 MB
-/// stack page by page costs more than reading it. Advisory; errors are ignored.
-fn advise_huge_pages<T>(v: &Vec<T>) {
-    #[cfg(target_os = "linux")]
-    {
-        const HUGE: usize = 2 << 20;
-        let start = v.as_ptr() as usize;
-        let end = start + v.capacity() * std::mem::size_of::<T>();
-        let aligned = start.next_multiple_of(HUGE);
-        if end > aligned + HUGE {
-            // SAFETY: madvise on a range inside our own allocation only changes how the kernel
-            // backs those pages; MADV_HUGEPAGE does not alter their contents or validity.
-            unsafe {
-                libc::madvise(
-                    aligned as *mut libc::c_void,
-                    (end - aligned) / HUGE * HUGE,
-                    libc::MADV_HUGEPAGE,
-                );
-            }
-        }
-    }
-}
 
 /// Reads the data of an `.npy` file into an array of its header's shape and memory order.
 fn read_array<T: Element, D: ndarray::Dimension>(
@@ -307,9 +341,7 @@ fn read_array<T: Element, D: ndarray::Dimension>(
     }
     f.seek(SeekFrom::Start(header.data_offset as u64))
         .map_err(io)?;
-    let mut out: Vec<T> = Vec::with_capacity(count);
-    advise_huge_pages(&out);
-    out.resize(count, T::zeroed());
+    let mut out: Vec<T> = vec![T::zeroed(); count];
     f.read_exact(bytemuck::cast_slice_mut(&mut out))
         .map_err(io)?;
     let dim = D::from_dimension(&ndarray::IxDyn(&header.shape)).ok_or_else(|| {

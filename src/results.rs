@@ -118,29 +118,31 @@ pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
 /// # Errors
 /// If a file cannot be written.
 pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
+    use rayon::prelude::*;
     write_npy(&dir.join("mean.npy"), &r.analysis.mean)?;
-    write_npy(&dir.join("variance.npy"), &r.analysis.variance)?;
+    let mut maps: Vec<(String, &Array2<f64>)> = vec![("variance".into(), &r.analysis.variance)];
     for lm in &r.analysis.levels {
         for d in Direction::ALL {
-            write_npy(
-                &dir.join(format!("level{}_correlation_{d}.npy", lm.level)),
+            maps.push((
+                format!("level{}_correlation_{d}", lm.level),
                 lm.correlation(d),
-            )?;
-            write_npy(
-                &dir.join(format!("level{}_covariance_{d}.npy", lm.level)),
+            ));
+            maps.push((
+                format!("level{}_covariance_{d}", lm.level),
                 lm.covariance(d),
-            )?;
+            ));
         }
     }
-    for (l, maps) in r.expected.iter().flatten().enumerate() {
+    for (l, expected) in r.expected.iter().flatten().enumerate() {
         for d in Direction::ALL {
-            write_npy(
-                &dir.join(format!("expected_level{}_correlation_{d}.npy", l + 1)),
-                &maps[d as usize],
-            )?;
+            maps.push((
+                format!("expected_level{}_correlation_{d}", l + 1),
+                &expected[d as usize],
+            ));
         }
     }
-    Ok(())
+    maps.par_iter()
+        .try_for_each(|(name, map)| write_npy(&dir.join(format!("{name}.npy")), *map))
 }
 
 /// Column builder for one table: rows are appended job by job, and the swept parameters are

@@ -219,11 +219,10 @@ fn write_tables(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()> 
         ("filter_correlation.parquet", results::filter_correlation),
         ("jobs.parquet", results::jobs_table),
     ];
-    for (name, build) in tables {
+    tables.par_iter().try_for_each(|(name, build)| {
         let mut df = build(plan, outcomes).with_context(|| format!("building {name}"))?;
-        results::write_parquet(&out.join(name), &mut df)?;
-    }
-    Ok(())
+        results::write_parquet(&out.join(name), &mut df)
+    })
 }
 
 /// Commit and dirty flag of the source tree the binary was built from (null outside git).
