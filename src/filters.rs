@@ -223,6 +223,12 @@ pub fn filter_pixel_direct(
     acc
 }
 
+/// Whether [`expected_maps`] takes its closed-form path (uniform filter and uniform `std`),
+/// whose cost does not grow with the image or the level.
+pub fn expected_maps_are_cheap(bank: &FilterBank, std: &Array2<f64>) -> bool {
+    bank.is_uniform() && std.iter().all(|&s| s == std[[0, 0]])
+}
+
 /// Exact expected multiscale correlation maps (`[H, V, D]` per level) of
 /// `x_p = mu_p + std_p y_p / sd(y_p)` where `y` is the bank's output for a unit white seed.
 ///
@@ -230,11 +236,11 @@ pub fn filter_pixel_direct(
 /// otherwise every unit covariance is summed over its pixel pairs.
 pub fn expected_maps(bank: &FilterBank, std: &Array2<f64>, levels: usize) -> Vec<[Array2<f64>; 3]> {
     let (h, w) = (bank.height, bank.width);
-    let uniform_std = std.iter().all(|&s| s == std[[0, 0]]);
+    let cheap = expected_maps_are_cheap(bank, std);
     (1..=levels)
         .map(|level| {
             let shape = (h >> level, w >> level);
-            if bank.is_uniform() && uniform_std {
+            if cheap {
                 let g = 1usize << (level - 1);
                 let rh = group_correlation(&bank.horizontal[0], g);
                 let rv = group_correlation(&bank.vertical[0], g);

@@ -97,7 +97,7 @@ fn real_main() -> Result<ExitCode> {
 
 /// Prints the job table of `--dry-run`.
 fn print_jobs(plan: &Plan) {
-    let rows: Vec<[String; 6]> = plan
+    let rows: Vec<[String; 7]> = plan
         .jobs
         .iter()
         .map(|j| {
@@ -108,12 +108,21 @@ fn print_jobs(plan: &Plan) {
                 format!("{n}x{h}x{w}"),
                 j.analysis.levels.to_string(),
                 j.seed.to_string(),
+                j.data_seed.to_string(),
                 serde_json::to_string(&j.params).unwrap_or_default(),
             ]
         })
         .collect();
-    let head = ["job", "kind", "NxHxW", "levels", "seed", "params"];
-    let width: Vec<usize> = (0..6)
+    let head = [
+        "job",
+        "kind",
+        "NxHxW",
+        "levels",
+        "seed",
+        "data_seed",
+        "params",
+    ];
+    let width: Vec<usize> = (0..7)
         .map(|c| {
             rows.iter()
                 .map(|r| r[c].len())
@@ -122,7 +131,7 @@ fn print_jobs(plan: &Plan) {
                 .unwrap_or(0)
         })
         .collect();
-    let line = |cells: [&str; 6]| {
+    let line = |cells: [&str; 7]| {
         let s: Vec<String> = cells
             .iter()
             .zip(&width)
@@ -132,7 +141,7 @@ fn print_jobs(plan: &Plan) {
     };
     line(head);
     for r in &rows {
-        line([&r[0], &r[1], &r[2], &r[3], &r[4], &r[5]]);
+        line([&r[0], &r[1], &r[2], &r[3], &r[4], &r[5], &r[6]]);
     }
     println!("{} job(s), master seed {}", plan.jobs.len(), plan.spec.seed);
 }

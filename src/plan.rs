@@ -91,8 +91,14 @@ impl Axis {
         self.field.join(".")
     }
 
-    fn applies_to(&self, id: &str) -> bool {
-        self.dataset.as_deref().is_none_or(|d| d == "*" || d == id)
+    /// Whether the axis sets a field of `ds`: analysis axes apply to every dataset, `*` to
+    /// every dataset whose kind takes the field, an id to that dataset.
+    fn applies_to(&self, ds: &DatasetSpec) -> bool {
+        match self.dataset.as_deref() {
+            None => true,
+            Some("*") => ds.fields().contains(&self.field[0].as_str()),
+            Some(id) => id == ds.id,
+        }
     }
 }
 
@@ -118,7 +124,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         for point in &points {
             let applied: Vec<&(usize, usize)> = point
                 .iter()
-                .filter(|(a, _)| axes[*a].applies_to(&ds.id))
+                .filter(|(a, _)| axes[*a].applies_to(ds))
                 .collect();
             let mut params = BTreeMap::new();
             for &&(a, v) in &applied {
@@ -205,6 +211,14 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
                     ));
                 }
             };
+            if dataset.as_deref() == Some("*")
+                && !spec
+                    .datasets
+                    .iter()
+                    .any(|d| d.fields().contains(&field[0].as_str()))
+            {
+                return Err(ctx.err(&at, format!("no dataset takes the field `{}`", field[0])));
+            }
             if field.first().is_some_and(|f| f == "id" || f == "kind") {
                 return Err(ctx.err(at, "`id` and `kind` cannot be swept"));
             }

@@ -238,14 +238,15 @@ impl<'a> Table<'a> {
             })
             .collect();
         for key in &self.plan.param_keys {
-            // `jobs.parquet` always has `samples` and `levels`; a swept field of that name
-            // holds the same value, so it is not repeated.
-            if columns.iter().any(|c| c.name().as_str() == key) {
-                continue;
-            }
             let values: Vec<Option<&Json>> = self.jobs.iter().map(|j| j.params.get(key)).collect();
-            let numeric = values.iter().flatten().all(|v| v.is_number());
-            let name: PlSmallStr = key.as_str().into();
+            // The column type follows every job's value, so it is the same in every table.
+            let numeric = self
+                .plan
+                .jobs
+                .iter()
+                .filter_map(|j| j.params.get(key))
+                .all(Json::is_number);
+            let name: PlSmallStr = param_column(key, &columns).into();
             columns.push(if numeric {
                 Column::new(
                     name,
@@ -263,6 +264,17 @@ impl<'a> Table<'a> {
             });
         }
         Ok(DataFrame::new_infer_height(columns)?)
+    }
+}
+
+/// Column name of a swept parameter: its short key, or `swept_<key>` where a table already has
+/// a column of that name (`levels` and `samples` in `jobs.parquet`, `mean_im` in
+/// `pixel_stats.parquet`).
+fn param_column(key: &str, columns: &[Column]) -> String {
+    if columns.iter().any(|c| c.name().as_str() == key) {
+        format!("swept_{key}")
+    } else {
+        key.to_string()
     }
 }
 

@@ -5,7 +5,7 @@
 
 use crate::analysis::Direction;
 use crate::data::materialise;
-use crate::filters::{expected_maps, lag_correlation};
+use crate::filters::{expected_maps, expected_maps_are_cheap, lag_correlation};
 use crate::plan::{Job, Plan};
 use crate::results::{self, FilterRow, JobOutcome, JobResult};
 use anyhow::{Context, Result};
@@ -104,6 +104,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let t_tables = Instant::now();
     write_tables(plan, &outcomes, &opts.out)?;
     let tables_s = t_tables.elapsed().as_secs_f64();
+    remove_stale_maps(plan, &opts.out)?;
     let failed: Vec<(String, String)> = outcomes
         .iter()
         .filter_map(|o| {
@@ -174,7 +175,7 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
     let (mut expected, mut filter_rows) = (None, vec![]);
     if let Some((bank, std)) = &data.truth {
         let uniform = bank.is_uniform();
-        if uniform || bank.height * bank.width <= MAX_EXACT_PIXELS {
+        if expected_maps_are_cheap(bank, std) || bank.height * bank.width <= MAX_EXACT_PIXELS {
             expected = Some(expected_maps(bank, std, job.analysis.levels));
         }
         if uniform {
@@ -223,6 +224,27 @@ fn write_tables(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()> 
         let mut df = build(plan, outcomes).with_context(|| format!("building {name}"))?;
         results::write_parquet(&out.join(name), &mut df)
     })
+}
+
+/// Removes `maps/<job>` folders of jobs that are not in this plan (left by an earlier run of
+/// an edited spec into the same folder), so `maps/` matches `jobs.parquet`.
+fn remove_stale_maps(plan: &Plan, out: &Path) -> Result<()> {
+    let maps = out.join("maps");
+    let Ok(entries) = std::fs::read_dir(&maps) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let current = plan
+            .jobs
+            .iter()
+            .any(|j| name.to_str() == Some(j.id.as_str()));
+        if !current && entry.path().is_dir() {
+            std::fs::remove_dir_all(entry.path())
+                .with_context(|| format!("removing stale {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// Commit and dirty flag of the source tree the binary was built from (null outside git).

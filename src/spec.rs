@@ -507,7 +507,7 @@ impl ParamMap {
             v.ok_or_else(|| {
                 ctx.err(
                     format!("{at}.{field}"),
-                    format!("pattern {:?} needs `{field}`", p.pattern),
+                    format!("pattern {} needs `{field}`", yaml_name(&p.pattern)),
                 )
             })
         };
@@ -533,8 +533,8 @@ impl ParamMap {
             return Err(ctx.err(
                 format!("{at}.{f}"),
                 format!(
-                    "`{f}` does not belong to pattern {:?} (it takes {})",
-                    p.pattern,
+                    "`{f}` does not belong to pattern {} (it takes {})",
+                    yaml_name(&p.pattern),
                     allowed.join(", ")
                 ),
             ));
@@ -594,7 +594,40 @@ fn check_range(
     }
 }
 
+/// The spelling of an enum value in YAML (`filtered_noise`, `left_right`).
+fn yaml_name<T: Serialize>(v: &T) -> String {
+    match serde_json::to_value(v) {
+        Ok(serde_json::Value::String(s)) => s,
+        _ => "?".into(),
+    }
+}
+
 impl DatasetSpec {
+    /// Fields this dataset's kind (and family) takes besides `id` and `kind`.
+    pub fn fields(&self) -> &'static [&'static str] {
+        const NOISE: [&str; 7] = [
+            "family",
+            "size",
+            "samples",
+            "half_width",
+            "mean",
+            "mean_im",
+            "std",
+        ];
+        const EXP: [&str; 9] = [
+            "alpha_h", "alpha_v", NOISE[0], NOISE[1], NOISE[2], NOISE[3], NOISE[4], NOISE[5],
+            NOISE[6],
+        ];
+        const DYADIC: [&str; 9] = [
+            "r_h", "r_v", NOISE[0], NOISE[1], NOISE[2], NOISE[3], NOISE[4], NOISE[5], NOISE[6],
+        ];
+        match (self.kind, self.family) {
+            (DatasetKind::Npy, _) => &["path", "layout"],
+            (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => &DYADIC,
+            (DatasetKind::FilteredNoise, _) => &EXP,
+        }
+    }
+
     /// Validates one dataset (`at` is its YAML path, e.g. `datasets[0]`).
     pub fn check(&self, ctx: &Ctx, at: &str, levels: usize) -> Result<Dataset, SpecError> {
         if self.id.is_empty()
@@ -626,39 +659,15 @@ impl DatasetSpec {
             ("path", self.path.is_some()),
             ("layout", self.layout.is_some()),
         ];
-        let allowed: &[&str] = match (self.kind, self.family) {
-            (DatasetKind::Npy, _) => &["path", "layout"],
-            (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => &[
-                "family",
-                "r_h",
-                "r_v",
-                "size",
-                "samples",
-                "half_width",
-                "mean",
-                "mean_im",
-                "std",
-            ],
-            (DatasetKind::FilteredNoise, _) => &[
-                "family",
-                "alpha_h",
-                "alpha_v",
-                "size",
-                "samples",
-                "half_width",
-                "mean",
-                "mean_im",
-                "std",
-            ],
-        };
+        let allowed = self.fields();
         if let Some((f, _)) = fields.iter().find(|(f, set)| *set && !allowed.contains(f)) {
             return Err(ctx.err(
                 format!("{at}.{f}"),
                 format!(
-                    "`{f}` does not apply to this dataset (kind {:?}{}); it takes: {}",
-                    self.kind,
+                    "`{f}` does not apply to this dataset (kind {}{}); it takes: {}",
+                    yaml_name(&self.kind),
                     self.family
-                        .map(|f| format!(", family {f:?}"))
+                        .map(|f| format!(", family {}", yaml_name(&f)))
                         .unwrap_or_default(),
                     allowed.join(", ")
                 ),

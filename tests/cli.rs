@@ -343,3 +343,77 @@ fn table3_spec_writes_the_filter_table() {
     }
     assert_eq!(seen, 9);
 }
+
+#[test]
+fn swept_columns_never_shadow_table_columns_and_stale_maps_go() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("s.yaml");
+    let text = "name: s\nseed: 3\ndatasets:\n  - id: d\n    kind: filtered_noise\n    family: exponential\n    alpha_h: 1\n    alpha_v: 1\n    size: [8, 8]\n    samples: 20\n    half_width: 3\nanalysis:\n  levels: 1\nsweep:\n  grid:\n    datasets.d.mean_im: [0.5, 2]\n";
+    std::fs::write(&spec, text).unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(out.join("maps/old.job")).unwrap();
+    assert!(run(&spec, &out, "2").status.success());
+    let px = read(&out, "pixel_stats.parquet");
+    assert!(names(&px).contains(&"swept_mean_im".to_string()));
+    let swept = px.column("swept_mean_im").unwrap().f64().unwrap();
+    let est = px.column("mean_im").unwrap().f64().unwrap();
+    // The estimated mean (20 samples of unit variance) sits near the swept true mean.
+    for i in 0..px.height() {
+        assert!((est.get(i).unwrap() - swept.get(i).unwrap()).abs() < 1.0);
+    }
+    // filter_correlation has the same swept column type as the other tables.
+    let fc = read(&out, "filter_correlation.parquet");
+    assert_eq!(fc.column("mean_im").unwrap().dtype(), &DataType::Float64);
+    assert!(
+        !out.join("maps/old.job").exists(),
+        "maps of jobs not in the plan are removed"
+    );
+    assert!(out.join("maps/d.mean_im=0.5").exists());
+}
+
+#[test]
+fn fortran_order_and_hwn_stacks_read_like_c_order() {
+    use ndarray::ShapeBuilder;
+    let dir = tempfile::tempdir().unwrap();
+    let c = Array3::from_shape_fn((5, 8, 6), |(n, r, col)| {
+        Complex::new(((n * 7 + r * 3 + col) % 11) as f64, (n * r) as f64 * 0.25)
+    });
+    let mut f = Array3::zeros((5, 8, 6).f());
+    f.assign(&c);
+    let hwn = c
+        .view()
+        .permuted_axes([1, 2, 0])
+        .as_standard_layout()
+        .into_owned();
+    c.write_npy(File::create(dir.path().join("c.npy")).unwrap())
+        .unwrap();
+    f.write_npy(File::create(dir.path().join("f.npy")).unwrap())
+        .unwrap();
+    hwn.write_npy(File::create(dir.path().join("hwn.npy")).unwrap())
+        .unwrap();
+    let spec = dir.path().join("s.yaml");
+    let ds =
+        |id: &str, extra: &str| format!("  - id: {id}\n    kind: npy\n    path: {id}.npy\n{extra}");
+    let text = format!(
+        "name: s\nseed: 1\ndatasets:\n{}{}{}analysis:\n  levels: 2\n",
+        ds("c", ""),
+        ds("f", ""),
+        ds("hwn", "    layout: hwn\n")
+    );
+    std::fs::write(&spec, text).unwrap();
+    let out = dir.path().join("out");
+    let o = run(&spec, &out, "2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = read(&out, "analysis_summary.parquet");
+    let job = s.column("job").unwrap().str().unwrap();
+    let corr = s.column("mean_correlation").unwrap().f64().unwrap();
+    let of = |id: &str| {
+        (0..s.height())
+            .filter(|&i| job.get(i) == Some(id))
+            .map(|i| corr.get(i).unwrap())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(of("c"), of("f"));
+    assert_eq!(of("c"), of("hwn"));
+    assert_eq!(of("c").len(), 6);
+}

@@ -217,3 +217,29 @@ fn the_binary_exits_non_zero_and_writes_nothing() {
         .unwrap();
     assert!(!o.status.success());
 }
+
+#[test]
+fn star_axes_reach_only_datasets_that_take_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    npy_stack(dir.path(), "s.npy", (4, 8, 8));
+    let text = GOOD.replace(
+        "analysis:",
+        "  - id: m\n    kind: npy\n    path: s.npy\nanalysis:",
+    ) + "sweep:\n  grid:\n    datasets.*.samples: [4, 6]\n";
+    let p = write(dir.path(), "spec.yaml", &text);
+    let plan = plan::load(&p).unwrap();
+    let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
+    assert_eq!(ids, ["d.samples=4", "d.samples=6", "m"]);
+    let e = error_of(&format!(
+        "{GOOD}sweep:\n  grid:\n    datasets.*.layout: [hwn]\n"
+    ));
+    assert!(e.contains("no dataset takes the field `layout`"), "{e}");
+}
+
+#[test]
+fn messages_use_yaml_spellings() {
+    let e = error_of(&GOOD.replace("alpha_h: 1.0", "alpha_h: 1.0\n    r_h: [0.1]"));
+    assert!(e.contains("kind filtered_noise, family exponential"), "{e}");
+    let e = error_of(&GOOD.replace("alpha_h: 1.0", "alpha_h: {pattern: left_right, left: 1}"));
+    assert!(e.contains("pattern left_right needs `right`"), "{e}");
+}
