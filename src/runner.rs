@@ -79,13 +79,15 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         .num_threads(opts.threads.max(1))
         .build()?;
     let bar = progress(plan.jobs.len(), opts);
+    // `git` runs in the background while the jobs do.
+    let git = std::thread::spawn(git_state);
     let outcomes: Vec<JobOutcome> = pool.install(|| {
         plan.jobs
             .par_iter()
             .enumerate()
             .map(|(index, job)| {
                 let t = Instant::now();
-                let result = catch_unwind(AssertUnwindSafe(|| run_job(plan, job, &opts.out)))
+                let result = catch_unwind(AssertUnwindSafe(|| run_job(plan, job)))
                     .unwrap_or_else(|p| Err(anyhow::anyhow!("job panicked: {}", panic_message(&p))))
                     .map_err(|e| format!("{e:#}"));
                 let outcome = JobOutcome {
@@ -102,7 +104,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         b.finish_and_clear();
     }
     let t_tables = Instant::now();
-    write_tables(plan, &outcomes, &opts.out)?;
+    pool.install(|| write_outputs(plan, &outcomes, &opts.out))?;
     let tables_s = t_tables.elapsed().as_secs_f64();
     remove_stale_maps(plan, &opts.out)?;
     let failed: Vec<(String, String)> = outcomes
@@ -115,7 +117,8 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         })
         .collect();
     let elapsed_s = start.elapsed().as_secs_f64();
-    write_manifest(plan, &outcomes, opts, elapsed_s, tables_s)?;
+    let git = git.join().unwrap_or(serde_json::Value::Null);
+    write_manifest(plan, &outcomes, opts, git, elapsed_s, tables_s)?;
     Ok(RunSummary {
         total: outcomes.len(),
         failed,
@@ -160,8 +163,8 @@ fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
         .unwrap_or_else(|| "unknown panic".into())
 }
 
-/// Runs one job: materialise, analyse, compute the ground truth, write its maps.
-fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
+/// Runs one job: materialise, analyse, compute the ground truth.
+fn run_job(plan: &Plan, job: &Job) -> Result<JobResult> {
     let t = Instant::now();
     let data = materialise(&job.dataset, job.data_seed)
         .with_context(|| format!("dataset {}", job.dataset_id))?;
@@ -205,24 +208,39 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
         analysis_s,
         bytes: data.stack.bytes(),
     };
-    if plan.spec.outputs.npy_maps {
-        results::write_job_maps(&out.join("maps").join(&job.id), &result)?;
-    }
     Ok(result)
 }
 
-fn write_tables(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()> {
-    type Build = fn(&Plan, &[JobOutcome]) -> Result<polars::prelude::DataFrame>;
-    let tables: [(&str, Build); 5] = [
-        ("analysis_maps.parquet", results::analysis_maps),
-        ("analysis_summary.parquet", results::analysis_summary),
-        ("pixel_stats.parquet", results::pixel_stats),
-        ("filter_correlation.parquet", results::filter_correlation),
-        ("jobs.parquet", results::jobs_table),
+/// One file (or folder of files) of the output phase.
+enum Output<'a> {
+    /// A Parquet table and its builder.
+    Table(&'static str, fn(&Plan, &[JobOutcome]) -> Result<polars::prelude::DataFrame>),
+    /// The `.npy` maps of one successful job.
+    Maps(&'a str, &'a JobResult),
+}
+
+/// Writes the tables and every job's maps, in parallel.
+fn write_outputs(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()> {
+    let mut tasks = vec![
+        Output::Table("analysis_maps.parquet", results::analysis_maps),
+        Output::Table("analysis_summary.parquet", results::analysis_summary),
+        Output::Table("pixel_stats.parquet", results::pixel_stats),
+        Output::Table("filter_correlation.parquet", results::filter_correlation),
+        Output::Table("jobs.parquet", results::jobs_table),
     ];
-    tables.par_iter().try_for_each(|(name, build)| {
-        let mut df = build(plan, outcomes).with_context(|| format!("building {name}"))?;
-        results::write_parquet(&out.join(name), &mut df)
+    if plan.spec.outputs.npy_maps {
+        for o in outcomes {
+            if let Ok(r) = &o.result {
+                tasks.push(Output::Maps(&plan.jobs[o.index].id, r));
+            }
+        }
+    }
+    tasks.par_iter().try_for_each(|task| match task {
+        Output::Table(name, build) => {
+            let mut df = build(plan, outcomes).with_context(|| format!("building {name}"))?;
+            results::write_parquet(&out.join(name), &mut df)
+        }
+        Output::Maps(id, r) => results::write_job_maps(&out.join("maps").join(id), r),
     })
 }
 
@@ -273,6 +291,7 @@ fn write_manifest(
     plan: &Plan,
     outcomes: &[JobOutcome],
     opts: &RunOptions,
+    git: serde_json::Value,
     total_s: f64,
     tables_s: f64,
 ) -> Result<()> {
@@ -310,7 +329,7 @@ fn write_manifest(
     let manifest = json!({
         "format": "isar-clutter-manifest/1",
         "tool": { "name": env!("CARGO_PKG_NAME"), "version": env!("CARGO_PKG_VERSION") },
-        "git": git_state(),
+        "git": git,
         "spec_file": plan.file.display().to_string(),
         "spec_hash_sha256": plan.spec_hash,
         "spec": plan.spec,
