@@ -214,7 +214,10 @@ fn run_job(plan: &Plan, job: &Job) -> Result<JobResult> {
 /// One file (or folder of files) of the output phase.
 enum Output<'a> {
     /// A Parquet table and its builder.
-    Table(&'static str, fn(&Plan, &[JobOutcome]) -> Result<polars::prelude::DataFrame>),
+    Table(
+        &'static str,
+        fn(&Plan, &[JobOutcome]) -> Result<polars::prelude::DataFrame>,
+    ),
     /// The `.npy` maps of one successful job.
     Maps(&'a str, &'a JobResult),
 }

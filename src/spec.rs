@@ -465,6 +465,12 @@ pub fn parse(text: &str, file: &Path) -> Result<RawSpec, SpecError> {
         if let Some(i) = message.find(" at line ") {
             message.truncate(i);
         }
+        // It also prefixes its own (shorter) path, which the reported path already contains.
+        if let Some((head, rest)) = message.split_once(": ") {
+            if !head.contains(' ') && path.starts_with(head) {
+                message = rest.to_string();
+            }
+        }
         SpecError {
             file: file.to_path_buf(),
             path,
