@@ -79,8 +79,6 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         .num_threads(opts.threads.max(1))
         .build()?;
     let bar = progress(plan.jobs.len(), opts);
-    // `git` runs in the background while the jobs do.
-    let git = std::thread::spawn(git_state);
     let outcomes: Vec<JobOutcome> = pool.install(|| {
         plan.jobs
             .par_iter()
@@ -103,6 +101,8 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    // `git` runs in the background while the outputs are written.
+    let git = std::thread::spawn(git_state);
     let t_tables = Instant::now();
     pool.install(|| write_outputs(plan, &outcomes, &opts.out))?;
     let tables_s = t_tables.elapsed().as_secs_f64();
