@@ -7,6 +7,8 @@
 //! [`filters`]) -> [`analysis`] -> [`results`], driven by [`runner`]. The numerical kernels
 //! ([`analysis`], [`filters`]) are free of I/O; [`oracle`] holds their slow references.
 
+#![warn(missing_docs)]
+
 pub mod analysis;
 pub mod data;
 pub mod filters;
