@@ -493,6 +493,30 @@ pub(crate) fn cell_stats(csum: f64, denom: f64) -> (f64, f64) {
     }
 }
 
+/// The directional statistics `[(rho, cov); 3]` (H, V, D) of the level cell at `(r, c)` from a
+/// function giving the covariance of two units by their `(row, col)` (a unit with itself: its
+/// variance). The definition the kernel's closed form implements, shared by the slow oracle and
+/// the exact expected maps.
+pub fn cell_directions(
+    r: usize,
+    c: usize,
+    cov: impl Fn((usize, usize), (usize, usize)) -> f64,
+) -> [(f64, f64); 3] {
+    let u = [
+        (2 * r, 2 * c),
+        (2 * r, 2 * c + 1),
+        (2 * r + 1, 2 * c),
+        (2 * r + 1, 2 * c + 1),
+    ];
+    let s: Vec<f64> = u.iter().map(|&a| cov(a, a).sqrt()).collect();
+    let cv = |i: usize, j: usize| cov(u[i], u[j]);
+    [
+        cell_stats(cv(0, 1) + cv(2, 3), s[0] * s[1] + s[2] * s[3]),
+        cell_stats(cv(0, 2) + cv(1, 3), s[0] * s[2] + s[1] * s[3]),
+        cell_stats(cv(0, 3) + cv(1, 2), s[0] * s[3] + s[1] * s[2]),
+    ]
+}
+
 /// Clamps rounding-negative variances to 0 and keeps NaN (unlike `f64::max`).
 #[inline]
 fn non_negative(v: f64) -> f64 {

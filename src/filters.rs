@@ -7,7 +7,7 @@
 //! Taps are stored as a vector of length `2K + 1`, index `K + d` holding `f(d)` for
 //! `d = -K..=K`. Filters are real; the seed is complex circular with `E|w|^2 = 1`.
 
-use crate::analysis::cell_stats;
+use crate::analysis::cell_directions;
 use ndarray::{Array2, ArrayView2};
 use num_complex::Complex64;
 
@@ -280,21 +280,8 @@ pub fn exact_level(bank: &FilterBank, std: &Array2<f64>, level: usize) -> [Array
     let mut maps: [Array2<f64>; 3] = std::array::from_fn(|_| Array2::zeros(shape));
     for r in 0..shape.0 {
         for c in 0..shape.1 {
-            let u = [
-                (2 * r, 2 * c),
-                (2 * r, 2 * c + 1),
-                (2 * r + 1, 2 * c),
-                (2 * r + 1, 2 * c + 1),
-            ];
-            let s: Vec<f64> = u.iter().map(|&a| unit_cov(a, a).sqrt()).collect();
-            let cv = |i: usize, j: usize| unit_cov(u[i], u[j]);
-            let dirs = [
-                (cv(0, 1) + cv(2, 3), s[0] * s[1] + s[2] * s[3]),
-                (cv(0, 2) + cv(1, 3), s[0] * s[2] + s[1] * s[3]),
-                (cv(0, 3) + cv(1, 2), s[0] * s[3] + s[1] * s[2]),
-            ];
-            for (d, (csum, denom)) in dirs.into_iter().enumerate() {
-                maps[d][[r, c]] = cell_stats(csum, denom).0;
+            for (d, (rho, _)) in cell_directions(r, c, unit_cov).into_iter().enumerate() {
+                maps[d][[r, c]] = rho;
             }
         }
     }

@@ -6,7 +6,7 @@
 //! Both work on an owned `[N, H, W]` complex f64 stack, materialise every level's unit images
 //! and loop plainly; they are meant for small inputs.
 
-use crate::analysis::cell_stats;
+use crate::analysis::cell_directions;
 use ndarray::{Array2, Array3};
 use num_complex::Complex64;
 
@@ -54,26 +54,10 @@ pub fn direct_level(
     let mut cov: [Array2<f64>; 3] = std::array::from_fn(|_| Array2::zeros(shape));
     for r in 0..shape.0 {
         for c in 0..shape.1 {
-            let u = [
-                (2 * r, 2 * c),
-                (2 * r, 2 * c + 1),
-                (2 * r + 1, 2 * c),
-                (2 * r + 1, 2 * c + 1),
-            ];
-            let s: Vec<f64> = u
-                .iter()
-                .map(|&p| pair_covariance(&units, p, p).sqrt())
-                .collect();
-            let cv = |i: usize, j: usize| pair_covariance(&units, u[i], u[j]);
-            let dirs = [
-                (cv(0, 1) + cv(2, 3), s[0] * s[1] + s[2] * s[3]),
-                (cv(0, 2) + cv(1, 3), s[0] * s[2] + s[1] * s[3]),
-                (cv(0, 3) + cv(1, 2), s[0] * s[3] + s[1] * s[2]),
-            ];
-            for (d, (csum, denom)) in dirs.into_iter().enumerate() {
-                let (rho, cvv) = cell_stats(csum, denom);
+            let stats = cell_directions(r, c, |a, b| pair_covariance(&units, a, b));
+            for (d, (rho, cv)) in stats.into_iter().enumerate() {
                 corr[d][[r, c]] = rho;
-                cov[d][[r, c]] = cvv;
+                cov[d][[r, c]] = cv;
             }
         }
     }

@@ -1,4 +1,5 @@
-//! Shared helpers for the integration tests: seeded random stacks and tolerances.
+//! Shared helpers for the integration tests: seeded random stacks and tolerances (a module,
+//! not a test target).
 #![allow(dead_code)]
 
 use ndarray::Array3;
