@@ -164,7 +164,7 @@ enum Kind {
 
 /// Column data.
 enum Values {
-    Str(Vec<String>),
+    Str(Vec<Option<String>>),
     Int(Vec<i64>),
     UInt(Vec<u64>),
     Float(Vec<Option<f64>>),
@@ -201,8 +201,11 @@ impl<'a> Table<'a> {
     }
 
     fn s(&mut self, name: &str, v: impl Into<String>) {
+        self.s_opt(name, Some(v.into()))
+    }
+    fn s_opt(&mut self, name: &str, v: Option<String>) {
         if let Values::Str(c) = self.col(name) {
-            c.push(v.into())
+            c.push(v)
         }
     }
     fn i(&mut self, name: &str, v: i64) {
@@ -456,10 +459,7 @@ pub fn jobs_table(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         t.s("dataset", &job.dataset_id);
         t.s("kind", job.dataset.kind());
         t.s("status", if o.result.is_ok() { "ok" } else { "failed" });
-        t.s(
-            "error",
-            o.result.as_ref().err().cloned().unwrap_or_default(),
-        );
+        t.s_opt("error", o.result.as_ref().err().cloned());
         t.u("seed", job.seed);
         t.u("data_seed", job.data_seed);
         t.i("samples", n as i64);
