@@ -101,8 +101,6 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    // `git` runs in the background while the outputs are written.
-    let git = std::thread::spawn(git_state);
     let t_tables = Instant::now();
     pool.install(|| write_outputs(plan, &outcomes, &opts.out))?;
     let tables_s = t_tables.elapsed().as_secs_f64();
@@ -117,8 +115,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         })
         .collect();
     let elapsed_s = start.elapsed().as_secs_f64();
-    let git = git.join().unwrap_or(serde_json::Value::Null);
-    write_manifest(plan, &outcomes, opts, git, elapsed_s, tables_s)?;
+    write_manifest(plan, &outcomes, opts, elapsed_s, tables_s)?;
     Ok(RunSummary {
         total: outcomes.len(),
         failed,
@@ -268,25 +265,16 @@ fn remove_stale_maps(plan: &Plan, out: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Commit and dirty flag of the source tree the binary was built from (null outside git).
+/// Commit and dirty flag of the source tree when the binary was built (null outside git).
 fn git_state() -> serde_json::Value {
-    let dir = env!("CARGO_MANIFEST_DIR");
-    let git = |args: &[&str]| {
-        std::process::Command::new("git")
-            .arg("-C")
-            .arg(dir)
-            .args(args)
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-    };
-    match git(&["rev-parse", "HEAD"]) {
-        Some(commit) => json!({
-            "commit": commit,
-            "dirty": git(&["status", "--porcelain", "--untracked-files=no"]).is_none_or(|s| !s.is_empty()),
-        }),
-        None => serde_json::Value::Null,
+    match (
+        env!("ISAR_CLUTTER_GIT_COMMIT"),
+        env!("ISAR_CLUTTER_GIT_DIRTY"),
+    ) {
+        ("", _) => serde_json::Value::Null,
+        (commit, dirty) => {
+            json!({ "commit": commit, "dirty": dirty == "true", "recorded": "at build time" })
+        }
     }
 }
 
@@ -294,7 +282,6 @@ fn write_manifest(
     plan: &Plan,
     outcomes: &[JobOutcome],
     opts: &RunOptions,
-    git: serde_json::Value,
     total_s: f64,
     tables_s: f64,
 ) -> Result<()> {
@@ -332,7 +319,7 @@ fn write_manifest(
     let manifest = json!({
         "format": "isar-clutter-manifest/1",
         "tool": { "name": env!("CARGO_PKG_NAME"), "version": env!("CARGO_PKG_VERSION") },
-        "git": git,
+        "git": git_state(),
         "spec_file": plan.file.display().to_string(),
         "spec_hash_sha256": plan.spec_hash,
         "spec": plan.spec,
