@@ -52,13 +52,7 @@ pub fn filter_bank(d: &FilteredNoise) -> FilterBank {
                 .unzip()
         }
     };
-    FilterBank {
-        half_width: k,
-        height: h,
-        width: w,
-        vertical,
-        horizontal,
-    }
+    FilterBank::new(k, h, w, vertical, horizontal)
 }
 
 /// Draws the padded white seed of sample `index` from the data seed.

@@ -176,3 +176,27 @@ fn sign_alternating_filter_negates_odd_lag_correlations() {
         assert!((lag_correlation(&n, lag) - sign * lag_correlation(&p, lag)).abs() < 1e-12);
     }
 }
+
+#[test]
+fn spatially_varying_kernel_matches_the_direct_sum_bit_for_bit() {
+    // Per-pixel random taps: every pixel its own filter (the general case of eq. 33).
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    let (h, w, k) = (7, 13, 3);
+    let mut rng = rand_chacha::ChaCha20Rng::seed_from_u64(8);
+    let mut taps = || -> Vec<Vec<f64>> {
+        (0..h * w)
+            .map(|_| {
+                (0..2 * k + 1)
+                    .map(|_| StandardNormal.sample(&mut rng))
+                    .collect()
+            })
+            .collect()
+    };
+    let bank = FilterBank::new(k, h, w, taps(), taps());
+    assert!(!bank.is_uniform());
+    let seed = white_seed(21, 0, h + 2 * k, w + 2 * k);
+    let mut fast = vec![Complex64::new(0.0, 0.0); h * w];
+    filter_seed(&bank, seed.view(), &mut fast);
+    assert_eq!(fast, direct(&bank, &seed));
+}
