@@ -15,19 +15,17 @@ use num_complex::Complex64;
 ///
 /// A negative `alpha` gives the sign-alternating filter `(-1)^d exp(-|d| / |alpha|)` whose
 /// lag-1 correlation is the negative of the positive filter's (SPEC-NOTES section 4,
-/// Method 1). `alpha = +-inf` gives a constant (or alternating) filter.
+/// Method 1). `alpha = +-inf` gives a constant (or alternating) filter, `alpha = 0` the delta
+/// filter (the limit `alpha -> 0`: white output).
 ///
 /// # Panics
-/// If `alpha` is zero or NaN.
+/// If `alpha` is NaN.
 pub fn exponential_taps(alpha: f64, half_width: usize) -> Vec<f64> {
-    assert!(
-        alpha != 0.0 && !alpha.is_nan(),
-        "alpha must be non-zero, got {alpha}"
-    );
+    assert!(!alpha.is_nan(), "alpha must not be NaN");
     let k = half_width as i64;
     (-k..=k)
         .map(|d| {
-            let mag = (-(d.abs() as f64) / alpha.abs()).exp();
+            let mag = if d == 0 { 1.0 } else { (-(d.abs() as f64) / alpha.abs()).exp() };
             if alpha < 0.0 && d % 2 != 0 {
                 -mag
             } else {

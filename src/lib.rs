@@ -18,3 +18,4 @@ pub mod plan;
 pub mod results;
 pub mod runner;
 pub mod spec;
+pub mod synthesis;
