@@ -25,7 +25,11 @@ pub fn exponential_taps(alpha: f64, half_width: usize) -> Vec<f64> {
     let k = half_width as i64;
     (-k..=k)
         .map(|d| {
-            let mag = if d == 0 { 1.0 } else { (-(d.abs() as f64) / alpha.abs()).exp() };
+            let mag = if d == 0 {
+                1.0
+            } else {
+                (-(d.abs() as f64) / alpha.abs()).exp()
+            };
             if alpha < 0.0 && d % 2 != 0 {
                 -mag
             } else {

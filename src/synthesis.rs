@@ -16,7 +16,9 @@
 //! stream `s`, so any sample can be regenerated alone and output never depends on threads.
 
 use crate::analysis::{Analysis, Direction};
-use crate::filters::{dyadic_taps, exponential_taps, filter_seed, group_correlation, lag_correlation, FilterBank};
+use crate::filters::{
+    dyadic_taps, exponential_taps, filter_seed, group_correlation, lag_correlation, FilterBank,
+};
 use ndarray::{Array2, Array3, ArrayView3};
 use num_complex::Complex64;
 use rand::SeedableRng;
@@ -112,7 +114,10 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { half_width: 8, levels: 3 }
+        FitOptions {
+            half_width: 8,
+            levels: 3,
+        }
     }
 }
 
@@ -216,7 +221,9 @@ pub fn invert_alpha(rho: f64, half_width: usize) -> (f64, bool) {
 /// Group correlations of a dyadic filter at levels `1..=L` (`g = 2^(l-1)`).
 pub fn dyadic_correlations(r: &[f64], half_width: usize) -> Vec<f64> {
     let taps = dyadic_taps(r, half_width);
-    (0..r.len()).map(|l| group_correlation(&taps, 1 << l)).collect()
+    (0..r.len())
+        .map(|l| group_correlation(&taps, 1 << l))
+        .collect()
 }
 
 /// Solves the dyadic parameters `r` whose group correlations at levels `1..=L` match
@@ -229,13 +236,22 @@ pub fn solve_dyadic(targets: &[f64], half_width: usize) -> (Vec<f64>, f64) {
     const TOL: f64 = 1e-9;
     let l = targets.len();
     let residual = |r: &[f64]| -> Vec<f64> {
-        dyadic_correlations(r, half_width).iter().zip(targets).map(|(g, t)| g - t).collect()
+        dyadic_correlations(r, half_width)
+            .iter()
+            .zip(targets)
+            .map(|(g, t)| g - t)
+            .collect()
     };
     let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>();
     let mut starts: Vec<Vec<f64>> = vec![vec![0.0; l]];
     // A start shaped like the targets, and a few scaled/sign-flipped variants.
     for scale in [0.5, 1.0, 2.0] {
-        starts.push(targets.iter().map(|t| (t * scale).clamp(-BOUND, BOUND)).collect());
+        starts.push(
+            targets
+                .iter()
+                .map(|t| (t * scale).clamp(-BOUND, BOUND))
+                .collect(),
+        );
     }
     starts.push(targets.iter().map(|t| -t).collect());
     let mut best: Option<(Vec<f64>, f64)> = None;
@@ -254,7 +270,11 @@ pub fn solve_dyadic(targets: &[f64], half_width: usize) -> (Vec<f64>, f64) {
 }
 
 /// Box-bounded Levenberg-Marquardt on a small residual vector.
-fn levenberg_marquardt(mut x: Vec<f64>, f: &impl Fn(&[f64]) -> Vec<f64>, bound: f64) -> (Vec<f64>, Vec<f64>) {
+fn levenberg_marquardt(
+    mut x: Vec<f64>,
+    f: &impl Fn(&[f64]) -> Vec<f64>,
+    bound: f64,
+) -> (Vec<f64>, Vec<f64>) {
     let n = x.len();
     let mut res = f(&x);
     let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
@@ -293,7 +313,11 @@ fn levenberg_marquardt(mut x: Vec<f64>, f: &impl Fn(&[f64]) -> Vec<f64>, bound: 
                 lambda *= 10.0;
                 continue;
             };
-            let trial: Vec<f64> = x.iter().zip(&dx).map(|(v, d)| (v + d).clamp(-bound, bound)).collect();
+            let trial: Vec<f64> = x
+                .iter()
+                .zip(&dx)
+                .map(|(v, d)| (v + d).clamp(-bound, bound))
+                .collect();
             let tr = f(&trial);
             if cost(&tr) < c0 {
                 x = trial;
@@ -348,11 +372,22 @@ fn cell_of(i: usize, j: usize, cells: (usize, usize)) -> (usize, usize) {
 ///
 /// # Errors
 /// [`FitError`] if the analysis lacks levels the method needs.
-pub fn fit(method: Method, analysis: &Analysis, stack: Option<ArrayView3<Complex64>>, opts: FitOptions) -> Result<Model, FitError> {
+pub fn fit(
+    method: Method,
+    analysis: &Analysis,
+    stack: Option<ArrayView3<Complex64>>,
+    opts: FitOptions,
+) -> Result<Model, FitError> {
     let mean = analysis.mean.clone();
     let std = analysis.variance.mapv(f64::sqrt);
     let (h, w) = mean.dim();
-    let mut model = Model { method, mean, std, filter: None, deviations: None };
+    let mut model = Model {
+        method,
+        mean,
+        std,
+        filter: None,
+        deviations: None,
+    };
     match method {
         Method::Uncorrelated => {}
         Method::FullCovariance => {
@@ -360,16 +395,29 @@ pub fn fit(method: Method, analysis: &Analysis, stack: Option<ArrayView3<Complex
             let n = stack.dim().0;
             let scale = 1.0 / (n as f64).sqrt();
             let mu = &model.mean;
-            model.deviations = Some(Array3::from_shape_fn(stack.dim(), |(s, i, j)| (stack[[s, i, j]] - mu[[i, j]]) * scale));
+            model.deviations = Some(Array3::from_shape_fn(stack.dim(), |(s, i, j)| {
+                (stack[[s, i, j]] - mu[[i, j]]) * scale
+            }));
         }
         Method::Method1 => {
-            let lm = analysis.levels.first().ok_or(FitError::Levels { method: "method1", need: 1, have: 0 })?;
+            let lm = analysis.levels.first().ok_or(FitError::Levels {
+                method: "method1",
+                need: 1,
+                have: 0,
+            })?;
             let cells = lm.shape();
             let k = opts.half_width;
             let invert = |dir: Direction| {
-                let fitted: Vec<(f64, bool)> = lm.correlation(dir).iter().map(|&rho| invert_alpha(rho, k)).collect();
-                let alpha = Array2::from_shape_vec(cells, fitted.iter().map(|p| p.0).collect()).expect("cell grid");
-                let clamped = Array2::from_shape_vec(cells, fitted.iter().map(|p| p.1 as u8).collect()).expect("cell grid");
+                let fitted: Vec<(f64, bool)> = lm
+                    .correlation(dir)
+                    .iter()
+                    .map(|&rho| invert_alpha(rho, k))
+                    .collect();
+                let alpha = Array2::from_shape_vec(cells, fitted.iter().map(|p| p.0).collect())
+                    .expect("cell grid");
+                let clamped =
+                    Array2::from_shape_vec(cells, fitted.iter().map(|p| p.1 as u8).collect())
+                        .expect("cell grid");
                 let residual = Array2::from_shape_fn(cells, |rc| {
                     let target = lm.correlation(dir)[rc];
                     if target.is_nan() {
@@ -382,7 +430,8 @@ pub fn fit(method: Method, analysis: &Analysis, stack: Option<ArrayView3<Complex
             };
             let (alpha_h, ch, residual_h) = invert(Direction::H);
             let (alpha_v, cv, residual_v) = invert(Direction::V);
-            let (mut vertical, mut horizontal) = (Vec::with_capacity(h * w), Vec::with_capacity(h * w));
+            let (mut vertical, mut horizontal) =
+                (Vec::with_capacity(h * w), Vec::with_capacity(h * w));
             for i in 0..h {
                 for j in 0..w {
                     let c = cell_of(i, j, cells);
@@ -402,11 +451,19 @@ pub fn fit(method: Method, analysis: &Analysis, stack: Option<ArrayView3<Complex
         Method::Method2 => {
             let l = opts.levels;
             if analysis.levels.len() < l {
-                return Err(FitError::Levels { method: "method2", need: l, have: analysis.levels.len() });
+                return Err(FitError::Levels {
+                    method: "method2",
+                    need: l,
+                    have: analysis.levels.len(),
+                });
             }
             let need = crate::filters::dyadic_reach(l);
             if opts.half_width < need {
-                return Err(FitError::HalfWidth { half_width: opts.half_width, levels: l, need });
+                return Err(FitError::HalfWidth {
+                    half_width: opts.half_width,
+                    levels: l,
+                    need,
+                });
             }
             let k = opts.half_width;
             let cells = analysis.levels[0].shape();
@@ -437,8 +494,10 @@ pub fn fit(method: Method, analysis: &Analysis, stack: Option<ArrayView3<Complex
             };
             let (r_h, residual_h, ch) = solve(Direction::H);
             let (r_v, residual_v, cv) = solve(Direction::V);
-            let at = |p: &[Array2<f64>], c: (usize, usize)| p.iter().map(|m| m[c]).collect::<Vec<_>>();
-            let (mut vertical, mut horizontal) = (Vec::with_capacity(h * w), Vec::with_capacity(h * w));
+            let at =
+                |p: &[Array2<f64>], c: (usize, usize)| p.iter().map(|m| m[c]).collect::<Vec<_>>();
+            let (mut vertical, mut horizontal) =
+                (Vec::with_capacity(h * w), Vec::with_capacity(h * w));
             for i in 0..h {
                 for j in 0..w {
                     let c = cell_of(i, j, cells);
@@ -447,7 +506,13 @@ pub fn fit(method: Method, analysis: &Analysis, stack: Option<ArrayView3<Complex
                 }
             }
             let bank = FilterBank::new(k, h, w, vertical, horizontal);
-            model.filter = Some(FilterModel { params: CellParams::Dyadic { r_h, r_v }, residual_h, residual_v, clamped: ch + cv, bank });
+            model.filter = Some(FilterModel {
+                params: CellParams::Dyadic { r_h, r_v },
+                residual_h,
+                residual_v,
+                clamped: ch + cv,
+                bank,
+            });
         }
     }
     Ok(model)
@@ -490,7 +555,10 @@ impl Model {
             (None, None) => {
                 let scale = std::f64::consts::FRAC_1_SQRT_2;
                 for (p, x) in out.iter_mut().enumerate() {
-                    let (re, im): (f64, f64) = (StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng));
+                    let (re, im): (f64, f64) = (
+                        StandardNormal.sample(&mut rng),
+                        StandardNormal.sample(&mut rng),
+                    );
                     let s = self.std[[p / w, p % w]] * scale;
                     *x = self.mean[[p / w, p % w]] + Complex64::new(re * s, im * s);
                 }
