@@ -255,6 +255,32 @@ impl Stack {
         }
     }
 
+    /// The stack as complex128 `[N, H, W]` (a copy; `hwn`: axes stored as `[H, W, N]`).
+    pub fn to_complex128(&self, hwn: bool) -> Array3<Complex<f64>> {
+        fn widen<T: Element + Sample>(m: &MappedNpy, hwn: bool) -> Array3<Complex<f64>> {
+            use ndarray::ShapeBuilder;
+            let count: usize = m.header.shape.iter().product();
+            let bytes = &m.map[m.header.data_offset..][..count * std::mem::size_of::<T>()];
+            let data: Vec<T> = bytes.chunks_exact(std::mem::size_of::<T>()).map(bytemuck::pod_read_unaligned).collect();
+            let s = &m.header.shape;
+            let a = ArrayView3::from_shape((s[0], s[1], s[2]).set_f(m.header.fortran_order), &data).expect("size checked at load");
+            view(a, hwn).mapv(|v| {
+                let mut x = [0.0; 2];
+                T::load_shifted(&[v], &[0.0, 0.0], &mut x, &mut [0.0; 2], &mut [0.0; 2]);
+                Complex::new(x[0], x[1])
+            })
+        }
+        match self {
+            Stack::Generated(a) => view(a.view(), hwn).to_owned(),
+            Stack::Mapped(m) => match m.header.dtype {
+                Dtype::Complex64 => widen::<Complex<f32>>(m, hwn),
+                Dtype::Complex128 => widen::<Complex<f64>>(m, hwn),
+                Dtype::Float32 => widen::<f32>(m, hwn),
+                Dtype::Float64 => widen::<f64>(m, hwn),
+            },
+        }
+    }
+
     /// Bytes of element data.
     pub fn bytes(&self) -> usize {
         match self {

@@ -5,10 +5,17 @@
 //!
 //! A sweep axis is a dotted field path: `datasets.<id>.<field>[.<sub>...]` (`<id>` may be `*`
 //! for every dataset; a numeric component indexes a list, e.g. `datasets.d.r_h.0`) or
-//! `analysis.<field>`. An axis applies to the jobs of the datasets it names; jobs that the
-//! swept values do not touch are not duplicated.
+//! `analysis.<field>` or `synthesis.<field>`. An axis applies to the jobs of the datasets it
+//! names (synthesis axes to the synthesis jobs only); jobs that the swept values do not touch
+//! are not duplicated.
+//!
+//! With a `synthesis` section every dataset and sweep point gives an analysis job (the
+//! original data, `source = original`) and one job per method (`<dataset>.<method>...`).
 
-use crate::spec::{self, AnalysisSpec, Ctx, Dataset, DatasetSpec, RawSpec, SpecError};
+use crate::spec::{
+    self, AnalysisSpec, Ctx, Dataset, DatasetSpec, RawSpec, SpecError, SynthesisSpec,
+};
+use crate::synthesis::Method;
 use serde::Serialize;
 use serde_json::Value as Json;
 use serde_yaml_ng::Value as Yaml;
@@ -30,6 +37,13 @@ pub struct Job {
     pub dataset: Dataset,
     /// Validated analysis settings after the sweep's overrides.
     pub analysis: AnalysisSpec,
+    /// The synthesis method of a synthesis job (`None`: the analysis of the original data).
+    pub method: Option<Method>,
+    /// Validated synthesis settings of a synthesis job.
+    pub synthesis: Option<SynthesisSpec>,
+    /// Seed of the generated samples: hash of the master seed and the dataset identity, the
+    /// same for every method of one dataset (common random numbers).
+    pub generation_seed: u64,
     /// Swept values that apply to this job, by short key (`alpha_h`, `levels`).
     pub params: BTreeMap<String, Json>,
     /// Canonical identity (JSON) from which the seeds are derived.
@@ -78,8 +92,10 @@ struct Axis {
     key: String,
     /// YAML path of the axis in the spec (`sweep.grid.<key>`).
     at: String,
-    /// `Some(id)` for a dataset field (`*` = all), `None` for an analysis field.
+    /// `Some(id)` for a dataset field (`*` = all), `None` for an analysis or synthesis field.
     dataset: Option<String>,
+    /// Whether the axis sets a `synthesis` field.
+    synthesis: bool,
     /// Field path below the dataset or analysis section.
     field: Vec<String>,
     /// Values.
@@ -87,13 +103,25 @@ struct Axis {
 }
 
 impl Axis {
+    /// The parameter's name in tables and job ids: the field path below the dataset or
+    /// analysis section, and `synthesis.<field>` for synthesis fields (which share names with
+    /// dataset fields such as `samples`).
     fn short(&self) -> String {
-        self.field.join(".")
+        let field = self.field.join(".");
+        if self.synthesis {
+            format!("synthesis.{field}")
+        } else {
+            field
+        }
     }
 
-    /// Whether the axis sets a field of `ds`: analysis axes apply to every dataset, `*` to
-    /// every dataset whose kind takes the field, an id to that dataset.
-    fn applies_to(&self, ds: &DatasetSpec) -> bool {
+    /// Whether the axis sets a field of `ds`'s job for `method`: analysis axes apply to every
+    /// job, synthesis axes to synthesis jobs, `*` to every dataset whose kind takes the field,
+    /// an id to that dataset.
+    fn applies_to(&self, ds: &DatasetSpec, method: Option<Method>) -> bool {
+        if self.synthesis {
+            return method.is_some();
+        }
         match self.dataset.as_deref() {
             None => true,
             Some("*") => ds.fields().contains(&self.field[0].as_str()),
@@ -120,33 +148,52 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     let points = sweep_points(&axes, &ctx)?;
     let mut jobs = Vec::new();
     let mut seen = HashMap::new();
+    let methods: Vec<Option<Method>> = std::iter::once(None)
+        .chain(
+            spec.synthesis
+                .iter()
+                .flat_map(|s| s.methods.iter().copied().map(Some)),
+        )
+        .collect();
     for (i, ds) in spec.datasets.iter().enumerate() {
         for point in &points {
-            let applied: Vec<&(usize, usize)> = point
-                .iter()
-                .filter(|(a, _)| axes[*a].applies_to(ds))
-                .collect();
-            let mut params = BTreeMap::new();
-            for &&(a, v) in &applied {
-                let axis = &axes[a];
-                let value = serde_json::to_value(&axis.values[v]).expect("YAML values are JSON");
-                if params.insert(axis.short(), value).is_some() {
-                    return Err(ctx.err(
-                        &axis.at,
-                        format!(
-                            "another sweep axis also sets `{}` of dataset {}",
-                            axis.short(),
-                            ds.id
-                        ),
-                    ));
+            for &method in &methods {
+                let applied: Vec<&(usize, usize)> = point
+                    .iter()
+                    .filter(|(a, _)| axes[*a].applies_to(ds, method))
+                    .collect();
+                let mut params = BTreeMap::new();
+                for &&(a, v) in &applied {
+                    let axis = &axes[a];
+                    let value =
+                        serde_json::to_value(&axis.values[v]).expect("YAML values are JSON");
+                    if params.insert(axis.short(), value).is_some() {
+                        return Err(ctx.err(
+                            &axis.at,
+                            format!(
+                                "another sweep axis also sets `{}` of dataset {}",
+                                axis.short(),
+                                ds.id
+                            ),
+                        ));
+                    }
                 }
+                let identity = identity(&ds.id, method, &params);
+                if seen.insert(identity.clone(), ()).is_some() {
+                    continue;
+                }
+                let job = build_job(
+                    &spec,
+                    &raw,
+                    &ctx,
+                    (i, ds, method),
+                    &axes,
+                    &applied,
+                    params,
+                    identity,
+                )?;
+                jobs.push(job);
             }
-            let identity = identity(&ds.id, &params);
-            if seen.insert(identity.clone(), ()).is_some() {
-                continue;
-            }
-            let job = build_job(&spec, &raw, &ctx, i, ds, &axes, &applied, params, identity)?;
-            jobs.push(job);
         }
     }
     assign_ids(&mut jobs);
@@ -204,10 +251,13 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
                     (Some(id.clone()), parts[2..].to_vec())
                 }
                 Some("analysis") if parts.len() >= 2 => (None, parts[1..].to_vec()),
+                Some("synthesis") if parts.len() >= 2 && spec.synthesis.is_some() => {
+                    (None, parts[1..].to_vec())
+                }
                 _ => {
                     return Err(ctx.err(
                         at,
-                        "a sweep axis is `datasets.<id>.<field>` or `analysis.<field>`",
+                        "a sweep axis is `datasets.<id>.<field>`, `analysis.<field>` or `synthesis.<field>` (with a synthesis section)",
                     ));
                 }
             };
@@ -226,6 +276,7 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
                 return Err(ctx.err(at, "a sweep axis needs at least one value"));
             }
             axes.push(Axis {
+                synthesis: key.starts_with("synthesis."),
                 key: key.clone(),
                 at,
                 dataset,
@@ -287,13 +338,20 @@ fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, Sp
 }
 
 /// Canonical identity of a dataset under some swept values.
-fn identity(dataset: &str, params: &BTreeMap<String, Json>) -> String {
+fn identity(dataset: &str, method: Option<Method>, params: &BTreeMap<String, Json>) -> String {
     #[derive(Serialize)]
     struct Id<'a> {
         dataset: &'a str,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        method: Option<Method>,
         params: &'a BTreeMap<String, Json>,
     }
-    serde_json::to_string(&Id { dataset, params }).expect("serialisable")
+    serde_json::to_string(&Id {
+        dataset,
+        method,
+        params,
+    })
+    .expect("serialisable")
 }
 
 /// Applies overrides and validates one job.
@@ -302,8 +360,7 @@ fn build_job(
     spec: &RawSpec,
     raw: &Yaml,
     ctx: &Ctx,
-    index: usize,
-    ds: &DatasetSpec,
+    (index, ds, method): (usize, &DatasetSpec, Option<Method>),
     axes: &[Axis],
     applied: &[&(usize, usize)],
     params: BTreeMap<String, Json>,
@@ -311,11 +368,14 @@ fn build_job(
 ) -> Result<Job, SpecError> {
     let mut ds_value = raw["datasets"][index].clone();
     let mut an_value = raw["analysis"].clone();
+    let mut syn_value = raw["synthesis"].clone();
     let mut data_params = BTreeMap::new();
     for &&(a, v) in applied {
         let axis = &axes[a];
         let target = if axis.dataset.is_some() {
             &mut ds_value
+        } else if axis.synthesis {
+            &mut syn_value
         } else {
             &mut an_value
         };
@@ -347,15 +407,18 @@ fn build_job(
             format!("with {}: {section}.{}: {}", swept(), e.path(), e.inner()),
         )
     };
-    let (dataset_spec, analysis) = if applied.is_empty() {
-        (ds.clone(), spec.analysis.clone())
+    let (dataset_spec, analysis, synthesis) = if applied.is_empty() {
+        (ds.clone(), spec.analysis.clone(), spec.synthesis.clone())
     } else {
         let d: DatasetSpec = serde_path_to_error::deserialize(ds_value)
             .map_err(|e| typed(e, &format!("datasets[{index}]")))?;
         let a: AnalysisSpec =
             serde_path_to_error::deserialize(an_value).map_err(|e| typed(e, "analysis"))?;
-        (d, a)
+        let s: Option<SynthesisSpec> =
+            serde_path_to_error::deserialize(syn_value).map_err(|e| typed(e, "synthesis"))?;
+        (d, a, s)
     };
+    let synthesis = synthesis.filter(|_| method.is_some());
     let dataset = dataset_spec
         .check(ctx, &format!("datasets[{index}]"), analysis.levels)
         .map_err(|mut e| {
@@ -364,8 +427,20 @@ fn build_job(
             }
             e
         })?;
-    let data_identity = self::identity(&ds.id, &data_params);
+    if let Some(s) = &synthesis {
+        let (_, h, w) = dataset.shape();
+        s.check(ctx, &analysis, h, w).map_err(|mut e| {
+            if !applied.is_empty() {
+                e.message = format!("{} (with {})", e.message, swept());
+            }
+            e
+        })?;
+    }
+    let data_identity = self::identity(&ds.id, None, &data_params);
     Ok(Job {
+        method,
+        synthesis,
+        generation_seed: derive_seed(spec.seed, "generate", &data_identity),
         id: String::new(),
         dataset_id: ds.id.clone(),
         dataset,
@@ -445,6 +520,10 @@ fn assign_ids(jobs: &mut [Job]) {
         .iter()
         .map(|j| {
             let mut id = sanitize(&j.dataset_id);
+            if let Some(m) = j.method {
+                id.push('.');
+                id.push_str(m.as_str());
+            }
             for (k, v) in &j.params {
                 id.push_str(&format!(".{}={}", sanitize(k), sanitize(&id_value(v))));
             }

@@ -17,8 +17,13 @@ use std::path::{Path, PathBuf};
 
 /// What one successful job computed.
 pub struct JobResult {
-    /// The analysis of the job's stack.
-    pub analysis: Analysis,
+    /// Whose statistics `analysis` holds: `original` for an analysis job, the method's name
+    /// for the generated samples of a synthesis job.
+    pub source: &'static str,
+    /// The analysis (`None` for a synthesis job with `analyse_generated: false`).
+    pub analysis: Option<Analysis>,
+    /// A synthesis job's fit and generation.
+    pub synthesis: Option<SynthesisOutcome>,
     /// Exact expected correlation maps per level (`[H, V, D]`) for synthetic data.
     pub expected: Option<Vec<[Array2<f64>; 3]>>,
     /// Filter lag correlations for synthetic data with spatially uniform filters.
@@ -31,6 +36,18 @@ pub struct JobResult {
     pub analysis_s: f64,
     /// Bytes of stack data analysed.
     pub bytes: usize,
+}
+
+/// What a synthesis job fitted and generated.
+pub struct SynthesisOutcome {
+    /// Per-cell parameters of Methods 1 and 2.
+    pub filter: Option<crate::synthesis::FilterModel>,
+    /// Samples generated.
+    pub samples: usize,
+    /// Seconds spent fitting.
+    pub fit_s: f64,
+    /// Seconds spent generating.
+    pub generate_s: f64,
 }
 
 /// One row of `filter_correlation.parquet` (Table 3).
@@ -119,9 +136,12 @@ pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
 /// If a file cannot be written.
 pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
     use rayon::prelude::*;
-    write_npy(&dir.join("mean.npy"), &r.analysis.mean)?;
-    let mut maps: Vec<(String, &Array2<f64>)> = vec![("variance".into(), &r.analysis.variance)];
-    for lm in &r.analysis.levels {
+    let Some(analysis) = &r.analysis else {
+        return Ok(());
+    };
+    write_npy(&dir.join("mean.npy"), &analysis.mean)?;
+    let mut maps: Vec<(String, &Array2<f64>)> = vec![("variance".into(), &analysis.variance)];
+    for lm in &analysis.levels {
         for d in Direction::ALL {
             maps.push((
                 format!("level{}_correlation_{d}", lm.level),
@@ -150,7 +170,7 @@ pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
 struct Table<'a> {
     plan: &'a Plan,
     jobs: Vec<&'a Job>,
-    cols: Vec<(&'static str, Values)>,
+    cols: Vec<(String, Values)>,
 }
 
 /// Column types: string, i64, u64, nullable f64.
@@ -171,17 +191,17 @@ enum Values {
 }
 
 impl<'a> Table<'a> {
-    fn new(plan: &'a Plan, names: &[(&'static str, Kind)]) -> Self {
+    fn new<S: AsRef<str>>(plan: &'a Plan, names: &[(S, Kind)]) -> Self {
         let cols = names
             .iter()
-            .map(|&(n, k)| {
+            .map(|(n, k)| {
                 let empty = match k {
                     Kind::S => Values::Str(vec![]),
                     Kind::I => Values::Int(vec![]),
                     Kind::U => Values::UInt(vec![]),
                     Kind::F => Values::Float(vec![]),
                 };
-                (n, empty)
+                (n.as_ref().to_string(), empty)
             })
             .collect();
         Table {
@@ -195,7 +215,7 @@ impl<'a> Table<'a> {
         &mut self
             .cols
             .iter_mut()
-            .find(|(n, _)| *n == name)
+            .find(|(n, _)| n == name)
             .expect("declared column")
             .1
     }
@@ -234,10 +254,10 @@ impl<'a> Table<'a> {
             .cols
             .into_iter()
             .map(|(n, v)| match v {
-                Values::Str(v) => Column::new(n.into(), v),
-                Values::Int(v) => Column::new(n.into(), v),
-                Values::UInt(v) => Column::new(n.into(), v),
-                Values::Float(v) => Column::new(n.into(), v),
+                Values::Str(v) => Column::new(n.as_str().into(), v),
+                Values::Int(v) => Column::new(n.as_str().into(), v),
+                Values::UInt(v) => Column::new(n.as_str().into(), v),
+                Values::Float(v) => Column::new(n.as_str().into(), v),
             })
             .collect();
         for key in &self.plan.param_keys {
@@ -292,6 +312,7 @@ pub fn analysis_maps(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> 
         &[
             ("job", Kind::S),
             ("dataset", Kind::S),
+            ("source", Kind::S),
             ("level", Kind::I),
             ("direction", Kind::S),
             ("row", Kind::I),
@@ -302,7 +323,10 @@ pub fn analysis_maps(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> 
         ],
     );
     for (job, r) in ok(plan, outcomes) {
-        for lm in &r.analysis.levels {
+        let Some(analysis) = &r.analysis else {
+            continue;
+        };
+        for lm in &analysis.levels {
             for d in Direction::ALL {
                 let expected = r.expected.as_ref().map(|e| &e[lm.level - 1][d as usize]);
                 for ((rc, &corr), &cov) in lm
@@ -312,6 +336,7 @@ pub fn analysis_maps(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> 
                 {
                     t.s("job", &job.id);
                     t.s("dataset", &job.dataset_id);
+                    t.s("source", r.source);
                     t.i("level", lm.level as i64);
                     t.s("direction", d.as_str());
                     t.i("row", rc.0 as i64);
@@ -334,6 +359,7 @@ pub fn analysis_summary(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFram
         &[
             ("job", Kind::S),
             ("dataset", Kind::S),
+            ("source", Kind::S),
             ("level", Kind::I),
             ("direction", Kind::S),
             ("mean_correlation", Kind::F),
@@ -346,7 +372,10 @@ pub fn analysis_summary(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFram
         ],
     );
     for (job, r) in ok(plan, outcomes) {
-        for lm in &r.analysis.levels {
+        let Some(analysis) = &r.analysis else {
+            continue;
+        };
+        for lm in &analysis.levels {
             for d in Direction::ALL {
                 let s = lm.summary(d);
                 let (rows, cols) = lm.shape();
@@ -356,6 +385,7 @@ pub fn analysis_summary(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFram
                     .map(|e| crate::analysis::nan_mean(&e[lm.level - 1][d as usize]).0);
                 t.s("job", &job.id);
                 t.s("dataset", &job.dataset_id);
+                t.s("source", r.source);
                 t.i("level", lm.level as i64);
                 t.s("direction", d.as_str());
                 t.f("mean_correlation", opt(s.mean_correlation));
@@ -379,6 +409,7 @@ pub fn pixel_stats(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         &[
             ("job", Kind::S),
             ("dataset", Kind::S),
+            ("source", Kind::S),
             ("row", Kind::I),
             ("col", Kind::I),
             ("mean_re", Kind::F),
@@ -387,14 +418,17 @@ pub fn pixel_stats(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         ],
     );
     for (job, r) in ok(plan, outcomes) {
-        for ((rc, m), &v) in r
-            .analysis
+        let Some(analysis) = &r.analysis else {
+            continue;
+        };
+        for ((rc, m), &v) in analysis
             .mean
             .indexed_iter()
-            .zip(r.analysis.variance.iter())
+            .zip(analysis.variance.iter())
         {
             t.s("job", &job.id);
             t.s("dataset", &job.dataset_id);
+            t.s("source", r.source);
             t.i("row", rc.0 as i64);
             t.i("col", rc.1 as i64);
             t.f("mean_re", opt(m.re));
@@ -441,10 +475,12 @@ pub fn jobs_table(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
             ("job", Kind::S),
             ("dataset", Kind::S),
             ("kind", Kind::S),
+            ("method", Kind::S),
             ("status", Kind::S),
             ("error", Kind::S),
             ("seed", Kind::U),
             ("data_seed", Kind::U),
+            ("generation_seed", Kind::U),
             ("samples", Kind::I),
             ("height", Kind::I),
             ("width", Kind::I),
@@ -458,10 +494,12 @@ pub fn jobs_table(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         t.s("job", &job.id);
         t.s("dataset", &job.dataset_id);
         t.s("kind", job.dataset.kind());
+        t.s_opt("method", job.method.map(|m| m.as_str().to_string()));
         t.s("status", if o.result.is_ok() { "ok" } else { "failed" });
         t.s_opt("error", o.result.as_ref().err().cloned());
         t.u("seed", job.seed);
         t.u("data_seed", job.data_seed);
+        t.u("generation_seed", job.generation_seed);
         t.i("samples", n as i64);
         t.i("height", h as i64);
         t.i("width", w as i64);
@@ -480,4 +518,58 @@ fn ok<'a>(
     outcomes
         .iter()
         .filter_map(move |o| o.result.as_ref().ok().map(|r| (&plan.jobs[o.index], r)))
+}
+
+/// `synthesis_params`: one row per synthesis job of Methods 1 and 2 and level-1 cell, with the
+/// fitted filter parameters (`alpha_h`, `alpha_v` for Method 1; `r_h1..r_hL`, `r_v1..r_vL` for
+/// Method 2, `L` the largest of the run; null where a method has none), the RMS misfit of the
+/// reached correlations and the number of directions whose target was unreachable (0-2).
+pub fn synthesis_params(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    use crate::synthesis::CellParams;
+    let fits: Vec<(&Job, &crate::synthesis::FilterModel)> = ok(plan, outcomes)
+        .filter_map(|(j, r)| r.synthesis.as_ref().and_then(|s| s.filter.as_ref()).map(|f| (j, f)))
+        .collect();
+    let l_max = fits
+        .iter()
+        .map(|(_, f)| match &f.params {
+            CellParams::Dyadic { r_h, .. } => r_h.len(),
+            CellParams::Exponential { .. } => 0,
+        })
+        .max()
+        .unwrap_or(0);
+    let mut names: Vec<(String, Kind)> = [("job", Kind::S), ("dataset", Kind::S), ("method", Kind::S), ("row", Kind::I), ("col", Kind::I), ("alpha_h", Kind::F), ("alpha_v", Kind::F)]
+        .iter()
+        .map(|(n, k)| (n.to_string(), *k))
+        .collect();
+    for dir in ["h", "v"] {
+        names.extend((1..=l_max).map(|l| (format!("r_{dir}{l}"), Kind::F)));
+    }
+    names.extend([("residual_h".to_string(), Kind::F), ("residual_v".to_string(), Kind::F), ("clamped".to_string(), Kind::I)]);
+    let mut t = Table::new(plan, &names);
+    for (job, f) in fits {
+        for ((r, c), &clamped) in f.clamped.indexed_iter() {
+            t.s("job", &job.id);
+            t.s("dataset", &job.dataset_id);
+            t.s("method", job.method.map_or("", |m| m.as_str()));
+            t.i("row", r as i64);
+            t.i("col", c as i64);
+            let (alpha, rs) = match &f.params {
+                CellParams::Exponential { alpha_h, alpha_v } => (Some((alpha_h[[r, c]], alpha_v[[r, c]])), None),
+                CellParams::Dyadic { r_h, r_v } => (None, Some((r_h, r_v))),
+            };
+            t.f("alpha_h", alpha.map(|a| a.0));
+            t.f("alpha_v", alpha.map(|a| a.1));
+            for (dir, idx) in [("h", 0), ("v", 1)] {
+                for l in 0..l_max {
+                    let v = rs.and_then(|(h, v)| [h, v][idx].get(l)).map(|m| m[[r, c]]);
+                    t.f(&format!("r_{dir}{}", l + 1), v);
+                }
+            }
+            t.f("residual_h", opt(f.residual_h[[r, c]]));
+            t.f("residual_v", opt(f.residual_v[[r, c]]));
+            t.i("clamped", clamped as i64);
+            t.row(job);
+        }
+    }
+    t.finish()
 }

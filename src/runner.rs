@@ -7,7 +7,9 @@ use crate::analysis::Direction;
 use crate::data::materialise;
 use crate::filters::{expected_maps, expected_maps_are_cheap, lag_correlation};
 use crate::plan::{Job, Plan};
-use crate::results::{self, FilterRow, JobOutcome, JobResult};
+use crate::results::{self, FilterRow, JobOutcome, JobResult, SynthesisOutcome};
+use crate::spec::SynthesisSpec;
+use crate::synthesis::{fit, FitOptions, Method};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -85,7 +87,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
             .enumerate()
             .map(|(index, job)| {
                 let t = Instant::now();
-                let result = catch_unwind(AssertUnwindSafe(|| run_job(plan, job)))
+                let result = catch_unwind(AssertUnwindSafe(|| run_job(plan, job, &opts.out)))
                     .unwrap_or_else(|p| Err(anyhow::anyhow!("job panicked: {}", panic_message(&p))))
                     .map_err(|e| format!("{e:#}"));
                 let outcome = JobOutcome {
@@ -161,7 +163,10 @@ fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
 }
 
 /// Runs one job: materialise, analyse, compute the ground truth.
-fn run_job(plan: &Plan, job: &Job) -> Result<JobResult> {
+fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
+    if let (Some(method), Some(syn)) = (job.method, &job.synthesis) {
+        return run_synthesis_job(job, method, syn, out);
+    }
     let t = Instant::now();
     let data = materialise(&job.dataset, job.data_seed)
         .with_context(|| format!("dataset {}", job.dataset_id))?;
@@ -197,7 +202,9 @@ fn run_job(plan: &Plan, job: &Job) -> Result<JobResult> {
     }
     let (n, h, w) = job.dataset.shape();
     let result = JobResult {
-        analysis,
+        source: "original",
+        analysis: Some(analysis),
+        synthesis: None,
         expected,
         filter_rows,
         shape: (n, h, w),
@@ -206,6 +213,51 @@ fn run_job(plan: &Plan, job: &Job) -> Result<JobResult> {
         bytes: data.stack.bytes(),
     };
     Ok(result)
+}
+
+/// Runs a synthesis job: analyses the original data (to the levels the method needs), fits the
+/// method, generates the samples from the dataset's generation seed, saves them if asked and
+/// analyses them.
+fn run_synthesis_job(job: &Job, method: Method, syn: &SynthesisSpec, out: &Path) -> Result<JobResult> {
+    let t = Instant::now();
+    let data = materialise(&job.dataset, job.data_seed).with_context(|| format!("dataset {}", job.dataset_id))?;
+    let data_s = t.elapsed().as_secs_f64();
+    let levels = match method {
+        Method::Method2 => syn.dyadic_levels(&job.analysis),
+        _ => 1,
+    };
+    let original = data.stack.analyse(data.hwn, levels).with_context(|| format!("analysing dataset {}", job.dataset_id))?;
+    let t = Instant::now();
+    let stack = (method == Method::FullCovariance).then(|| data.stack.to_complex128(data.hwn));
+    let opts = FitOptions { half_width: syn.half_width, levels };
+    let model = fit(method, &original, stack.as_ref().map(|s| s.view()), opts).with_context(|| format!("fitting {}", method.as_str()))?;
+    drop(stack);
+    let fit_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let generated = model.generate_c64(job.generation_seed, 0, syn.samples);
+    let generate_s = t.elapsed().as_secs_f64();
+    if syn.save_samples {
+        results::write_npy(&out.join("samples").join(format!("{}.npy", job.id)), &generated)?;
+    }
+    let t = Instant::now();
+    let analysis = if syn.analyse_generated {
+        Some(crate::analysis::analyse(generated.view(), job.analysis.levels).context("analysing the generated samples")?)
+    } else {
+        None
+    };
+    let analysis_s = t.elapsed().as_secs_f64();
+    let (_, h, w) = job.dataset.shape();
+    Ok(JobResult {
+        source: method.as_str(),
+        analysis,
+        synthesis: Some(SynthesisOutcome { filter: model.filter, samples: syn.samples, fit_s, generate_s }),
+        expected: None,
+        filter_rows: vec![],
+        shape: (syn.samples, h, w),
+        data_s,
+        analysis_s,
+        bytes: syn.samples * h * w * 8,
+    })
 }
 
 /// One file (or folder of files) of the output phase.
@@ -227,6 +279,7 @@ fn write_outputs(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()>
         Output::Table("pixel_stats.parquet", results::pixel_stats),
         Output::Table("filter_correlation.parquet", results::filter_correlation),
         Output::Table("jobs.parquet", results::jobs_table),
+        Output::Table("synthesis_params.parquet", results::synthesis_params),
     ];
     if plan.spec.outputs.npy_maps {
         for o in outcomes {
@@ -296,11 +349,16 @@ fn write_manifest(
                     "input_bytes": r.bytes,
                     "analysis_gb_per_s": r.bytes as f64 / r.analysis_s / 1e9,
                     "shape": [r.shape.0, r.shape.1, r.shape.2],
+                    "fit_s": r.synthesis.as_ref().map(|s| s.fit_s),
+                    "generate_s": r.synthesis.as_ref().map(|s| s.generate_s),
+                    "generated_samples_per_s": r.synthesis.as_ref().map(|s| s.samples as f64 / s.generate_s),
                 })
             });
             json!({
                 "job": job.id,
                 "dataset": job.dataset_id,
+                "method": job.method.map(Method::as_str),
+                "generation_seed": job.generation_seed,
                 "identity": job.identity,
                 "seed": job.seed,
                 "data_seed": job.data_seed,

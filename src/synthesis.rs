@@ -566,6 +566,27 @@ impl Model {
         }
     }
 
+    /// Generates samples `first .. first + count` as complex64 (the format of saved samples),
+    /// in parallel on the caller's rayon pool; each sample is computed in f64 and rounded.
+    pub fn generate_c64(&self, seed: u64, first: usize, count: usize) -> Array3<num_complex::Complex<f32>> {
+        let (h, w) = self.shape();
+        let mut out = Array3::from_elem((count, h, w), num_complex::Complex::new(0.0f32, 0.0));
+        out.as_slice_mut()
+            .expect("standard layout")
+            .par_chunks_mut(h * w)
+            .enumerate()
+            .for_each_init(
+                || vec![Complex64::new(0.0, 0.0); h * w],
+                |buf, (s, plane)| {
+                    self.sample_into(seed, first + s, buf);
+                    for (o, x) in plane.iter_mut().zip(buf.iter()) {
+                        *o = num_complex::Complex::new(x.re as f32, x.im as f32);
+                    }
+                },
+            );
+        out
+    }
+
     /// Generates samples `first .. first + count` of the generation seeded by `seed`, in
     /// parallel on the caller's rayon pool.
     pub fn generate(&self, seed: u64, first: usize, count: usize) -> Array3<Complex64> {
