@@ -261,9 +261,13 @@ impl Stack {
             use ndarray::ShapeBuilder;
             let count: usize = m.header.shape.iter().product();
             let bytes = &m.map[m.header.data_offset..][..count * std::mem::size_of::<T>()];
-            let data: Vec<T> = bytes.chunks_exact(std::mem::size_of::<T>()).map(bytemuck::pod_read_unaligned).collect();
+            let data: Vec<T> = bytes
+                .chunks_exact(std::mem::size_of::<T>())
+                .map(bytemuck::pod_read_unaligned)
+                .collect();
             let s = &m.header.shape;
-            let a = ArrayView3::from_shape((s[0], s[1], s[2]).set_f(m.header.fortran_order), &data).expect("size checked at load");
+            let a = ArrayView3::from_shape((s[0], s[1], s[2]).set_f(m.header.fortran_order), &data)
+                .expect("size checked at load");
             view(a, hwn).mapv(|v| {
                 let mut x = [0.0; 2];
                 T::load_shifted(&[v], &[0.0, 0.0], &mut x, &mut [0.0; 2], &mut [0.0; 2]);

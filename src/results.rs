@@ -421,11 +421,7 @@ pub fn pixel_stats(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         let Some(analysis) = &r.analysis else {
             continue;
         };
-        for ((rc, m), &v) in analysis
-            .mean
-            .indexed_iter()
-            .zip(analysis.variance.iter())
-        {
+        for ((rc, m), &v) in analysis.mean.indexed_iter().zip(analysis.variance.iter()) {
             t.s("job", &job.id);
             t.s("dataset", &job.dataset_id);
             t.s("source", r.source);
@@ -527,7 +523,12 @@ fn ok<'a>(
 pub fn synthesis_params(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
     use crate::synthesis::CellParams;
     let fits: Vec<(&Job, &crate::synthesis::FilterModel)> = ok(plan, outcomes)
-        .filter_map(|(j, r)| r.synthesis.as_ref().and_then(|s| s.filter.as_ref()).map(|f| (j, f)))
+        .filter_map(|(j, r)| {
+            r.synthesis
+                .as_ref()
+                .and_then(|s| s.filter.as_ref())
+                .map(|f| (j, f))
+        })
         .collect();
     let l_max = fits
         .iter()
@@ -537,14 +538,26 @@ pub fn synthesis_params(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFram
         })
         .max()
         .unwrap_or(0);
-    let mut names: Vec<(String, Kind)> = [("job", Kind::S), ("dataset", Kind::S), ("method", Kind::S), ("row", Kind::I), ("col", Kind::I), ("alpha_h", Kind::F), ("alpha_v", Kind::F)]
-        .iter()
-        .map(|(n, k)| (n.to_string(), *k))
-        .collect();
+    let mut names: Vec<(String, Kind)> = [
+        ("job", Kind::S),
+        ("dataset", Kind::S),
+        ("method", Kind::S),
+        ("row", Kind::I),
+        ("col", Kind::I),
+        ("alpha_h", Kind::F),
+        ("alpha_v", Kind::F),
+    ]
+    .iter()
+    .map(|(n, k)| (n.to_string(), *k))
+    .collect();
     for dir in ["h", "v"] {
         names.extend((1..=l_max).map(|l| (format!("r_{dir}{l}"), Kind::F)));
     }
-    names.extend([("residual_h".to_string(), Kind::F), ("residual_v".to_string(), Kind::F), ("clamped".to_string(), Kind::I)]);
+    names.extend([
+        ("residual_h".to_string(), Kind::F),
+        ("residual_v".to_string(), Kind::F),
+        ("clamped".to_string(), Kind::I),
+    ]);
     let mut t = Table::new(plan, &names);
     for (job, f) in fits {
         for ((r, c), &clamped) in f.clamped.indexed_iter() {
@@ -554,7 +567,9 @@ pub fn synthesis_params(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFram
             t.i("row", r as i64);
             t.i("col", c as i64);
             let (alpha, rs) = match &f.params {
-                CellParams::Exponential { alpha_h, alpha_v } => (Some((alpha_h[[r, c]], alpha_v[[r, c]])), None),
+                CellParams::Exponential { alpha_h, alpha_v } => {
+                    (Some((alpha_h[[r, c]], alpha_v[[r, c]])), None)
+                }
                 CellParams::Dyadic { r_h, r_v } => (None, Some((r_h, r_v))),
             };
             t.f("alpha_h", alpha.map(|a| a.0));

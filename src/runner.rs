@@ -218,30 +218,49 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
 /// Runs a synthesis job: analyses the original data (to the levels the method needs), fits the
 /// method, generates the samples from the dataset's generation seed, saves them if asked and
 /// analyses them.
-fn run_synthesis_job(job: &Job, method: Method, syn: &SynthesisSpec, out: &Path) -> Result<JobResult> {
+fn run_synthesis_job(
+    job: &Job,
+    method: Method,
+    syn: &SynthesisSpec,
+    out: &Path,
+) -> Result<JobResult> {
     let t = Instant::now();
-    let data = materialise(&job.dataset, job.data_seed).with_context(|| format!("dataset {}", job.dataset_id))?;
+    let data = materialise(&job.dataset, job.data_seed)
+        .with_context(|| format!("dataset {}", job.dataset_id))?;
     let data_s = t.elapsed().as_secs_f64();
     let levels = match method {
         Method::Method2 => syn.dyadic_levels(&job.analysis),
         _ => 1,
     };
-    let original = data.stack.analyse(data.hwn, levels).with_context(|| format!("analysing dataset {}", job.dataset_id))?;
+    let original = data
+        .stack
+        .analyse(data.hwn, levels)
+        .with_context(|| format!("analysing dataset {}", job.dataset_id))?;
     let t = Instant::now();
     let stack = (method == Method::FullCovariance).then(|| data.stack.to_complex128(data.hwn));
-    let opts = FitOptions { half_width: syn.half_width, levels };
-    let model = fit(method, &original, stack.as_ref().map(|s| s.view()), opts).with_context(|| format!("fitting {}", method.as_str()))?;
+    let opts = FitOptions {
+        half_width: syn.half_width,
+        levels,
+    };
+    let model = fit(method, &original, stack.as_ref().map(|s| s.view()), opts)
+        .with_context(|| format!("fitting {}", method.as_str()))?;
     drop(stack);
     let fit_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let generated = model.generate_c64(job.generation_seed, 0, syn.samples);
     let generate_s = t.elapsed().as_secs_f64();
     if syn.save_samples {
-        results::write_npy(&out.join("samples").join(format!("{}.npy", job.id)), &generated)?;
+        results::write_npy(
+            &out.join("samples").join(format!("{}.npy", job.id)),
+            &generated,
+        )?;
     }
     let t = Instant::now();
     let analysis = if syn.analyse_generated {
-        Some(crate::analysis::analyse(generated.view(), job.analysis.levels).context("analysing the generated samples")?)
+        Some(
+            crate::analysis::analyse(generated.view(), job.analysis.levels)
+                .context("analysing the generated samples")?,
+        )
     } else {
         None
     };
@@ -250,7 +269,12 @@ fn run_synthesis_job(job: &Job, method: Method, syn: &SynthesisSpec, out: &Path)
     Ok(JobResult {
         source: method.as_str(),
         analysis,
-        synthesis: Some(SynthesisOutcome { filter: model.filter, samples: syn.samples, fit_s, generate_s }),
+        synthesis: Some(SynthesisOutcome {
+            filter: model.filter,
+            samples: syn.samples,
+            fit_s,
+            generate_s,
+        }),
         expected: None,
         filter_rows: vec![],
         shape: (syn.samples, h, w),

@@ -103,6 +103,9 @@ pub struct Model {
     pub deviations: Option<Array3<Complex64>>,
 }
 
+/// RMS misfit above which Method 2 counts a cell's target as unreached.
+pub const UNREACHED: f64 = 1e-6;
+
 /// Fit settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FitOptions {
@@ -489,7 +492,7 @@ pub fn fit(
                     .map(|lv| Array2::from_shape_fn(cells, |(r, c)| fits[r * cells.1 + c].0[lv]))
                     .collect();
                 let residual = Array2::from_shape_fn(cells, |(r, c)| fits[r * cells.1 + c].1);
-                let clamped = residual.mapv(|e| u8::from(!(e < 1e-6)));
+                let clamped = residual.mapv(|e| u8::from(e.is_nan() || e >= UNREACHED));
                 (params, residual, clamped)
             };
             let (r_h, residual_h, ch) = solve(Direction::H);
@@ -568,7 +571,12 @@ impl Model {
 
     /// Generates samples `first .. first + count` as complex64 (the format of saved samples),
     /// in parallel on the caller's rayon pool; each sample is computed in f64 and rounded.
-    pub fn generate_c64(&self, seed: u64, first: usize, count: usize) -> Array3<num_complex::Complex<f32>> {
+    pub fn generate_c64(
+        &self,
+        seed: u64,
+        first: usize,
+        count: usize,
+    ) -> Array3<num_complex::Complex<f32>> {
         let (h, w) = self.shape();
         let mut out = Array3::from_elem((count, h, w), num_complex::Complex::new(0.0f32, 0.0));
         out.as_slice_mut()

@@ -463,3 +463,125 @@ fn fig19_spec_recovers_the_spatially_varying_correlation() {
         mean_h(31)
     );
 }
+
+const SYNTH: &str = "name: syn
+seed: 5
+datasets:
+  - id: d
+    kind: filtered_noise
+    family: exponential
+    alpha_h: {pattern: left_right, left: 0.5, right: 2}
+    alpha_v: 1
+    size: [16, 16]
+    samples: 200
+    half_width: 8
+analysis:
+  levels: 2
+synthesis:
+  methods: [method1, method2, full_covariance, uncorrelated]
+  samples: 300
+  save_samples: true
+sweep:
+  grid:
+    synthesis.samples: [300]
+";
+
+#[test]
+fn synthesis_jobs_write_params_samples_and_generated_analyses() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("syn.yaml");
+    std::fs::write(&spec, SYNTH).unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let o = run(&spec, &a, "2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(run(&spec, &b, "1").status.success());
+    let jobs = read(&a, "jobs.parquet");
+    let ids: Vec<String> = jobs
+        .column("job")
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(|s| s.unwrap().to_string())
+        .collect();
+    // The synthesis axis applies to the synthesis jobs only: the analysis job has no params.
+    assert_eq!(
+        ids,
+        [
+            "d",
+            "d.method1.synthesis.samples=300",
+            "d.method2.synthesis.samples=300",
+            "d.full_covariance.synthesis.samples=300",
+            "d.uncorrelated.synthesis.samples=300"
+        ]
+    );
+    // Common random numbers: one generation seed for every method of the dataset.
+    let gen = jobs.column("generation_seed").unwrap().u64().unwrap();
+    assert!((1..5).all(|i| gen.get(i) == gen.get(0)));
+    let summary = read(&a, "analysis_summary.parquet");
+    let sources: std::collections::BTreeSet<String> = summary
+        .column("source")
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(|s| s.unwrap().to_string())
+        .collect();
+    assert_eq!(
+        sources.into_iter().collect::<Vec<_>>(),
+        [
+            "full_covariance",
+            "method1",
+            "method2",
+            "original",
+            "uncorrelated"
+        ]
+    );
+    let params = read(&a, "synthesis_params.parquet");
+    for c in [
+        "job",
+        "dataset",
+        "method",
+        "row",
+        "col",
+        "alpha_h",
+        "alpha_v",
+        "r_h1",
+        "r_h2",
+        "r_v1",
+        "r_v2",
+        "residual_h",
+        "residual_v",
+        "clamped",
+    ] {
+        assert!(
+            names(&params).contains(&c.to_string()),
+            "synthesis_params lacks {c}"
+        );
+    }
+    assert_eq!(
+        params.height(),
+        2 * 8 * 8,
+        "methods 1 and 2, one row per level-1 cell"
+    );
+    // Saved samples: [M, H, W] complex64.
+    let npy = a.join("samples/d.method1.synthesis.samples=300.npy");
+    let header = isar_clutter::npy::read_header(&npy).unwrap();
+    assert_eq!(header.shape, [300, 16, 16]);
+    assert_eq!(header.dtype, isar_clutter::npy::Dtype::Complex64);
+    // Same tables and samples whatever the thread count.
+    for t in [
+        "analysis_summary.parquet",
+        "synthesis_params.parquet",
+        "pixel_stats.parquet",
+    ] {
+        assert!(
+            read(&a, t).equals_missing(&read(&b, t)),
+            "{t} differs between --jobs 2 and 1"
+        );
+    }
+    assert_eq!(
+        std::fs::read(&npy).unwrap(),
+        std::fs::read(b.join("samples/d.method1.synthesis.samples=300.npy")).unwrap()
+    );
+}

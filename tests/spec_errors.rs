@@ -243,3 +243,39 @@ fn messages_use_yaml_spellings() {
     let e = error_of(&GOOD.replace("alpha_h: 1.0", "alpha_h: {pattern: left_right, left: 1}"));
     assert!(e.contains("pattern left_right needs `right`"), "{e}");
 }
+
+#[test]
+fn synthesis_section_errors() {
+    let e = error_of(&format!(
+        "{GOOD}synthesis:\n  methods: [method3]\n  samples: 10\n"
+    ));
+    assert!(
+        e.contains("synthesis.methods[0]") && e.contains("method3"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{GOOD}synthesis:\n  methods: [method1]\n  samples: 1\n"
+    ));
+    assert!(
+        e.contains("synthesis.samples") && e.contains("at least 2"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{GOOD}synthesis:\n  methods: [method2]\n  samples: 10\n  half_width: 2\n"
+    ));
+    assert!(
+        e.contains("synthesis.half_width") && e.contains("truncate"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{GOOD}synthesis:\n  methods: [method1, method1]\n  samples: 10\n"
+    ));
+    assert!(
+        e.contains("synthesis.methods[1]") && e.contains("twice"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{GOOD}sweep:\n  grid:\n    synthesis.samples: [5]\n"
+    ));
+    assert!(e.contains("with a synthesis section"), "{e}");
+}
