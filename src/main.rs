@@ -1,7 +1,7 @@
 //! The `isar-clutter` command line: `run` an experiment spec, `validate` it, or print its job
 //! table with `run --dry-run`. Errors print their cause chain; a run with failed jobs exits 1.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use isar_clutter::plan::{self, Plan};
 use isar_clutter::runner::{self, RunOptions};
@@ -40,6 +40,51 @@ enum Command {
         /// The experiment spec (YAML).
         spec: PathBuf,
     },
+    /// Fit a synthesis model to a stack and save it as a model folder.
+    Fit {
+        /// The stack: .npy of complex64, complex128 or real values, [N, H, W].
+        #[arg(long)]
+        input: PathBuf,
+        /// Axis order of the input: nhw (default) or hwn (MATLAB exports).
+        #[arg(long, default_value = "nhw")]
+        layout: String,
+        /// method1, method2, full_covariance or uncorrelated.
+        #[arg(long)]
+        method: String,
+        /// The model folder to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Filter half-width K of Methods 1 and 2.
+        #[arg(long, default_value_t = 8)]
+        half_width: usize,
+        /// Dyadic parameters L of Method 2.
+        #[arg(long, default_value_t = 3)]
+        levels: usize,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+    },
+    /// Generate samples from a model folder into a [M, H, W] complex64 .npy, in constant memory.
+    Generate {
+        /// The model folder (from `fit` or a run's models/<job>).
+        #[arg(long)]
+        model: PathBuf,
+        /// Number of samples M.
+        #[arg(long)]
+        samples: usize,
+        /// Seed of the generation (sample s draws from ChaCha20 stream s).
+        #[arg(long)]
+        seed: u64,
+        /// The .npy to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Samples generated per block (memory: one block).
+        #[arg(long, default_value_t = 1024)]
+        chunk: usize,
+        /// Worker threads (default: all cores). The file does not depend on it.
+        #[arg(long)]
+        jobs: Option<usize>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -57,6 +102,47 @@ fn real_main() -> Result<ExitCode> {
         Command::Validate { spec } => {
             let plan = plan::load(&spec)?;
             println!("{}: valid, {} job(s)", spec.display(), plan.jobs.len());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Fit {
+            input,
+            layout,
+            method,
+            out,
+            half_width,
+            levels,
+            jobs,
+        } => {
+            pool(jobs)?
+                .install(|| fit_command(&input, &layout, &method, &out, half_width, levels))?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Generate {
+            model,
+            samples,
+            seed,
+            out,
+            chunk,
+            jobs,
+        } => {
+            let (m, _) = isar_clutter::model::load(&model)?;
+            let bar = indicatif::ProgressBar::new(samples as u64);
+            if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+                bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+            }
+            let t = std::time::Instant::now();
+            pool(jobs)?.install(|| {
+                isar_clutter::model::generate_to_npy(&m, seed, samples, chunk, &out, |done| {
+                    bar.set_position(done as u64)
+                })
+            })?;
+            bar.finish_and_clear();
+            let s = t.elapsed().as_secs_f64();
+            eprintln!(
+                "{samples} sample(s) -> {} in {s:.2} s ({:.0} samples/s)",
+                out.display(),
+                samples as f64 / s
+            );
             Ok(ExitCode::SUCCESS)
         }
         Command::Run {
@@ -93,6 +179,69 @@ fn real_main() -> Result<ExitCode> {
             })
         }
     }
+}
+
+/// A rayon pool of `jobs` threads (default: all cores).
+fn pool(jobs: Option<usize>) -> Result<rayon::ThreadPool> {
+    Ok(rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.unwrap_or_else(runner::default_threads))
+        .build()?)
+}
+
+/// `fit`: load, analyse, fit, save.
+fn fit_command(
+    input: &std::path::Path,
+    layout: &str,
+    method: &str,
+    out: &std::path::Path,
+    half_width: usize,
+    levels: usize,
+) -> Result<()> {
+    use isar_clutter::synthesis::{fit, FitOptions, Method};
+    let method: Method =
+        serde_json::from_value(serde_json::Value::String(method.into())).map_err(|_| {
+            anyhow::anyhow!(
+                "unknown method {method:?}: method1, method2, full_covariance or uncorrelated"
+            )
+        })?;
+    let hwn = match layout {
+        "nhw" => false,
+        "hwn" => true,
+        other => anyhow::bail!("unknown layout {other:?}: nhw or hwn"),
+    };
+    let stack = isar_clutter::npy::Stack::load(input)?;
+    let depth = if method == Method::Method2 { levels } else { 1 };
+    let analysis = stack
+        .analyse(hwn, depth)
+        .with_context(|| format!("analysing {}", input.display()))?;
+    let full = (method == Method::FullCovariance).then(|| stack.to_complex128(hwn));
+    let model = fit(
+        method,
+        &analysis,
+        full.as_ref().map(|s| s.view()),
+        FitOptions {
+            half_width,
+            levels: depth,
+        },
+    )?;
+    let info = isar_clutter::model::ModelInfo::new(
+        &model,
+        &analysis,
+        half_width,
+        depth,
+        input.display().to_string(),
+    );
+    isar_clutter::model::save(&model, &info, out)?;
+    eprintln!(
+        "{} fitted to {} ({} samples of {}x{}) -> {}",
+        method.as_str(),
+        input.display(),
+        info.samples_fitted,
+        info.height,
+        info.width,
+        out.display()
+    );
+    Ok(())
 }
 
 /// Prints the job table of `--dry-run`.

@@ -246,6 +246,9 @@ fn run_synthesis_job(
         .with_context(|| format!("fitting {}", method.as_str()))?;
     drop(stack);
     let fit_s = t.elapsed().as_secs_f64();
+    let source = format!("job {} (dataset {})", job.id, job.dataset_id);
+    let info = crate::model::ModelInfo::new(&model, &original, syn.half_width, levels, source);
+    crate::model::save(&model, &info, &out.join("models").join(&job.id))?;
     let t = Instant::now();
     let generated = model.generate_c64(job.generation_seed, 0, syn.samples);
     let generate_s = t.elapsed().as_secs_f64();

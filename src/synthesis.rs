@@ -72,6 +72,42 @@ pub enum CellParams {
     },
 }
 
+impl CellParams {
+    /// Level-1 cell grid `(rows, cols)`.
+    pub fn cells(&self) -> (usize, usize) {
+        match self {
+            CellParams::Exponential { alpha_h, .. } => alpha_h.dim(),
+            CellParams::Dyadic { r_h, .. } => r_h[0].dim(),
+        }
+    }
+
+    /// The per-pixel filter bank of an `h x w` image with half-width `k`: every pixel takes the
+    /// parameters of the level-1 cell it lies in (the nearest complete cell for an odd last
+    /// row or column).
+    pub fn bank(&self, k: usize, h: usize, w: usize) -> FilterBank {
+        let cells = self.cells();
+        let (mut vertical, mut horizontal) = (Vec::with_capacity(h * w), Vec::with_capacity(h * w));
+        for i in 0..h {
+            for j in 0..w {
+                let c = cell_of(i, j, cells);
+                let (v, hz) = match self {
+                    CellParams::Exponential { alpha_h, alpha_v } => (
+                        exponential_taps(alpha_v[c], k),
+                        exponential_taps(alpha_h[c], k),
+                    ),
+                    CellParams::Dyadic { r_h, r_v } => {
+                        let at = |p: &[Array2<f64>]| p.iter().map(|m| m[c]).collect::<Vec<_>>();
+                        (dyadic_taps(&at(r_v), k), dyadic_taps(&at(r_h), k))
+                    }
+                };
+                vertical.push(v);
+                horizontal.push(hz);
+            }
+        }
+        FilterBank::new(k, h, w, vertical, horizontal)
+    }
+}
+
 /// A fitted spatially varying filter model (Methods 1 and 2).
 #[derive(Debug, Clone)]
 pub struct FilterModel {
@@ -433,18 +469,10 @@ pub fn fit(
             };
             let (alpha_h, ch, residual_h) = invert(Direction::H);
             let (alpha_v, cv, residual_v) = invert(Direction::V);
-            let (mut vertical, mut horizontal) =
-                (Vec::with_capacity(h * w), Vec::with_capacity(h * w));
-            for i in 0..h {
-                for j in 0..w {
-                    let c = cell_of(i, j, cells);
-                    vertical.push(exponential_taps(alpha_v[c], k));
-                    horizontal.push(exponential_taps(alpha_h[c], k));
-                }
-            }
-            let bank = FilterBank::new(k, h, w, vertical, horizontal);
+            let params = CellParams::Exponential { alpha_h, alpha_v };
+            let bank = params.bank(k, h, w);
             model.filter = Some(FilterModel {
-                params: CellParams::Exponential { alpha_h, alpha_v },
+                params,
                 residual_h,
                 residual_v,
                 clamped: ch + cv,
@@ -497,20 +525,10 @@ pub fn fit(
             };
             let (r_h, residual_h, ch) = solve(Direction::H);
             let (r_v, residual_v, cv) = solve(Direction::V);
-            let at =
-                |p: &[Array2<f64>], c: (usize, usize)| p.iter().map(|m| m[c]).collect::<Vec<_>>();
-            let (mut vertical, mut horizontal) =
-                (Vec::with_capacity(h * w), Vec::with_capacity(h * w));
-            for i in 0..h {
-                for j in 0..w {
-                    let c = cell_of(i, j, cells);
-                    vertical.push(dyadic_taps(&at(&r_v, c), k));
-                    horizontal.push(dyadic_taps(&at(&r_h, c), k));
-                }
-            }
-            let bank = FilterBank::new(k, h, w, vertical, horizontal);
+            let params = CellParams::Dyadic { r_h, r_v };
+            let bank = params.bank(k, h, w);
             model.filter = Some(FilterModel {
-                params: CellParams::Dyadic { r_h, r_v },
+                params,
                 residual_h,
                 residual_v,
                 clamped: ch + cv,
