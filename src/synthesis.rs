@@ -374,6 +374,47 @@ fn levenberg_marquardt(
     (x, res)
 }
 
+/// `out[c] += sum_i z[c][i] dev[i]` for every sample `c` of a batch, `i` ascending per element,
+/// tiled over pixels so a deviation tile serves the whole batch; AVX2 code where the CPU has it
+/// (same arithmetic, so the same bits).
+fn combine_deviations(dev: &[Complex64], z: &[Vec<f64>], p: usize, out: &mut [Complex64]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { combine_deviations_avx2(dev, z, p, out) };
+        }
+    }
+    combine_deviations_body(dev, z, p, out)
+}
+
+/// [`combine_deviations_body`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn combine_deviations_avx2(dev: &[Complex64], z: &[Vec<f64>], p: usize, out: &mut [Complex64]) {
+    combine_deviations_body(dev, z, p, out)
+}
+
+#[inline(always)]
+fn combine_deviations_body(dev: &[Complex64], z: &[Vec<f64>], p: usize, out: &mut [Complex64]) {
+    const TILE: usize = 256;
+    let n = dev.len() / p;
+    let flat: &[f64] = bytemuck::cast_slice(dev);
+    let out: &mut [f64] = bytemuck::cast_slice_mut(out);
+    for t0 in (0..p).step_by(TILE) {
+        let t1 = (t0 + TILE).min(p);
+        for i in 0..n {
+            let d = &flat[2 * (i * p + t0)..2 * (i * p + t1)];
+            for (c, zc) in z.iter().enumerate() {
+                let zi = zc[i];
+                for (x, v) in out[2 * (c * p + t0)..2 * (c * p + t1)].iter_mut().zip(d) {
+                    *x += v * zi;
+                }
+            }
+        }
+    }
+}
+
 /// Gaussian elimination with partial pivoting for a small dense system.
 fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     let n = b.len();
@@ -587,6 +628,35 @@ impl Model {
         }
     }
 
+    /// Full covariance for a batch of samples at once: the same draws and the same order of
+    /// additions per element as [`Model::sample_into`] (bitwise equal), but each deviation is
+    /// read once per batch and pixel tile instead of once per sample.
+    fn full_covariance_batch(
+        &self,
+        dev: &Array3<Complex64>,
+        seed: u64,
+        first: usize,
+        out: &mut [Complex64],
+    ) {
+        let (h, w) = self.shape();
+        let p = h * w;
+        let count = out.len() / p;
+        let n = dev.dim().0;
+        let z: Vec<Vec<f64>> = (0..count)
+            .map(|c| {
+                let mut rng = ChaCha20Rng::seed_from_u64(seed);
+                rng.set_stream((first + c) as u64);
+                (0..n).map(|_| StandardNormal.sample(&mut rng)).collect()
+            })
+            .collect();
+        let mean = self.mean.as_slice().expect("standard layout");
+        for c in 0..count {
+            out[c * p..(c + 1) * p].copy_from_slice(mean);
+        }
+        let dev = dev.as_slice().expect("standard layout");
+        combine_deviations(dev, &z, p, out);
+    }
+
     /// Generates samples `first .. first + count` as complex64 (the format of saved samples),
     /// in parallel on the caller's rayon pool; each sample is computed in f64 and rounded.
     pub fn generate_c64(
@@ -597,6 +667,21 @@ impl Model {
     ) -> Array3<num_complex::Complex<f32>> {
         let (h, w) = self.shape();
         let mut out = Array3::from_elem((count, h, w), num_complex::Complex::new(0.0f32, 0.0));
+        if let (None, Some(dev)) = (&self.filter, &self.deviations) {
+            const BATCH: usize = 8;
+            out.as_slice_mut()
+                .expect("standard layout")
+                .par_chunks_mut(BATCH * h * w)
+                .enumerate()
+                .for_each(|(b, block)| {
+                    let mut buf = vec![Complex64::new(0.0, 0.0); block.len()];
+                    self.full_covariance_batch(dev, seed, first + b * BATCH, &mut buf);
+                    for (o, x) in block.iter_mut().zip(&buf) {
+                        *o = num_complex::Complex::new(x.re as f32, x.im as f32);
+                    }
+                });
+            return out;
+        }
         out.as_slice_mut()
             .expect("standard layout")
             .par_chunks_mut(h * w)
