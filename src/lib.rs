@@ -12,6 +12,7 @@
 pub mod analysis;
 pub mod data;
 pub mod filters;
+pub mod fleishman;
 pub mod model;
 pub mod npy;
 pub mod oracle;

@@ -48,7 +48,7 @@ enum Command {
         /// Axis order of the input: nhw (default) or hwn (MATLAB exports).
         #[arg(long, default_value = "nhw")]
         layout: String,
-        /// method1, method2, full_covariance or uncorrelated.
+        /// method1, method2, full_covariance, uncorrelated or fourth_order.
         #[arg(long)]
         method: String,
         /// The model folder to write.
@@ -201,7 +201,7 @@ fn fit_command(
     let method: Method =
         serde_json::from_value(serde_json::Value::String(method.into())).map_err(|_| {
             anyhow::anyhow!(
-                "unknown method {method:?}: method1, method2, full_covariance or uncorrelated"
+                "unknown method {method:?}: method1, method2, full_covariance, uncorrelated or fourth_order"
             )
         })?;
     let hwn = match layout {
@@ -214,7 +214,8 @@ fn fit_command(
     let analysis = stack
         .analyse(hwn, depth)
         .with_context(|| format!("analysing {}", input.display()))?;
-    let full = (method == Method::FullCovariance).then(|| stack.to_complex128(hwn));
+    let full = matches!(method, Method::FullCovariance | Method::FourthOrder)
+        .then(|| stack.to_complex128(hwn));
     let model = fit(
         method,
         &analysis,

@@ -8,7 +8,9 @@
 //! `[H, W]`); Method 1: `alpha_h.npy`, `alpha_v.npy` (float64, level-1 cell grid); Method 2:
 //! `r_h.npy`, `r_v.npy` (float64 `[L, rows, cols]`); Methods 1 and 2: `residual_h.npy`,
 //! `residual_v.npy`, `clamped.npy` (uint8); full covariance: `deviations.npy` (complex128
-//! `[N, H, W]`, the centred samples divided by `sqrt(N)`).
+//! `[N, H, W]`, the centred samples divided by `sqrt(N)`); fourth order: `fleishman.npy`
+//! (float64 `[2, 4, H, W]`: component re/im, coefficients a, b, c, d), `component_sd.npy`
+//! (`[2, H, W]`) and `infeasible.npy` (uint8 `[2, H, W]`).
 
 use crate::analysis::{Analysis, Direction};
 use crate::results::{atomic_write, write_npy};
@@ -123,6 +125,11 @@ pub fn save(model: &Model, info: &ModelInfo, dir: &Path) -> Result<()> {
     if let Some(d) = &model.deviations {
         write_npy(&dir.join("deviations.npy"), d)?;
     }
+    if let Some(f) = &model.fourth {
+        write_npy(&dir.join("fleishman.npy"), &f.coefficients)?;
+        write_npy(&dir.join("component_sd.npy"), &f.component_sd)?;
+        write_npy(&dir.join("infeasible.npy"), &f.infeasible)?;
+    }
     atomic_write(&dir.join("model.json"), |w| {
         serde_json::to_writer_pretty(&mut *w, info)?;
         Ok(())
@@ -201,6 +208,14 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
         )?),
         _ => None,
     };
+    let fourth = match info.method {
+        Method::FourthOrder => Some(crate::synthesis::FourthOrderModel {
+            coefficients: read(dir, "fleishman.npy")?,
+            component_sd: read(dir, "component_sd.npy")?,
+            infeasible: read(dir, "infeasible.npy")?,
+        }),
+        _ => None,
+    };
     Ok((
         Model {
             method: info.method,
@@ -208,6 +223,7 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
             std,
             filter,
             deviations,
+            fourth,
         },
         info,
     ))

@@ -237,7 +237,8 @@ fn run_synthesis_job(
         .analyse(data.hwn, levels)
         .with_context(|| format!("analysing dataset {}", job.dataset_id))?;
     let t = Instant::now();
-    let stack = (method == Method::FullCovariance).then(|| data.stack.to_complex128(data.hwn));
+    let stack = matches!(method, Method::FullCovariance | Method::FourthOrder)
+        .then(|| data.stack.to_complex128(data.hwn));
     let opts = FitOptions {
         half_width: syn.half_width,
         levels,

@@ -39,6 +39,9 @@ pub enum Method {
     FullCovariance,
     /// Mean and variance only (5.3.8.2 item 5).
     Uncorrelated,
+    /// Per pixel and component: mean, variance, skewness and excess kurtosis by Fleishman's
+    /// power method, no spatial correlation (the fourth-order model of 3.2).
+    FourthOrder,
 }
 
 impl Method {
@@ -49,6 +52,7 @@ impl Method {
             Method::Method2 => "method2",
             Method::FullCovariance => "full_covariance",
             Method::Uncorrelated => "uncorrelated",
+            Method::FourthOrder => "fourth_order",
         }
     }
 }
@@ -137,6 +141,19 @@ pub struct Model {
     pub filter: Option<FilterModel>,
     /// Full covariance: the centred samples scaled by `1/sqrt(N)`, `[N, H, W]`.
     pub deviations: Option<Array3<Complex64>>,
+    /// Fourth order: Fleishman coefficients.
+    pub fourth: Option<FourthOrderModel>,
+}
+
+/// The fourth-order model's per-pixel parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FourthOrderModel {
+    /// `[component (re, im), coefficient (a, b, c, d), row, col]`.
+    pub coefficients: ndarray::Array4<f64>,
+    /// Standard deviation per component, `[component, row, col]`.
+    pub component_sd: Array3<f64>,
+    /// Moment pairs moved to the feasible region, `[component, row, col]` (0 or 1).
+    pub infeasible: Array3<u8>,
 }
 
 /// RMS misfit above which Method 2 counts a cell's target as unreached.
@@ -442,6 +459,39 @@ fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// Fits Fleishman's power method per pixel and component (real, imaginary) to the stack's
+/// mean, variance, skewness and excess kurtosis.
+fn fit_fourth_order(stack: ArrayView3<Complex64>) -> FourthOrderModel {
+    let (_, h, w) = stack.dim();
+    let mut coefficients = ndarray::Array4::zeros((2, 4, h, w));
+    let mut component_sd = Array3::zeros((2, h, w));
+    let mut infeasible = Array3::zeros((2, h, w));
+    for i in 0..h {
+        for j in 0..w {
+            let px = stack.slice(ndarray::s![.., i, j]);
+            for comp in 0..2 {
+                let values = px.iter().map(move |z| if comp == 0 { z.re } else { z.im });
+                let (_, var, g1, g2) = crate::fleishman::sample_moments(values);
+                let (coef, moved) = if var > 0.0 {
+                    crate::fleishman::coefficients(g1, g2)
+                } else {
+                    ([0.0, 1.0, 0.0, 0.0], false)
+                };
+                for (k, c) in coef.iter().enumerate() {
+                    coefficients[[comp, k, i, j]] = *c;
+                }
+                component_sd[[comp, i, j]] = var.sqrt();
+                infeasible[[comp, i, j]] = u8::from(moved);
+            }
+        }
+    }
+    FourthOrderModel {
+        coefficients,
+        component_sd,
+        infeasible,
+    }
+}
+
 /// The level-1 cell whose parameters pixel `(i, j)` takes (the nearest complete cell for an
 /// odd last row or column).
 fn cell_of(i: usize, j: usize, cells: (usize, usize)) -> (usize, usize) {
@@ -467,9 +517,14 @@ pub fn fit(
         std,
         filter: None,
         deviations: None,
+        fourth: None,
     };
     match method {
         Method::Uncorrelated => {}
+        Method::FourthOrder => {
+            let stack = stack.expect("fourth_order is fitted from the stack itself");
+            model.fourth = Some(fit_fourth_order(stack));
+        }
         Method::FullCovariance => {
             let stack = stack.expect("full_covariance is fitted from the stack itself");
             let n = stack.dim().0;
@@ -612,6 +667,21 @@ impl Model {
                     for (x, v) in out.iter_mut().zip(d) {
                         *x += v * z;
                     }
+                }
+            }
+            (None, None) if self.fourth.is_some() => {
+                let f = self.fourth.as_ref().expect("checked");
+                for (p, x) in out.iter_mut().enumerate() {
+                    let (i, j) = (p / w, p % w);
+                    let part = |comp: usize, z: f64| {
+                        let coef = [0, 1, 2, 3].map(|k| f.coefficients[[comp, k, i, j]]);
+                        f.component_sd[[comp, i, j]] * crate::fleishman::transform(&coef, z)
+                    };
+                    let (zr, zi): (f64, f64) = (
+                        StandardNormal.sample(&mut rng),
+                        StandardNormal.sample(&mut rng),
+                    );
+                    *x = self.mean[[i, j]] + Complex64::new(part(0, zr), part(1, zi));
                 }
             }
             (None, None) => {

@@ -345,3 +345,108 @@ fn generation_is_reproducible_and_thread_invariant() {
         );
     }
 }
+
+#[test]
+fn fleishman_coefficients_solve_the_moment_equations() {
+    use isar_clutter::fleishman::{coefficients, moments, sample_moments, transform};
+    assert_eq!(
+        coefficients(0.0, 0.0),
+        ([0.0, 1.0, 0.0, 0.0], false),
+        "the normal is Y = Z"
+    );
+    for (g1, g2) in [
+        (0.5, 1.0),
+        (1.0, 2.0),
+        (-0.8, 0.6),
+        (1.75, 3.75),
+        (0.0, -0.5),
+    ] {
+        let (coef, moved) = coefficients(g1, g2);
+        assert!(!moved, "({g1}, {g2}) is feasible");
+        let (var, s, k) = moments(coef[1], coef[2], coef[3]);
+        assert!(
+            (var - 1.0).abs() < 1e-9 && (s - g1).abs() < 1e-9 && (k - g2).abs() < 1e-9,
+            "({g1}, {g2}) -> {coef:?}"
+        );
+        assert_eq!(coef[0], -coef[2]);
+        // Sampling check on 400,000 draws: the standard errors of skewness and excess kurtosis
+        // are about sqrt(6/n) = 0.004 and sqrt(24/n) = 0.008 for a normal; heavier tails
+        // inflate them, so allow 0.05 and 0.25.
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let mut rng = rand_chacha::ChaCha20Rng::seed_from_u64(3);
+        let y: Vec<f64> = (0..400_000)
+            .map(|_| transform(&coef, StandardNormal.sample(&mut rng)))
+            .collect();
+        let (m, v, sk, ku) = sample_moments(y.iter().copied());
+        assert!(
+            m.abs() < 0.01 && (v - 1.0).abs() < 0.02,
+            "mean {m}, variance {v}"
+        );
+        assert!(
+            (sk - g1).abs() < 0.05 && (ku - g2).abs() < 0.25,
+            "({g1}, {g2}): sample ({sk}, {ku})"
+        );
+    }
+    // Below Fleishman's boundary: moved to the nearest feasible kurtosis, counted.
+    let (coef, moved) = coefficients(2.0, 0.0);
+    let (_, s, k) = moments(coef[1], coef[2], coef[3]);
+    assert!(moved && (s - 2.0).abs() < 1e-9 && k > 0.0, "{coef:?}");
+}
+
+#[test]
+fn fourth_order_model_reproduces_per_pixel_moments() {
+    // Non-Gaussian clutter: a squared term skews the real part, a cubed term gives the
+    // imaginary part heavy tails (excess kurtosis of a few units, within Fleishman's range).
+    use isar_clutter::fleishman::sample_moments;
+    let base = common::random_stack(6, 2000, 4, 4).mapv(|z| z / 3.0);
+    let stack =
+        base.mapv(|z| Complex64::new(z.re + 0.3 * z.re * z.re, z.im + 0.1 * z.im * z.im * z.im));
+    let a = analyse(stack.view(), 1).unwrap();
+    let model = fit(
+        Method::FourthOrder,
+        &a,
+        Some(stack.view()),
+        FitOptions::default(),
+    )
+    .unwrap();
+    let generated = model.generate(4, 0, 40_000);
+    let f = model.fourth.as_ref().unwrap();
+    assert_eq!(
+        f.infeasible.sum(),
+        0,
+        "every pixel's moments are reachable here"
+    );
+    let skew_re = sample_moments(stack.slice(ndarray::s![.., 0, 0]).iter().map(|z| z.re)).2;
+    assert!(skew_re > 0.3, "the test data is skewed ({skew_re})");
+    for i in 0..4 {
+        for j in 0..4 {
+            for comp in 0..2 {
+                let part = |s: &Array3<Complex64>| {
+                    let v: Vec<f64> = s
+                        .slice(ndarray::s![.., i, j])
+                        .iter()
+                        .map(|z| if comp == 0 { z.re } else { z.im })
+                        .collect();
+                    sample_moments(v.into_iter())
+                };
+                let (m0, v0, s0, k0) = part(&stack);
+                let (m1, v1, s1, k1) = part(&generated);
+                let sd = v0.sqrt();
+                assert!((m1 - m0).abs() < 0.03 * sd && (v1 / v0 - 1.0).abs() < 0.05, "pixel {i},{j} comp {comp}: mean {m1} vs {m0}, variance {v1} vs {v0}, kurtosis {k0}");
+                // Targets are the original's sample moments; 40,000 generated draws of
+                // heavy-tailed data: skewness within 0.15, kurtosis within 15 % + 0.3.
+                if model.fourth.as_ref().unwrap().infeasible[[comp, i, j]] == 0 {
+                    assert!(
+                        (s1 - s0).abs() < 0.15,
+                        "pixel {i},{j} comp {comp}: skewness {s1} vs {s0}"
+                    );
+                    assert!(
+                        (k1 - k0).abs() < 0.15 * k0.abs() + 0.3,
+                        "pixel {i},{j} comp {comp}: kurtosis {k1} vs {k0}"
+                    );
+                }
+            }
+        }
+    }
+}
