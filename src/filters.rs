@@ -115,6 +115,8 @@ pub struct FilterBank {
     pub horizontal: Vec<Vec<f64>>,
     /// Taps rearranged for the vectorised spatially varying kernel, built on first use.
     planar: std::sync::OnceLock<PlanarTaps>,
+    /// Analytic output standard deviation per pixel, built on first use.
+    sds: std::sync::OnceLock<Vec<f64>>,
 }
 
 /// Taps of a spatially varying bank laid out for the row kernel: for output row `i`, tap `a`
@@ -125,7 +127,14 @@ struct PlanarTaps {
     vertical: Vec<f64>,
     /// `[H][2K+1][W]` horizontal taps.
     horizontal: Vec<f64>,
+    /// Runs `[start, end)` of at most `MAX_GROUP` consecutive output rows whose horizontal
+    /// taps are identical (Methods 1 and 2 share them within a level-1 cell): their
+    /// horizontal sums over the seed rows they have in common are formed once.
+    groups: Vec<(usize, usize)>,
 }
+
+/// Longest run of output rows that share one set of horizontal sums.
+const MAX_GROUP: usize = 4;
 
 impl FilterBank {
     /// A bank from per-pixel taps (`height * width` vectors of `2 half_width + 1` taps each,
@@ -156,6 +165,7 @@ impl FilterBank {
             vertical,
             horizontal,
             planar: std::sync::OnceLock::new(),
+            sds: std::sync::OnceLock::new(),
         }
     }
 
@@ -180,6 +190,15 @@ impl FilterBank {
     pub fn is_uniform(&self) -> bool {
         let same = |v: &Vec<Vec<f64>>| v.iter().all(|t| t == &v[0]);
         same(&self.vertical) && same(&self.horizontal)
+    }
+
+    /// [`FilterBank::output_sd`] of every pixel, computed once.
+    pub fn output_sds(&self) -> &[f64] {
+        self.sds.get_or_init(|| {
+            (0..self.height * self.width)
+                .map(|p| self.output_sd(p))
+                .collect()
+        })
     }
 
     /// Analytic standard deviation of the output at pixel `p` for a unit seed:
@@ -259,9 +278,19 @@ impl FilterBank {
                 }
                 out
             };
+            let horizontal = arrange(&self.horizontal);
+            let row = |i: usize| &horizontal[i * n * w..(i + 1) * n * w];
+            let mut groups: Vec<(usize, usize)> = Vec::new();
+            for i in 0..h {
+                match groups.last_mut() {
+                    Some((g0, g1)) if *g1 - *g0 < MAX_GROUP && row(*g0) == row(i) => *g1 = i + 1,
+                    _ => groups.push((i, i + 1)),
+                }
+            }
             PlanarTaps {
                 vertical: arrange(&self.vertical),
-                horizontal: arrange(&self.horizontal),
+                horizontal,
+                groups,
             }
         })
     }
@@ -299,63 +328,66 @@ fn filter_varying_avx2(bank: &FilterBank, seed: &[Complex64], out: &mut [Complex
             && taps.horizontal.len() == h * n * w
             && taps.vertical.len() == h * n * w
     );
-    for i in 0..h {
+    let zero = _mm256_setzero_pd();
+    let mut hbuf = vec![[zero; 4]; MAX_GROUP + n - 1];
+    for &(g0, g1) in &taps.groups {
         let mut j = 0;
         while j + 8 <= w {
-            // SAFETY: every pointer below stays inside its slice: rows i + a < h + n - 1 of the
-            // seed, columns j + b + 8 <= w + n - 1 = sw, taps (i * n + t) * w + j + 8 <= h n w,
-            // all checked by the assertion above and the loop bounds.
+            // SAFETY: every pointer below stays inside its slice: seed rows g0 + r < g1 + n - 1
+            // <= h + n - 1, columns j + b + 8 <= w + n - 1 = sw, taps (i * n + t) * w + j + 8
+            // <= h n w, all checked by the assertion above and the loop bounds.
             unsafe {
-                let (mut ar0, mut ar1, mut ai0, mut ai1) = (
-                    _mm256_setzero_pd(),
-                    _mm256_setzero_pd(),
-                    _mm256_setzero_pd(),
-                    _mm256_setzero_pd(),
-                );
-                for a in 0..n {
-                    let (mut hr0, mut hr1, mut hi0, mut hi1) = (
-                        _mm256_setzero_pd(),
-                        _mm256_setzero_pd(),
-                        _mm256_setzero_pd(),
-                        _mm256_setzero_pd(),
-                    );
-                    let row = (i + a) * sw + j;
+                // Horizontal sums over the seed rows the group's output rows need, with the
+                // group's shared taps (those of row g0), b ascending.
+                for (r, hs) in hbuf.iter_mut().take(g1 - g0 + n - 1).enumerate() {
+                    let (mut hr0, mut hr1, mut hi0, mut hi1) = (zero, zero, zero, zero);
+                    let row = (g0 + r) * sw + j;
                     for b in 0..n {
-                        let f = taps.horizontal.as_ptr().add((i * n + b) * w + j);
+                        let f = taps.horizontal.as_ptr().add((g0 * n + b) * w + j);
                         let (f0, f1) = (_mm256_loadu_pd(f), _mm256_loadu_pd(f.add(4)));
-                        let (r, m) = (re.as_ptr().add(row + b), im.as_ptr().add(row + b));
-                        hr0 = _mm256_add_pd(hr0, _mm256_mul_pd(_mm256_loadu_pd(r), f0));
-                        hr1 = _mm256_add_pd(hr1, _mm256_mul_pd(_mm256_loadu_pd(r.add(4)), f1));
+                        let (p, m) = (re.as_ptr().add(row + b), im.as_ptr().add(row + b));
+                        hr0 = _mm256_add_pd(hr0, _mm256_mul_pd(_mm256_loadu_pd(p), f0));
+                        hr1 = _mm256_add_pd(hr1, _mm256_mul_pd(_mm256_loadu_pd(p.add(4)), f1));
                         hi0 = _mm256_add_pd(hi0, _mm256_mul_pd(_mm256_loadu_pd(m), f0));
                         hi1 = _mm256_add_pd(hi1, _mm256_mul_pd(_mm256_loadu_pd(m.add(4)), f1));
                     }
-                    let v = taps.vertical.as_ptr().add((i * n + a) * w + j);
-                    let (v0, v1) = (_mm256_loadu_pd(v), _mm256_loadu_pd(v.add(4)));
-                    ar0 = _mm256_add_pd(ar0, _mm256_mul_pd(hr0, v0));
-                    ar1 = _mm256_add_pd(ar1, _mm256_mul_pd(hr1, v1));
-                    ai0 = _mm256_add_pd(ai0, _mm256_mul_pd(hi0, v0));
-                    ai1 = _mm256_add_pd(ai1, _mm256_mul_pd(hi1, v1));
+                    *hs = [hr0, hr1, hi0, hi1];
                 }
-                let (mut r, mut m) = ([0.0f64; 8], [0.0f64; 8]);
-                _mm256_storeu_pd(r.as_mut_ptr(), ar0);
-                _mm256_storeu_pd(r.as_mut_ptr().add(4), ar1);
-                _mm256_storeu_pd(m.as_mut_ptr(), ai0);
-                _mm256_storeu_pd(m.as_mut_ptr().add(4), ai1);
-                for k in 0..8 {
-                    out[i * w + j + k] = Complex64::new(r[k], m[k]);
+                // Each output row weights its n horizontal sums by its vertical taps, a ascending.
+                for i in g0..g1 {
+                    let (mut ar0, mut ar1, mut ai0, mut ai1) = (zero, zero, zero, zero);
+                    for a in 0..n {
+                        let [hr0, hr1, hi0, hi1] = hbuf[i - g0 + a];
+                        let v = taps.vertical.as_ptr().add((i * n + a) * w + j);
+                        let (v0, v1) = (_mm256_loadu_pd(v), _mm256_loadu_pd(v.add(4)));
+                        ar0 = _mm256_add_pd(ar0, _mm256_mul_pd(hr0, v0));
+                        ar1 = _mm256_add_pd(ar1, _mm256_mul_pd(hr1, v1));
+                        ai0 = _mm256_add_pd(ai0, _mm256_mul_pd(hi0, v0));
+                        ai1 = _mm256_add_pd(ai1, _mm256_mul_pd(hi1, v1));
+                    }
+                    let (mut r, mut m) = ([0.0f64; 8], [0.0f64; 8]);
+                    _mm256_storeu_pd(r.as_mut_ptr(), ar0);
+                    _mm256_storeu_pd(r.as_mut_ptr().add(4), ar1);
+                    _mm256_storeu_pd(m.as_mut_ptr(), ai0);
+                    _mm256_storeu_pd(m.as_mut_ptr().add(4), ai1);
+                    for k in 0..8 {
+                        out[i * w + j + k] = Complex64::new(r[k], m[k]);
+                    }
                 }
             }
             j += 8;
         }
-        for j in j..w {
-            filter_block::<1>(
-                taps,
-                &re,
-                &im,
-                (i, j),
-                (w, n, sw),
-                &mut out[i * w + j..][..1],
-            );
+        for i in g0..g1 {
+            for j in j..w {
+                filter_block::<1>(
+                    taps,
+                    &re,
+                    &im,
+                    (i, j),
+                    (w, n, sw),
+                    &mut out[i * w + j..][..1],
+                );
+            }
         }
     }
 }

@@ -651,9 +651,12 @@ impl Model {
                 let k = f.bank.half_width;
                 let white = crate::data::white_seed(seed, index, h + 2 * k, w + 2 * k);
                 filter_seed(&f.bank, white.view(), out);
-                for (p, x) in out.iter_mut().enumerate() {
-                    let sd = f.bank.output_sd(p);
-                    let (mu, s) = (self.mean[[p / w, p % w]], self.std[[p / w, p % w]]);
+                let (mean, std) = (
+                    self.mean.as_slice().expect("standard layout"),
+                    self.std.as_slice().expect("standard layout"),
+                );
+                for (((x, sd), mu), s) in out.iter_mut().zip(f.bank.output_sds()).zip(mean).zip(std)
+                {
                     *x = mu + *x * (s / sd);
                 }
             }

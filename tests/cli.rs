@@ -597,7 +597,13 @@ fn fit_then_generate_streams_the_same_samples_as_the_library() {
     stack
         .write_npy(File::create(dir.path().join("s.npy")).unwrap())
         .unwrap();
-    for method in ["method1", "method2", "full_covariance", "uncorrelated", "fourth_order"] {
+    for method in [
+        "method1",
+        "method2",
+        "full_covariance",
+        "uncorrelated",
+        "fourth_order",
+    ] {
         let model_dir = dir.path().join(method);
         let o = bin(&[
             "fit",
