@@ -450,3 +450,28 @@ fn fourth_order_model_reproduces_per_pixel_moments() {
         }
     }
 }
+
+#[test]
+fn batched_generation_equals_the_per_sample_sampler() {
+    // generate_c64 batches the full-covariance sampler (register-blocked for N <= 256, tiled
+    // above) and must give the per-sample sampler's values, rounded to complex64.
+    for n in [40, 300] {
+        let stack = common::random_stack(7, n, 6, 10);
+        let a = analyse(stack.view(), 1).unwrap();
+        for method in [
+            Method::FullCovariance,
+            Method::Method1,
+            Method::Uncorrelated,
+        ] {
+            let model = fit(method, &a, Some(stack.view()), FitOptions::default()).unwrap();
+            let per_sample = model
+                .generate(3, 5, 21)
+                .mapv(|z| num_complex::Complex::new(z.re as f32, z.im as f32));
+            assert_eq!(
+                model.generate_c64(3, 5, 21),
+                per_sample,
+                "{method:?}, N = {n}"
+            );
+        }
+    }
+}
