@@ -190,14 +190,14 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
                     r_v: split(read(dir, "r_v.npy")?),
                 }
             };
-            let bank = params.bank(info.half_width, info.height, info.width);
-            Some(FilterModel {
+            let residuals = (read(dir, "residual_h.npy")?, read(dir, "residual_v.npy")?);
+            let shape = (info.half_width, info.height, info.width);
+            Some(FilterModel::new(
                 params,
-                residual_h: read(dir, "residual_h.npy")?,
-                residual_v: read(dir, "residual_v.npy")?,
-                clamped: read(dir, "clamped.npy")?,
-                bank,
-            })
+                residuals,
+                read(dir, "clamped.npy")?,
+                shape,
+            ))
         }
         _ => None,
     };

@@ -128,6 +128,26 @@ pub struct FilterModel {
     pub bank: FilterBank,
 }
 
+impl FilterModel {
+    /// A model from fitted cell parameters, their residuals and unreached counts; builds the
+    /// per-pixel bank of an `h x w` image with half-width `k`.
+    pub fn new(
+        params: CellParams,
+        (residual_h, residual_v): (Array2<f64>, Array2<f64>),
+        clamped: Array2<u8>,
+        (k, h, w): (usize, usize, usize),
+    ) -> Self {
+        let bank = params.bank(k, h, w);
+        FilterModel {
+            params,
+            residual_h,
+            residual_v,
+            clamped,
+            bank,
+        }
+    }
+}
+
 /// A fitted model, ready to generate samples.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -610,14 +630,12 @@ pub fn fit(
             let (alpha_h, ch, residual_h) = invert(Direction::H);
             let (alpha_v, cv, residual_v) = invert(Direction::V);
             let params = CellParams::Exponential { alpha_h, alpha_v };
-            let bank = params.bank(k, h, w);
-            model.filter = Some(FilterModel {
+            model.filter = Some(FilterModel::new(
                 params,
-                residual_h,
-                residual_v,
-                clamped: ch + cv,
-                bank,
-            });
+                (residual_h, residual_v),
+                ch + cv,
+                (k, h, w),
+            ));
         }
         Method::Method2 => {
             let l = opts.levels;
@@ -666,14 +684,12 @@ pub fn fit(
             let (r_h, residual_h, ch) = solve(Direction::H);
             let (r_v, residual_v, cv) = solve(Direction::V);
             let params = CellParams::Dyadic { r_h, r_v };
-            let bank = params.bank(k, h, w);
-            model.filter = Some(FilterModel {
+            model.filter = Some(FilterModel::new(
                 params,
-                residual_h,
-                residual_v,
-                clamped: ch + cv,
-                bank,
-            });
+                (residual_h, residual_v),
+                ch + cv,
+                (k, h, w),
+            ));
         }
     }
     Ok(model)
