@@ -65,19 +65,8 @@ fn main() {
             "peak (AVX2 FMA loop, 2 threads): {:.1} GFLOP/s",
             peak_gflops(2)
         );
-        let d = FilteredNoise {
-            filter: FilterParams::Exponential {
-                alpha_h: Map::Ramp(RampAxis::Horizontal, 0.5, 2.0),
-                alpha_v: Map::Constant(1.0),
-            },
-            height: 64,
-            width: 64,
-            samples: 1000,
-            half_width: 8,
-            mean: Map::Constant(0.0),
-            mean_im: Map::Constant(0.0),
-            std: Map::Constant(1.0),
-        };
+        let ramp = FilterParams::Exponential { alpha_h: Map::Ramp(RampAxis::Horizontal, 0.5, 2.0), alpha_v: Map::Constant(1.0) };
+        let d = FilteredNoise::new(ramp, (64, 64), 1000, 8);
         let bank = filter_bank(&d);
         // Kernel alone, on a Method 1 bank (taps shared within 2 x 2 cells, as every fitted
         // model has): per pair of rows and column, (2 + 2K) horizontal sums of 2K+1 taps and

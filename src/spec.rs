@@ -456,6 +456,28 @@ pub struct FilteredNoise {
     pub std: Map,
 }
 
+impl FilteredNoise {
+    /// Zero-mean, unit-variance filtered noise of `size = (H, W)`, `samples` samples and filter
+    /// half-width `half_width` (what a spec gives when `mean`, `mean_im` and `std` are unset).
+    pub fn new(
+        filter: FilterParams,
+        (height, width): (usize, usize),
+        samples: usize,
+        half_width: usize,
+    ) -> Self {
+        FilteredNoise {
+            filter,
+            height,
+            width,
+            samples,
+            half_width,
+            mean: Map::Constant(0.0),
+            mean_im: Map::Constant(0.0),
+            std: Map::Constant(1.0),
+        }
+    }
+}
+
 /// Filter parameters per direction.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FilterParams {

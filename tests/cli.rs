@@ -69,6 +69,17 @@ fn run(spec: &Path, out: &Path, jobs: &str) -> Output {
     ])
 }
 
+/// The values of a string column without nulls.
+fn strings(df: &DataFrame, column: &str) -> Vec<String> {
+    df.column(column)
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(|s| s.unwrap().to_string())
+        .collect()
+}
+
 fn names(df: &DataFrame) -> Vec<String> {
     df.get_column_names()
         .iter()
@@ -85,14 +96,7 @@ fn run_writes_the_documented_tables() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
     let jobs = read(&out, "jobs.parquet");
-    let ids: Vec<String> = jobs
-        .column("job")
-        .unwrap()
-        .str()
-        .unwrap()
-        .iter()
-        .map(|s| s.unwrap().to_string())
-        .collect();
+    let ids = strings(&jobs, "job");
     // held: 2 alpha_h x 2 levels; measured: only the analysis axis applies -> 2 jobs. Grid
     // axes are ordered by key (`analysis.levels` before `datasets.held.alpha_h`), the last
     // varying fastest; ids list the swept values by key.
@@ -274,14 +278,7 @@ fn a_failing_job_is_recorded_and_the_others_finish() {
         "{stderr}"
     );
     let jobs = read(&out, "jobs.parquet");
-    let status: Vec<&str> = jobs
-        .column("status")
-        .unwrap()
-        .str()
-        .unwrap()
-        .iter()
-        .map(Option::unwrap)
-        .collect();
+    let status = strings(&jobs, "status");
     assert_eq!(status, ["ok", "ok", "ok", "ok", "failed", "failed"]);
     let err = jobs
         .column("error")
@@ -496,14 +493,7 @@ fn synthesis_jobs_write_params_samples_and_generated_analyses() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(run(&spec, &b, "1").status.success());
     let jobs = read(&a, "jobs.parquet");
-    let ids: Vec<String> = jobs
-        .column("job")
-        .unwrap()
-        .str()
-        .unwrap()
-        .iter()
-        .map(|s| s.unwrap().to_string())
-        .collect();
+    let ids = strings(&jobs, "job");
     // The synthesis axis applies to the synthesis jobs only: the analysis job has no params.
     assert_eq!(
         ids,
@@ -519,14 +509,8 @@ fn synthesis_jobs_write_params_samples_and_generated_analyses() {
     let gen = jobs.column("generation_seed").unwrap().u64().unwrap();
     assert!((1..5).all(|i| gen.get(i) == gen.get(0)));
     let summary = read(&a, "analysis_summary.parquet");
-    let sources: std::collections::BTreeSet<String> = summary
-        .column("source")
-        .unwrap()
-        .str()
-        .unwrap()
-        .iter()
-        .map(|s| s.unwrap().to_string())
-        .collect();
+    let sources: std::collections::BTreeSet<String> =
+        strings(&summary, "source").into_iter().collect();
     assert_eq!(
         sources.into_iter().collect::<Vec<_>>(),
         [

@@ -13,16 +13,7 @@ use ndarray::Array2;
 use num_complex::Complex64;
 
 fn dataset(filter: FilterParams, h: usize, w: usize, n: usize, k: usize) -> FilteredNoise {
-    FilteredNoise {
-        filter,
-        height: h,
-        width: w,
-        samples: n,
-        half_width: k,
-        mean: Map::Constant(0.0),
-        mean_im: Map::Constant(0.0),
-        std: Map::Constant(1.0),
-    }
+    FilteredNoise::new(filter, (h, w), n, k)
 }
 
 fn direct(bank: &FilterBank, seed: &Array2<Complex64>) -> Vec<Complex64> {

@@ -51,19 +51,11 @@ fn table_4_exact_group_correlations() {
 }
 
 fn table4_dataset() -> FilteredNoise {
-    FilteredNoise {
-        filter: FilterParams::Exponential {
-            alpha_h: Map::Constant(1.0),
-            alpha_v: Map::Constant(1.0),
-        },
-        height: 64,
-        width: 64,
-        samples: 1000,
-        half_width: 8,
-        mean: Map::Constant(0.0),
-        mean_im: Map::Constant(0.0),
-        std: Map::Constant(1.0),
-    }
+    let alpha_1 = FilterParams::Exponential {
+        alpha_h: Map::Constant(1.0),
+        alpha_v: Map::Constant(1.0),
+    };
+    FilteredNoise::new(alpha_1, (64, 64), 1000, 8)
 }
 
 #[test]
