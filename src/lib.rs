@@ -10,14 +10,18 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod cmd;
 pub mod data;
 pub mod filters;
 pub mod fleishman;
+pub mod metrics;
 pub mod model;
 pub mod npy;
 pub mod oracle;
 pub mod plan;
 pub mod results;
 pub mod runner;
+pub mod similarity;
 pub mod spec;
 pub mod synthesis;
+pub mod table;

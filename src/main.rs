@@ -35,6 +35,25 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Print comparison tables (methods side by side) from a results folder's Parquet files.
+    Table {
+        /// The results folder of a run (outputs/<name>).
+        results: PathBuf,
+        /// One table: rmse, cmd, kl, model_order or summary (default: every table with rows).
+        #[arg(long)]
+        table: Option<String>,
+        /// text (aligned columns) or md (Markdown).
+        #[arg(long, value_enum, default_value = "text")]
+        format: isar_clutter::table::Format,
+        /// Column spread across the page (default: method; model_order for model_order;
+        /// source for summary), e.g. `--pivot dataset`.
+        #[arg(long)]
+        pivot: Option<String>,
+        /// Keep rows whose column has one of the values: `--filter dataset=exp,dyadic`
+        /// (repeatable).
+        #[arg(long, value_parser = isar_clutter::table::parse_filter)]
+        filter: Vec<(String, Vec<String>)>,
+    },
     /// Check a spec (syntax, types, files, sizes) without running it.
     Validate {
         /// The experiment spec (YAML).
@@ -99,6 +118,22 @@ fn main() -> ExitCode {
 
 fn real_main() -> Result<ExitCode> {
     match Cli::parse().command {
+        Command::Table {
+            results,
+            table,
+            format,
+            pivot,
+            filter,
+        } => {
+            table_command(
+                &results,
+                table.as_deref(),
+                format,
+                pivot.as_deref(),
+                &filter,
+            )?;
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Validate { spec } => {
             let plan = plan::load(&spec)?;
             println!("{}: valid, {} job(s)", spec.display(), plan.jobs.len());
@@ -294,4 +329,46 @@ fn print_jobs(plan: &Plan) {
         line([&r[0], &r[1], &r[2], &r[3], &r[4], &r[5], &r[6]]);
     }
     println!("{} job(s), master seed {}", plan.jobs.len(), plan.spec.seed);
+}
+
+/// Prints the standard tables (or one) of a results folder.
+fn table_command(
+    results: &std::path::Path,
+    name: Option<&str>,
+    format: isar_clutter::table::Format,
+    pivot: Option<&str>,
+    filters: &[(String, Vec<String>)],
+) -> Result<()> {
+    use isar_clutter::table::{render, standard};
+    if !results.is_dir() {
+        anyhow::bail!("{} is not a results folder", results.display());
+    }
+    let defs = standard();
+    let chosen: Vec<_> = match name {
+        None => defs.iter().collect(),
+        Some(n) => {
+            let d = defs.iter().find(|d| d.name == n).with_context(|| {
+                let names: Vec<&str> = defs.iter().map(|d| d.name).collect();
+                format!("no table {n:?}; tables: {}", names.join(", "))
+            })?;
+            vec![d]
+        }
+    };
+    let mut printed = 0;
+    for def in chosen {
+        if let Some(text) = render(results, def, filters, pivot, format)? {
+            if printed > 0 {
+                println!();
+            }
+            print!("{text}");
+            printed += 1;
+        }
+    }
+    if printed == 0 {
+        anyhow::bail!(
+            "no rows to show in {} (with these filters)",
+            results.display()
+        );
+    }
+    Ok(())
 }

@@ -53,6 +53,34 @@ pub struct Job {
     /// Data seed: hash of the master seed and the dataset identity (dataset id and the
     /// dataset's own swept values), shared by jobs that see the same data.
     pub data_seed: u64,
+    /// The noise floor an analysis job measures when the spec has metrics.
+    pub noise_floor: Option<NoiseFloorPlan>,
+}
+
+/// How an analysis job measures the metrics' noise floor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseFloorPlan {
+    /// The original against an independent draw of `samples` samples from the synthetic model,
+    /// generated from `seed` (hash of the master seed and the job identity).
+    Draws {
+        /// Samples of the independent draw (`synthesis.samples`).
+        samples: usize,
+        /// Data seed of the draw.
+        seed: u64,
+    },
+    /// The first `floor(N/2)` samples against the last `floor(N/2)`.
+    Halves,
+}
+
+impl NoiseFloorPlan {
+    /// `draws` or `halves`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            NoiseFloorPlan::Draws { .. } => "draws",
+            NoiseFloorPlan::Halves => "halves",
+        }
+    }
 }
 
 /// A validated experiment.
@@ -68,6 +96,8 @@ pub struct Plan {
     pub jobs: Vec<Job>,
     /// Short keys of all swept parameters, sorted (the extra table columns).
     pub param_keys: Vec<String>,
+    /// Validated similarity metrics (empty: none).
+    pub metrics: Vec<crate::metrics::Metric>,
 }
 
 /// Derives a 64-bit seed from the master seed, a domain and a canonical identity
@@ -144,6 +174,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
     let ctx = Ctx { file };
     check_top(&spec, &ctx)?;
+    let metrics = spec::check_metrics(&spec, &ctx)?;
     let axes = parse_axes(&spec, &ctx)?;
     let points = sweep_points(&axes, &ctx)?;
     let mut jobs = Vec::new();
@@ -196,6 +227,9 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
             }
         }
     }
+    for job in &mut jobs {
+        check_job_metrics(&spec, &metrics, &ctx, job)?;
+    }
     assign_ids(&mut jobs);
     let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
     param_keys.sort();
@@ -206,7 +240,65 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         spec,
         jobs,
         param_keys,
+        metrics,
     })
+}
+
+/// Checks the metrics against one job's data and sets an analysis job's noise floor.
+fn check_job_metrics(
+    spec: &RawSpec,
+    metrics: &[crate::metrics::Metric],
+    ctx: &Ctx,
+    job: &mut Job,
+) -> Result<(), SpecError> {
+    use crate::spec::NoiseFloor;
+    let (n, h, w) = job.dataset.shape();
+    for (i, m) in metrics.iter().enumerate() {
+        if let crate::metrics::Metric::KlArea(_, block) = m {
+            if *block > h.min(w) {
+                return Err(ctx.err(
+                    format!("metrics[{i}].kl_area.block"),
+                    format!(
+                        "block {block} is larger than the {h}x{w} images of dataset {}",
+                        job.dataset_id
+                    ),
+                ));
+            }
+        }
+    }
+    let (Some(syn), None, false) = (&spec.synthesis, job.method, metrics.is_empty()) else {
+        return Ok(());
+    };
+    let synthetic = !matches!(job.dataset, Dataset::Npy(_));
+    job.noise_floor = match (spec.noise_floor, synthetic) {
+        (NoiseFloor::None, _) => None,
+        (NoiseFloor::Draws | NoiseFloor::Auto, true) => Some(NoiseFloorPlan::Draws {
+            samples: syn.samples,
+            seed: derive_seed(spec.seed, "noise_floor", &job.identity),
+        }),
+        (NoiseFloor::Draws, false) => {
+            return Err(ctx.err(
+                "noise_floor",
+                format!(
+                    "`draws` needs a synthetic dataset; {} is read from a file (use `halves`)",
+                    job.dataset_id
+                ),
+            ))
+        }
+        (NoiseFloor::Halves | NoiseFloor::Auto, _) => {
+            if n < 4 {
+                return Err(ctx.err(
+                    "noise_floor",
+                    format!(
+                        "`halves` needs at least 4 samples; dataset {} has {n}",
+                        job.dataset_id
+                    ),
+                ));
+            }
+            Some(NoiseFloorPlan::Halves)
+        }
+    };
+    Ok(())
 }
 
 /// Document-level checks: name, unique dataset ids.
@@ -449,6 +541,7 @@ fn build_job(
         data_seed: derive_seed(spec.seed, "data", &data_identity),
         params,
         identity,
+        noise_floor: None,
     })
 }
 

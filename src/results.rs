@@ -36,6 +36,20 @@ pub struct JobResult {
     pub analysis_s: f64,
     /// Bytes of stack data analysed.
     pub bytes: usize,
+    /// The metrics: generated vs original (synthesis jobs) or the noise floor (analysis jobs).
+    pub similarity: Option<SimilarityOutcome>,
+}
+
+/// The metrics one job computed.
+pub struct SimilarityOutcome {
+    /// What was compared with the original: a method's name, or `noise_floor`.
+    pub compared: &'static str,
+    /// For the noise floor: `draws` or `halves`.
+    pub noise_floor: Option<&'static str>,
+    /// Rows and KL maps.
+    pub comparison: crate::similarity::Comparison,
+    /// Seconds spent on the metrics (and, for the noise floor, on its data).
+    pub seconds: f64,
 }
 
 /// What a synthesis job fitted and generated.
@@ -136,12 +150,22 @@ pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
 /// If a file cannot be written.
 pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
     use rayon::prelude::*;
-    let Some(analysis) = &r.analysis else {
-        return Ok(());
-    };
-    write_npy(&dir.join("mean.npy"), &analysis.mean)?;
-    let mut maps: Vec<(String, &Array2<f64>)> = vec![("variance".into(), &analysis.variance)];
-    for lm in &analysis.levels {
+    let mut maps: Vec<(String, &Array2<f64>)> = vec![];
+    if let Some(sim) = &r.similarity {
+        let prefix = if sim.noise_floor.is_some() {
+            "noise_floor_"
+        } else {
+            ""
+        };
+        for (stem, map) in &sim.comparison.maps {
+            maps.push((format!("{prefix}{stem}"), map));
+        }
+    }
+    if let Some(analysis) = &r.analysis {
+        write_npy(&dir.join("mean.npy"), &analysis.mean)?;
+        maps.push(("variance".into(), &analysis.variance));
+    }
+    for lm in r.analysis.iter().flat_map(|a| &a.levels) {
         for d in Direction::ALL {
             maps.push((
                 format!("level{}_correlation_{d}", lm.level),
@@ -173,21 +197,23 @@ struct Table<'a> {
     cols: Vec<(String, Values)>,
 }
 
-/// Column types: string, i64, u64, nullable f64.
+/// Column types: nullable string, i64, u64, f64 and bool.
 #[derive(Clone, Copy)]
 enum Kind {
     S,
     I,
     U,
     F,
+    B,
 }
 
 /// Column data.
 enum Values {
     Str(Vec<Option<String>>),
-    Int(Vec<i64>),
+    Int(Vec<Option<i64>>),
     UInt(Vec<u64>),
     Float(Vec<Option<f64>>),
+    Bool(Vec<Option<bool>>),
 }
 
 impl<'a> Table<'a> {
@@ -200,6 +226,7 @@ impl<'a> Table<'a> {
                     Kind::I => Values::Int(vec![]),
                     Kind::U => Values::UInt(vec![]),
                     Kind::F => Values::Float(vec![]),
+                    Kind::B => Values::Bool(vec![]),
                 };
                 (n.as_ref().to_string(), empty)
             })
@@ -229,7 +256,15 @@ impl<'a> Table<'a> {
         }
     }
     fn i(&mut self, name: &str, v: i64) {
+        self.i_opt(name, Some(v))
+    }
+    fn i_opt(&mut self, name: &str, v: Option<i64>) {
         if let Values::Int(c) = self.col(name) {
+            c.push(v)
+        }
+    }
+    fn b(&mut self, name: &str, v: Option<bool>) {
+        if let Values::Bool(c) = self.col(name) {
             c.push(v)
         }
     }
@@ -258,6 +293,7 @@ impl<'a> Table<'a> {
                 Values::Int(v) => Column::new(n.as_str().into(), v),
                 Values::UInt(v) => Column::new(n.as_str().into(), v),
                 Values::Float(v) => Column::new(n.as_str().into(), v),
+                Values::Bool(v) => Column::new(n.as_str().into(), v),
             })
             .collect();
         for key in &self.plan.param_keys {
@@ -583,6 +619,129 @@ pub fn synthesis_params(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFram
             t.f("residual_h", opt(f.residual_h[[r, c]]));
             t.f("residual_v", opt(f.residual_v[[r, c]]));
             t.i("clamped", clamped as i64);
+            t.row(job);
+        }
+    }
+    t.finish()
+}
+
+/// `similarity`: one row per job, metric and statistic: each synthesis job's generated samples
+/// against the original (`method` = the method), and each analysis job's noise floor (`method`
+/// = `noise_floor`, `noise_floor` = `draws` or `halves`), with the metric's parameters (null
+/// where a metric has none).
+pub fn similarity(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("method", Kind::S),
+            ("metric", Kind::S),
+            ("level", Kind::I),
+            ("direction", Kind::S),
+            ("component", Kind::S),
+            ("statistic", Kind::S),
+            ("value", Kind::F),
+            ("units", Kind::I),
+            ("samples_original", Kind::I),
+            ("samples_compared", Kind::I),
+            ("noise_floor", Kind::S),
+            ("bins", Kind::I),
+            ("smoothing", Kind::F),
+            ("symmetric", Kind::B),
+            ("db", Kind::B),
+            ("block", Kind::I),
+            ("cmd_form", Kind::S),
+        ],
+    );
+    for (job, r) in ok(plan, outcomes) {
+        let Some(sim) = &r.similarity else { continue };
+        for row in &sim.comparison.rows {
+            t.s("job", &job.id);
+            t.s("dataset", &job.dataset_id);
+            t.s("method", sim.compared);
+            t.s("metric", row.metric);
+            t.i_opt("level", row.level.map(|l| l as i64));
+            t.s_opt("direction", row.direction.map(|d| d.as_str().to_string()));
+            t.s_opt("component", row.component.map(str::to_string));
+            t.s("statistic", row.statistic);
+            t.f("value", Some(row.value).filter(|v| !v.is_nan()));
+            t.i("units", row.units as i64);
+            t.i("samples_original", sim.comparison.samples.0 as i64);
+            t.i("samples_compared", sim.comparison.samples.1 as i64);
+            t.s_opt("noise_floor", sim.noise_floor.map(str::to_string));
+            t.i_opt("bins", row.kl.map(|k| k.bins as i64));
+            t.f("smoothing", row.kl.map(|k| k.smoothing));
+            t.b("symmetric", row.kl.map(|k| k.symmetric));
+            t.b("db", row.kl.map(|k| k.db));
+            t.i_opt("block", row.block.map(|b| b as i64));
+            t.s_opt("cmd_form", row.form.clone());
+            t.row(job);
+        }
+    }
+    t.finish()
+}
+
+/// `model_order` (ch. 3.2, Tables 1-2): from the per-pixel KL (`kl_pixel`) of the
+/// second-order model (the `uncorrelated` method: a Gaussian with the pixel's mean and
+/// variance, `model_order` 2) and the fourth-order model (`fourth_order`, 4), the mean and the
+/// worst pixel's KL in dB per component; the noise floor's rows have a null `model_order`.
+pub fn model_order(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    use crate::synthesis::Method;
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("model_order", Kind::I),
+            ("component", Kind::S),
+            ("kl_mean_db", Kind::F),
+            ("kl_worst_db", Kind::F),
+            ("pixels", Kind::I),
+            ("samples_original", Kind::I),
+            ("samples_compared", Kind::I),
+            ("bins", Kind::I),
+            ("smoothing", Kind::F),
+            ("symmetric", Kind::B),
+        ],
+    );
+    for (job, r) in ok(plan, outcomes) {
+        let Some(sim) = &r.similarity else { continue };
+        let order = match job.method {
+            Some(Method::Uncorrelated) => Some(2),
+            Some(Method::FourthOrder) => Some(4),
+            None => None,
+            Some(_) => continue,
+        };
+        for component in ["re", "im"] {
+            let stat = |name: &str| {
+                sim.comparison.rows.iter().find(|w| {
+                    w.metric == "kl_pixel" && w.component == Some(component) && w.statistic == name
+                })
+            };
+            let (Some(mean), Some(max)) = (stat("mean"), stat("max")) else {
+                continue;
+            };
+            let kl = mean.kl.expect("KL rows carry their options");
+            let to_db = |v: f64| if kl.db { v } else { crate::metrics::db(v) };
+            t.s("job", &job.id);
+            t.s("dataset", &job.dataset_id);
+            t.i_opt("model_order", order);
+            t.s("component", component);
+            t.f(
+                "kl_mean_db",
+                Some(to_db(mean.value)).filter(|v| !v.is_nan()),
+            );
+            t.f(
+                "kl_worst_db",
+                Some(to_db(max.value)).filter(|v| !v.is_nan()),
+            );
+            t.i("pixels", mean.units as i64);
+            t.i("samples_original", sim.comparison.samples.0 as i64);
+            t.i("samples_compared", sim.comparison.samples.1 as i64);
+            t.i("bins", kl.bins as i64);
+            t.f("smoothing", Some(kl.smoothing));
+            t.b("symmetric", Some(kl.symmetric));
             t.row(job);
         }
     }

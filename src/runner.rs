@@ -3,15 +3,21 @@
 //! others, then the Parquet tables, the `.npy` maps and `manifest.json`, all written
 //! atomically into the output folder.
 
+use crate::analysis::Analysis;
 use crate::analysis::Direction;
-use crate::data::materialise;
+use crate::data::{materialise, Materialised};
 use crate::filters::{expected_maps, expected_maps_are_cheap, lag_correlation};
-use crate::plan::{Job, Plan};
-use crate::results::{self, FilterRow, JobOutcome, JobResult, SynthesisOutcome};
+use crate::metrics::Metric;
+use crate::plan::{Job, NoiseFloorPlan, Plan};
+use crate::results::{self, FilterRow, JobOutcome, JobResult, SimilarityOutcome, SynthesisOutcome};
+use crate::similarity::{compare, Side};
+use crate::spec::Dataset;
 use crate::spec::SynthesisSpec;
 use crate::synthesis::{fit, FitOptions, Method};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use ndarray::{s, ArrayView3};
+use num_complex::Complex64;
 use rayon::prelude::*;
 use serde_json::json;
 use std::io::IsTerminal;
@@ -165,7 +171,7 @@ fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
 /// Runs one job: materialise, analyse, compute the ground truth.
 fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
     if let (Some(method), Some(syn)) = (job.method, &job.synthesis) {
-        return run_synthesis_job(job, method, syn, out);
+        return run_synthesis_job(plan, job, method, syn, out);
     }
     let t = Instant::now();
     let data = materialise(&job.dataset, job.data_seed)
@@ -200,6 +206,13 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
             }
         }
     }
+    let similarity = match job.noise_floor {
+        Some(nf) => Some(
+            noise_floor(plan, job, nf, &data, &analysis)
+                .with_context(|| format!("noise floor ({})", nf.as_str()))?,
+        ),
+        None => None,
+    };
     let (n, h, w) = job.dataset.shape();
     let result = JobResult {
         source: "original",
@@ -211,14 +224,79 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
         data_s,
         analysis_s,
         bytes: data.stack.bytes(),
+        similarity,
     };
     Ok(result)
+}
+
+/// The metrics between two independent stacks of the original data: the original against an
+/// independent draw of the synthetic model (`draws`), or one half against the other.
+fn noise_floor(
+    plan: &Plan,
+    job: &Job,
+    nf: NoiseFloorPlan,
+    data: &Materialised,
+    analysis: &Analysis,
+) -> Result<SimilarityOutcome> {
+    let t = Instant::now();
+    let levels = job.analysis.levels;
+    let rmse = plan.metrics.contains(&Metric::MultiscaleRmse);
+    let analyse = |x: ArrayView3<Complex64>| -> Result<Option<Analysis>> {
+        Ok(if rmse {
+            Some(crate::analysis::analyse(x, levels)?)
+        } else {
+            None
+        })
+    };
+    let original = data.stack.to_complex128(data.hwn);
+    let comparison = match nf {
+        NoiseFloorPlan::Draws { samples, seed } => {
+            let (Dataset::FilteredNoise(f), Some((bank, _))) = (&job.dataset, &data.truth) else {
+                anyhow::bail!("draws need a synthetic dataset");
+            };
+            let mut spec = (**f).clone();
+            spec.samples = samples;
+            let draw = crate::data::generate(&spec, bank, seed);
+            let draw_analysis = analyse(draw.view())?;
+            let a = Side {
+                stack: original.view(),
+                analysis: Some(analysis),
+            };
+            let b = Side {
+                stack: draw.view(),
+                analysis: draw_analysis.as_ref(),
+            };
+            compare(a, b, &plan.metrics)
+        }
+        NoiseFloorPlan::Halves => {
+            let half = original.dim().0 / 2;
+            let first = original.slice(s![..half, .., ..]);
+            let second = original.slice(s![half..2 * half, .., ..]);
+            let (fa, sa) = (analyse(first)?, analyse(second)?);
+            let a = Side {
+                stack: first,
+                analysis: fa.as_ref(),
+            };
+            let b = Side {
+                stack: second,
+                analysis: sa.as_ref(),
+            };
+            compare(a, b, &plan.metrics)
+        }
+    };
+    Ok(SimilarityOutcome {
+        compared: "noise_floor",
+        noise_floor: Some(nf.as_str()),
+        comparison,
+        seconds: t.elapsed().as_secs_f64(),
+    })
 }
 
 /// Runs a synthesis job: analyses the original data (to the levels the method needs), fits the
 /// method, generates the samples from the dataset's generation seed, saves them if asked and
 /// analyses them.
 fn run_synthesis_job(
+    plan: &Plan,
     job: &Job,
     method: Method,
     syn: &SynthesisSpec,
@@ -232,20 +310,26 @@ fn run_synthesis_job(
         Method::Method2 => syn.dyadic_levels(&job.analysis),
         _ => 1,
     };
+    let rmse = plan.metrics.contains(&Metric::MultiscaleRmse);
+    let analysed = if rmse {
+        levels.max(job.analysis.levels)
+    } else {
+        levels
+    };
     let original = data
         .stack
-        .analyse(data.hwn, levels)
+        .analyse(data.hwn, analysed)
         .with_context(|| format!("analysing dataset {}", job.dataset_id))?;
     let t = Instant::now();
-    let stack = matches!(method, Method::FullCovariance | Method::FourthOrder)
-        .then(|| data.stack.to_complex128(data.hwn));
+    let stack = (matches!(method, Method::FullCovariance | Method::FourthOrder)
+        || !plan.metrics.is_empty())
+    .then(|| data.stack.to_complex128(data.hwn));
     let opts = FitOptions {
         half_width: syn.half_width,
         levels,
     };
     let model = fit(method, &original, stack.as_ref().map(|s| s.view()), opts)
         .with_context(|| format!("fitting {}", method.as_str()))?;
-    drop(stack);
     let fit_s = t.elapsed().as_secs_f64();
     let source = format!("job {} (dataset {})", job.id, job.dataset_id);
     let info = crate::model::ModelInfo::new(&model, &original, syn.half_width, levels, source);
@@ -269,6 +353,24 @@ fn run_synthesis_job(
         None
     };
     let analysis_s = t.elapsed().as_secs_f64();
+    let similarity = stack.filter(|_| !plan.metrics.is_empty()).map(|stack| {
+        let t = Instant::now();
+        let a = Side {
+            stack: stack.view(),
+            analysis: Some(&original),
+        };
+        let b = Side {
+            stack: generated.view(),
+            analysis: analysis.as_ref(),
+        };
+        let comparison = compare(a, b, &plan.metrics);
+        SimilarityOutcome {
+            compared: method.as_str(),
+            noise_floor: None,
+            comparison,
+            seconds: t.elapsed().as_secs_f64(),
+        }
+    });
     let (_, h, w) = job.dataset.shape();
     Ok(JobResult {
         source: method.as_str(),
@@ -285,6 +387,7 @@ fn run_synthesis_job(
         data_s,
         analysis_s,
         bytes: syn.samples * h * w * 8,
+        similarity,
     })
 }
 
@@ -308,6 +411,8 @@ fn write_outputs(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()>
         Output::Table("filter_correlation.parquet", results::filter_correlation),
         Output::Table("jobs.parquet", results::jobs_table),
         Output::Table("synthesis_params.parquet", results::synthesis_params),
+        Output::Table("similarity.parquet", results::similarity),
+        Output::Table("model_order.parquet", results::model_order),
     ];
     if plan.spec.outputs.npy_maps {
         for o in outcomes {
@@ -380,6 +485,7 @@ fn write_manifest(
                     "fit_s": r.synthesis.as_ref().map(|s| s.fit_s),
                     "generate_s": r.synthesis.as_ref().map(|s| s.generate_s),
                     "generated_samples_per_s": r.synthesis.as_ref().map(|s| s.samples as f64 / s.generate_s),
+                    "metrics_s": r.similarity.as_ref().map(|s| s.seconds),
                 })
             });
             json!({
@@ -387,6 +493,7 @@ fn write_manifest(
                 "dataset": job.dataset_id,
                 "method": job.method.map(Method::as_str),
                 "generation_seed": job.generation_seed,
+                "noise_floor": job.noise_floor,
                 "identity": job.identity,
                 "seed": job.seed,
                 "data_seed": job.data_seed,
