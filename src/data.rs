@@ -5,7 +5,8 @@
 //! `N(0, 1/2)`) on a grid padded by the half-width, filtered in 'valid' mode (no edge
 //! effects), then `x = mu + std * y / sd(y)` with the analytic `sd(y)`. Sample `s` draws from
 //! ChaCha20 seeded with the data seed on stream `s`, so samples are generated in parallel and
-//! the stack does not depend on the thread count.
+//! the stack does not depend on the thread count. K-distributed clutter (`texture_shape`)
+//! scales sample `s` by the square root of a gamma texture drawn on stream `2^40 + s`.
 
 use crate::filters::{dyadic_taps, exponential_taps, filter_seed, FilterBank};
 use crate::npy::{NpyError, Stack};
@@ -86,11 +87,27 @@ pub fn generate(d: &FilteredNoise, bank: &FilterBank, data_seed: u64) -> Array3<
         .for_each(|(s, plane)| {
             let seed = white_seed(data_seed, s, h + 2 * k, w + 2 * k);
             filter_seed(bank, seed.view(), plane);
+            let t = d
+                .texture_shape
+                .map_or(1.0, |nu| texture(data_seed, s, nu).sqrt());
             for ((x, g), m) in plane.iter_mut().zip(&gain).zip(&mu) {
-                *x = m + *x * *g;
+                *x = m + *x * (*g * t);
             }
         });
     out
+}
+
+/// First stream of the texture draws: sample `s` uses stream `TEXTURE_STREAM + s`, far from
+/// the seeds' streams `0..N`.
+const TEXTURE_STREAM: u64 = 1 << 40;
+
+/// The gamma texture `tau ~ Gamma(nu, 1/nu)` (mean 1, variance `1/nu`) of sample `index`.
+pub fn texture(data_seed: u64, index: usize, nu: f64) -> f64 {
+    let mut rng = ChaCha20Rng::seed_from_u64(data_seed);
+    rng.set_stream(TEXTURE_STREAM + index as u64);
+    rand_distr::Gamma::new(nu, 1.0 / nu)
+        .expect("validated shape")
+        .sample(&mut rng)
 }
 
 /// Loads or generates the stack of a dataset.

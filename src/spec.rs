@@ -410,6 +410,10 @@ pub struct DatasetSpec {
     /// `filtered_noise`: standard-deviation map (default 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub std: Option<ParamMap>,
+    /// `filtered_noise`: shape `nu` of a gamma texture (K-distributed clutter, see
+    /// [`FilteredNoise::texture_shape`]); absent: Gaussian.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texture_shape: Option<f64>,
     /// `npy`: path of the stack, relative to the spec file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path: Option<PathBuf>,
@@ -600,6 +604,11 @@ pub struct FilteredNoise {
     pub mean_im: Map,
     /// Standard deviation.
     pub std: Map,
+    /// K-distributed clutter: each sample is multiplied by `sqrt(tau)`, `tau ~ Gamma(nu, 1/nu)`
+    /// (mean 1), one `tau` per sample (the power of one gust). Mean, variance and correlation
+    /// maps are unchanged; the real and imaginary parts get excess kurtosis `3 / nu`. `None`:
+    /// Gaussian.
+    pub texture_shape: Option<f64>,
 }
 
 impl FilteredNoise {
@@ -620,6 +629,7 @@ impl FilteredNoise {
             mean: Map::Constant(0.0),
             mean_im: Map::Constant(0.0),
             std: Map::Constant(1.0),
+            texture_shape: None,
         }
     }
 }
@@ -853,7 +863,7 @@ fn yaml_name<T: Serialize>(v: &T) -> String {
 impl DatasetSpec {
     /// Fields this dataset's kind (and family) takes besides `id` and `kind`.
     pub fn fields(&self) -> &'static [&'static str] {
-        const NOISE: [&str; 7] = [
+        const NOISE: [&str; 8] = [
             "family",
             "size",
             "samples",
@@ -861,13 +871,15 @@ impl DatasetSpec {
             "mean",
             "mean_im",
             "std",
+            "texture_shape",
         ];
-        const EXP: [&str; 9] = [
+        const EXP: [&str; 10] = [
             "alpha_h", "alpha_v", NOISE[0], NOISE[1], NOISE[2], NOISE[3], NOISE[4], NOISE[5],
-            NOISE[6],
+            NOISE[6], NOISE[7],
         ];
-        const DYADIC: [&str; 9] = [
+        const DYADIC: [&str; 10] = [
             "r_h", "r_v", NOISE[0], NOISE[1], NOISE[2], NOISE[3], NOISE[4], NOISE[5], NOISE[6],
+            NOISE[7],
         ];
         match (self.kind, self.family) {
             (DatasetKind::Npy, _) => &["path", "layout"],
@@ -904,6 +916,7 @@ impl DatasetSpec {
             ("mean", self.mean.is_some()),
             ("mean_im", self.mean_im.is_some()),
             ("std", self.std.is_some()),
+            ("texture_shape", self.texture_shape.is_some()),
             ("path", self.path.is_some()),
             ("layout", self.layout.is_some()),
         ];
@@ -1077,6 +1090,15 @@ impl DatasetSpec {
             |v| v >= 0.0 && v.is_finite(),
             "std must be finite and >= 0",
         )?;
+        let texture_shape = self.texture_shape;
+        if let Some(nu) = texture_shape {
+            if !(nu > 0.0 && nu.is_finite()) {
+                return Err(ctx.err(
+                    format!("{at}.texture_shape"),
+                    format!("texture_shape {nu} must be finite and > 0"),
+                ));
+            }
+        }
         Ok(FilteredNoise {
             filter,
             height: h,
@@ -1086,6 +1108,7 @@ impl DatasetSpec {
             mean: map(&self.mean, "mean", 0.0)?,
             mean_im: map(&self.mean_im, "mean_im", 0.0)?,
             std,
+            texture_shape,
         })
     }
 }
