@@ -35,6 +35,10 @@ pub struct TableDef {
     pub pivot: &'static str,
     /// Value columns (one block of pivot columns per value column).
     pub values: Vec<&'static str>,
+    /// Header label of each value column's block (with several value columns).
+    pub value_labels: Vec<&'static str>,
+    /// Prefix of the pivot values in headers (`order ` for model order).
+    pub pivot_prefix: &'static str,
     /// Label of a null pivot value.
     pub null_label: &'static str,
 }
@@ -86,6 +90,8 @@ pub fn standard() -> Vec<TableDef> {
             rows: vec!["dataset", "statistic", "level", "direction"],
             pivot: "method",
             values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
             null_label: "-",
         },
         TableDef {
@@ -96,6 +102,8 @@ pub fn standard() -> Vec<TableDef> {
             rows: vec!["dataset"],
             pivot: "method",
             values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
             null_label: "-",
         },
         TableDef {
@@ -109,6 +117,8 @@ pub fn standard() -> Vec<TableDef> {
             rows: vec!["dataset", "metric", "component"],
             pivot: "method",
             values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
             null_label: "-",
         },
         TableDef {
@@ -119,6 +129,8 @@ pub fn standard() -> Vec<TableDef> {
             rows: vec!["dataset", "component"],
             pivot: "model_order",
             values: vec!["kl_mean_db", "kl_worst_db"],
+            value_labels: vec!["mean dB", "worst dB"],
+            pivot_prefix: "order ",
             null_label: "noise_floor",
         },
         TableDef {
@@ -129,6 +141,8 @@ pub fn standard() -> Vec<TableDef> {
             rows: vec!["dataset", "level", "direction"],
             pivot: "source",
             values: vec!["mean_correlation"],
+            value_labels: vec![],
+            pivot_prefix: "",
             null_label: "-",
         },
     ]
@@ -275,12 +289,17 @@ pub fn render(
         .filter(|&k| row_order.iter().any(|r| r[k] != "-"))
         .collect();
     let mut header: Vec<String> = used.iter().map(|&k| keys[k].clone()).collect();
-    for v in &def.values {
+    for (v, name) in def.values.iter().enumerate() {
         for c in &col_order {
-            header.push(if def.values.len() > 1 {
-                format!("{v} {c}")
-            } else {
+            let c = if c == def.null_label {
                 c.clone()
+            } else {
+                format!("{}{c}", def.pivot_prefix)
+            };
+            header.push(match def.value_labels.get(v) {
+                Some(label) if def.values.len() > 1 => format!("{label}, {c}"),
+                None if def.values.len() > 1 => format!("{name}, {c}"),
+                _ => c,
             });
         }
     }
