@@ -279,3 +279,96 @@ fn synthesis_section_errors() {
     ));
     assert!(e.contains("with a synthesis section"), "{e}");
 }
+
+#[test]
+fn metrics_errors_name_the_entry() {
+    let syn = format!("{GOOD}synthesis:\n  methods: [method1]\n  samples: 20\n");
+    let e = error_of(&format!("{GOOD}metrics: [cmd]\n"));
+    assert!(
+        e.contains("spec.yaml: metrics") && e.contains("add a `synthesis` section"),
+        "{e}"
+    );
+    let e = error_of(&format!("{syn}metrics: [cmd, kl_pixle]\n"));
+    assert!(
+        e.contains("metrics[1].kl_pixle") && e.contains("unknown metric \"kl_pixle\""),
+        "{e}"
+    );
+    let e = error_of(&format!("{syn}metrics: [{{kl_pixel: {{bins: 0}}}}]\n"));
+    assert!(
+        e.contains("metrics[0].kl_pixel.bins") && e.contains("at least 1"),
+        "{e}"
+    );
+    let e = error_of(&format!("{syn}metrics: [{{kl_pixel: {{block: 4}}}}]\n"));
+    assert!(
+        e.contains("metrics[0].kl_pixel.block") && e.contains("only kl_area"),
+        "{e}"
+    );
+    let e = error_of(&format!("{syn}metrics: [{{kl_area: {{bnis: 4}}}}]\n"));
+    assert!(
+        e.contains("metrics[0].kl_area") && e.contains("unknown field `bnis`"),
+        "{e}"
+    );
+    let e = error_of(&format!("{syn}metrics: [{{cmd: {{bins: 4}}}}]\n"));
+    assert!(
+        e.contains("metrics[0].cmd") && e.contains("takes no parameters"),
+        "{e}"
+    );
+    let e = error_of(&format!("{syn}metrics: [{{kl_area: {{block: 32}}}}]\n"));
+    assert!(
+        e.contains("metrics[0].kl_area.block") && e.contains("16x16"),
+        "{e}"
+    );
+    let e = error_of(&format!("{syn}metrics: [cmd, cmd]\n"));
+    assert!(
+        e.contains("metrics[1].cmd") && e.contains("listed twice"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{syn}metrics: [{{kl_pixel: {{smoothing: -1}}}}]\n"
+    ));
+    assert!(e.contains("metrics[0].kl_pixel.smoothing"), "{e}");
+}
+
+#[test]
+fn noise_floor_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    npy_stack(dir.path(), "s.npy", (3, 8, 8));
+    let text = "name: t\nseed: 1\ndatasets:\n  - id: m\n    kind: npy\n    path: s.npy\nanalysis:\n  levels: 1\nsynthesis:\n  methods: [uncorrelated]\n  samples: 4\nmetrics: [cmd]\n";
+    let load = |t: &str| {
+        plan::load(&write(dir.path(), "spec.yaml", t))
+            .unwrap_err()
+            .to_string()
+    };
+    let e = load(text);
+    assert!(
+        e.contains("spec.yaml: noise_floor") && e.contains("at least 4 samples"),
+        "{e}"
+    );
+    let e = load(&format!("{text}noise_floor: draws\n"));
+    assert!(e.contains("`draws` needs a synthetic dataset"), "{e}");
+    let e = load(&format!("{text}noise_floor: twice\n"));
+    assert!(
+        e.contains("noise_floor") && e.contains("unknown variant `twice`"),
+        "{e}"
+    );
+    // `none` switches it off, so 3 samples are enough.
+    let ok = plan::load(&write(
+        dir.path(),
+        "spec.yaml",
+        &format!("{text}noise_floor: none\n"),
+    ))
+    .unwrap();
+    assert!(ok.jobs.iter().all(|j| j.noise_floor.is_none()));
+}
+
+#[test]
+fn texture_shape_must_be_positive() {
+    let e = error_of(&GOOD.replace(
+        "    samples: 10\n",
+        "    samples: 10\n    texture_shape: 0\n",
+    ));
+    assert!(
+        e.contains("datasets[0].texture_shape") && e.contains("> 0"),
+        "{e}"
+    );
+}
