@@ -1,51 +1,185 @@
-//! Correlation matrix distance (Herdin, eq. 24) through the Gram identity. PLACEHOLDER: a
-//! straightforward implementation with the final API, replaced by the blocked kernel.
+//! Correlation matrix distance (CMD, Herdin et al. 2005, eq. 24) between two
+//! stacks of complex images, computed exactly and fast without ever holding a
+//! P x P (or N x N) matrix in memory.
+//!
+//! A stack of N samples of P pixels is turned into its centred, per-pixel
+//! normalised and 1/sqrt(N)-scaled data matrix A (N x P, see [`Normalised`]),
+//! so that the sample correlation matrix is R = A^H A. The distance
+//! `d = 1 - tr(R1 R2) / (||R1||_F ||R2||_F)` needs three sums of squares, each
+//! of which has a Gram (sample-pair) form and a Full (pixel-pair) form:
+//!
+//! * `||R||_F^2 = ||A A^H||_F^2` (N x N, ~N^2 P / 2 complex multiply-adds with
+//!   Hermitian symmetry) `= ||A^H A||_F^2` (P x P, ~P^2 N / 2),
+//! * `tr(R1 R2) = ||A1 A2^H||_F^2` (N1 x N2, ~N1 N2 P), or
+//!   `sum_pq Re(R1[p,q] conj(R2[p,q]))`, which is free once blocks of both
+//!   R1 and R2 are formed anyway for the two norms (P^2 (N1 + N2) / 2 in all).
+//!
+//! [`cmd_terms`] picks the cheapest combination with that cost model and
+//! evaluates it block by block on the caller's rayon pool: f32 products in an
+//! AVX2+FMA micro-kernel (runtime-detected, portable fallback otherwise), f32
+//! accumulation over at most `KC_MAX` (= 256 <= 512) terms, then f64 for
+//! everything after that. The result is bitwise independent of the number of
+//! threads. [`cmd_oracle`] is the slow, literal f64 reference used by the
+//! tests.
 
 use num_complex::Complex;
 use rayon::prelude::*;
+use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// Centred, per-pixel normalised, `1/sqrt(N)`-scaled data of one stack, planar f32, row-major
-/// `N x P`.
+// ---------------------------------------------------------------------------
+// Blocking and accuracy
+//
+// Every quantity is a sum of |S_ij|^2 (or Re(S1_ij conj(S2_ij))) over the
+// entries of a complex product S = U^H V, where the rows of U and V are
+// "items" (samples for the Gram form, pixels for the Full form) and the inner
+// dimension K runs over the other axis. S is never stored whole:
+//
+// * Items are cut into blocks of `BLOCK` items (a multiple of lcm(MR, NR)), so
+//   the same partition serves as row and column blocks. For symmetric
+//   (Hermitian) products only blocks (I, J) with I <= J are computed; an
+//   off-diagonal block counts twice, and inside a diagonal block micro-tiles
+//   strictly below the diagonal are skipped and the remaining entries are
+//   weighted 2 (above), 1 (on) or 0 (below the diagonal).
+// * One block owns an f64 tile of its S entries (<= 96 x 96 complex = 147 KiB,
+//   fits L2 next to the packed U chunk). K is cut into `nchunks` equal
+//   chunks of `kc <= KC_MAX` terms. For each chunk, for each NR-wide V
+//   micro-panel (kept in L1, kc x 48 bytes) and each MR-wide U micro-panel
+//   (streamed from L2, kc x 64 bytes), the micro-kernel forms the MR x NR
+//   complex partial products in 12 AVX registers (f32 FMAs) and adds them to
+//   the f64 tile. After the last chunk the tile is squared and summed in f64.
+// * Operands are packed into k-major micro-panels, chunk-major so that one
+//   chunk of a block's panels is contiguous, with zero padding in both the
+//   item and the K direction (zeros are exact). The V side of each product is
+//   packed once per call (in parallel). The U side is packed per task, one
+//   item block at a time into per-thread scratch, by re-packing the block's
+//   V panels (contiguous reads); a task is a strip of up to STRIP blocks of
+//   one block row, so this costs ~1/STRIP of a V packing per block. (Packing
+//   U globally as well would cost another fresh N x P copy: page faults are
+//   expensive, ~0.8 s per GiB on the target VM.)
+// * Parallelism: one lane per rayon thread pulls tasks (largest first) from
+//   an atomic counter; the Full cross term's blocks of R1 and R2 are formed
+//   in the same task so that their product can be summed right away.
+//
+// Accuracy: each f32 partial sum has at most KC_MAX = 256 terms, so its
+// rounding error is bounded by ~256 * 2^-24 * sum|u||v| ≈ 1.5e-5 relative
+// (worst case; ~sqrt(256) * 6e-8 ≈ 1e-6 typical), and the f32 rounding of
+// the inputs adds ~6e-8 per factor. Everything after the chunk (sums over
+// chunks, squaring, sums over entries and blocks) is f64, so its error
+// (~1e-16 * log terms) is negligible. The resulting relative errors of the
+// three sums of squares are ~1e-7 in practice; the tests check < 1e-5
+// against the f64 oracle.
+//
+// Determinism: the task list, the chunking and the order of every sum inside
+// a task depend only on the shapes; threads only decide who computes a task.
+// Each task's partial sums are stored under the task's index and added up
+// sequentially in task order, never in completion order.
+// ---------------------------------------------------------------------------
+
+/// Items per U micro-panel: one AVX register of real parts, one of imaginary.
+const MR: usize = 8;
+/// Items per V micro-panel (columns of the register tile).
+const NR: usize = 6;
+/// f64 values in one micro-tile: MR x NR complex entries, laid out per column
+/// j as `[re of the MR rows | im of the MR rows]`.
+const TILE: usize = 2 * MR * NR;
+/// Largest number of terms summed in f32 before going to f64 (<= 512).
+const KC_MAX: usize = 256;
+/// Items per block, a multiple of lcm(MR, NR) = 24.
+const BLOCK: usize = 96;
+/// f64 values in the tile of one full block.
+const BLOCK_TILE: usize = (BLOCK / MR) * (BLOCK / NR) * TILE;
+
+/// Centred, per-pixel normalised, 1/sqrt(N)-scaled data of one stack, planar
+/// f32 (`re` and `im`), row-major N x P: `A[n, p] = re[n * p_count + p] + i
+/// im[...]`, with `A[n, p] = (x_np - mu_p) / (s_p sqrt(N))`, so that
+/// `R = A^H A` is the sample correlation matrix (unit diagonal).
+#[derive(Debug, Clone)]
 pub struct Normalised {
-    /// Samples `N`.
+    /// Number of samples N (rows).
     pub n: usize,
-    /// Pixels `P`.
+    /// Number of pixels P kept (columns).
     pub p: usize,
-    /// Real parts.
+    /// Real parts, row-major N x P.
     pub re: Vec<f32>,
-    /// Imaginary parts.
+    /// Imaginary parts, row-major N x P.
     pub im: Vec<f32>,
 }
 
 impl Normalised {
-    /// Builds `A` from `get(n, p) -> (re, im)` for the pixels listed in `pixels`.
+    /// Builds A from samples given by a closure; means and variances are
+    /// computed in f64 (one pass of sums shifted by each pixel's first
+    /// sample, then one pass to write A), the result is stored in f32.
+    ///
+    /// `get(n, p)` returns (re, im) of sample `n` (0..n) at pixel index `p`;
+    /// `pixels` lists the pixel indices to keep, in order (column j of A is
+    /// pixel `pixels[j]`). `get` may be called several times for the same
+    /// arguments and from several threads (of the current rayon pool).
+    ///
+    /// # Panics
+    /// If `n == 0`, or if a kept pixel has zero or non-finite variance (the
+    /// caller must exclude those; with `n == 1` every pixel has zero
+    /// variance).
     pub fn from_fn(
         n: usize,
         pixels: &[usize],
         get: impl Fn(usize, usize) -> (f64, f64) + Sync,
     ) -> Self {
+        assert!(n > 0, "a stack needs at least one sample");
         let p = pixels.len();
-        let mut re = vec![0f32; n * p];
-        let mut im = vec![0f32; n * p];
-        for (k, &px) in pixels.iter().enumerate() {
-            let (mut sr, mut si) = (0.0, 0.0);
-            for s in 0..n {
-                let (a, b) = get(s, px);
-                sr += a;
-                si += b;
-            }
-            let (mr, mi) = (sr / n as f64, si / n as f64);
-            let mut v = 0.0;
-            for s in 0..n {
-                let (a, b) = get(s, px);
-                v += (a - mr).powi(2) + (b - mi).powi(2);
-            }
-            let scale = 1.0 / (v / n as f64).sqrt() / (n as f64).sqrt();
-            for s in 0..n {
-                let (a, b) = get(s, px);
-                re[s * p + k] = ((a - mr) * scale) as f32;
-                im[s * p + k] = ((b - mi) * scale) as f32;
-            }
+        const GROUP: usize = 256;
+        // Per pixel: (mean re, mean im, 1 / (s sqrt(N))), in f64, one pass
+        // over the samples with sums shifted by the pixel's first sample (so
+        // a large mean does not cancel the variance). Pixel groups in
+        // parallel; within a group the samples are visited in order, so the
+        // sums do not depend on the thread count.
+        let stats: Vec<(f64, f64, f64)> = pixels
+            .par_chunks(GROUP)
+            .flat_map_iter(|grp| {
+                let shift: Vec<(f64, f64)> = grp.iter().map(|&px| get(0, px)).collect();
+                let mut sr = [0.0f64; GROUP];
+                let mut si = [0.0f64; GROUP];
+                let mut ss = [0.0f64; GROUP];
+                for s in 1..n {
+                    for (j, &px) in grp.iter().enumerate() {
+                        let (r, i) = get(s, px);
+                        let (dr, di) = (r - shift[j].0, i - shift[j].1);
+                        sr[j] += dr;
+                        si[j] += di;
+                        ss[j] += dr * dr + di * di;
+                    }
+                }
+                let nf = n as f64;
+                (0..grp.len())
+                    .map(|j| {
+                        let (mr, mi) = (sr[j] / nf, si[j] / nf);
+                        // N s^2 = sum |x - mu|^2 = sum |d|^2 - N |mean d|^2,
+                        // so 1 / (s sqrt(N)) = 1 / sqrt(that).
+                        let css = ss[j] - nf * (mr * mr + mi * mi);
+                        assert!(
+                            css > 0.0 && css.is_finite(),
+                            "pixel {} has zero or non-finite variance",
+                            grp[j]
+                        );
+                        (shift[j].0 + mr, shift[j].1 + mi, 1.0 / css.sqrt())
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let mut re = vec![0.0f32; n * p];
+        let mut im = vec![0.0f32; n * p];
+        if p > 0 {
+            re.par_chunks_mut(p)
+                .zip(im.par_chunks_mut(p))
+                .enumerate()
+                .for_each(|(s, (rrow, irow))| {
+                    for (j, &px) in pixels.iter().enumerate() {
+                        let (r, i) = get(s, px);
+                        let (mr, mi, sc) = stats[j];
+                        rrow[j] = ((r - mr) * sc) as f32;
+                        irow[j] = ((i - mi) * sc) as f32;
+                    }
+                });
         }
         Normalised { n, p, re, im }
     }
@@ -54,14 +188,17 @@ impl Normalised {
 /// Which form computed a quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Form {
-    /// The `N x N` (or `N1 x N2`) Gram form.
+    /// Sample-pair form: `||A A^H||_F^2` (N x N) for a norm, `||A1 A2^H||_F^2`
+    /// (N1 x N2) for the cross term.
     Gram,
-    /// The `P x P` form.
+    /// Pixel-pair form: `||A^H A||_F^2` (P x P) for a norm; for the cross term
+    /// `sum_pq Re(R1[p,q] conj(R2[p,q]))` from the blocks of R1 and R2 that
+    /// the two Full norms form anyway.
     Full,
 }
 
-/// The three terms of eq. 24.
-#[derive(Debug, Clone, Copy)]
+/// The three terms of eq. 24 and the form each was computed with.
+#[derive(Debug, Clone)]
 pub struct CmdTerms {
     /// `||R1||_F^2`.
     pub norm1_sq: f64,
@@ -69,86 +206,1115 @@ pub struct CmdTerms {
     pub norm2_sq: f64,
     /// `tr(R1 R2)`.
     pub cross: f64,
-    /// Form of `norm1_sq`.
+    /// Form used for `norm1_sq`.
     pub form1: Form,
-    /// Form of `norm2_sq`.
+    /// Form used for `norm2_sq`.
     pub form2: Form,
-    /// Form of `cross`.
+    /// Form used for `cross`.
     pub form_cross: Form,
 }
 
 impl CmdTerms {
-    /// Eq. 24.
+    /// The correlation matrix distance `1 - tr(R1 R2) / (||R1||_F ||R2||_F)`,
+    /// in [0, 1].
     pub fn distance(&self) -> f64 {
         1.0 - self.cross / (self.norm1_sq.sqrt() * self.norm2_sq.sqrt())
     }
 }
 
-fn gram_sq(a: &Normalised, b: &Normalised) -> f64 {
-    let p = a.p;
-    (0..a.n)
-        .into_par_iter()
-        .map(|i| {
-            let mut s = 0.0;
-            for j in 0..b.n {
-                let (mut re, mut im) = (0.0f64, 0.0f64);
-                for k in 0..p {
-                    let (ar, ai) = (a.re[i * p + k] as f64, a.im[i * p + k] as f64);
-                    let (br, bi) = (b.re[j * p + k] as f64, b.im[j * p + k] as f64);
-                    re += ar * br + ai * bi;
-                    im += ai * br - ar * bi;
-                }
-                s += re * re + im * im;
-            }
-            s
-        })
-        .collect::<Vec<f64>>()
-        .iter()
-        .sum()
-}
-
-/// The three terms (placeholder: Gram form throughout).
-pub fn cmd_terms(a1: &Normalised, a2: &Normalised) -> CmdTerms {
-    CmdTerms {
-        norm1_sq: gram_sq(a1, a1),
-        norm2_sq: gram_sq(a2, a2),
-        cross: gram_sq(a1, a2),
-        form1: Form::Gram,
-        form2: Form::Gram,
-        form_cross: Form::Gram,
+/// The forms [`cmd_terms`] uses for stacks of `n1` and `n2` samples of `p`
+/// pixels, as `[form1, form2, form_cross]`.
+///
+/// Cost model in complex multiply-adds (Hermitian halving included): a norm
+/// costs `N^2 P / 2` as Gram and `P^2 N / 2` as Full, so on its own the Gram
+/// form wins iff `N <= P`; the Gram cross term costs `N1 N2 P`. A Full cross
+/// term needs no work of its own but requires both norms in Full form, for
+/// `P^2 (N1 + N2) / 2` in all; it is chosen when that is cheaper than the best
+/// separate plan (always when both N > P, and e.g. for 1000 vs 5000 samples of
+/// 4096 pixels, where it saves ~22 %).
+pub fn choose_forms(n1: usize, n2: usize, p: usize) -> [Form; 3] {
+    let (n1f, n2f, pf) = (n1 as f64, n2 as f64, p as f64);
+    let norm = |n: usize, nf: f64| {
+        if n <= p {
+            (Form::Gram, nf * nf * pf / 2.0)
+        } else {
+            (Form::Full, pf * pf * nf / 2.0)
+        }
+    };
+    let (f1, c1) = norm(n1, n1f);
+    let (f2, c2) = norm(n2, n2f);
+    let separate = c1 + c2 + n1f * n2f * pf;
+    let joint = pf * pf * (n1f + n2f) / 2.0;
+    if joint < separate {
+        [Form::Full, Form::Full, Form::Full]
+    } else {
+        [f1, f2, Form::Gram]
     }
 }
 
-/// Slow oracle: forms `R1`, `R2` (`P x P`) and evaluates eq. 24 literally.
-pub fn cmd_oracle(x1: &[Complex<f64>], n1: usize, x2: &[Complex<f64>], n2: usize, p: usize) -> f64 {
-    let corr = |x: &[Complex<f64>], n: usize| {
-        let mu: Vec<Complex<f64>> = (0..p)
-            .map(|k| (0..n).map(|s| x[s * p + k]).sum::<Complex<f64>>() / n as f64)
-            .collect();
-        let mut r = vec![Complex::new(0.0, 0.0); p * p];
-        for i in 0..p {
-            for j in 0..p {
-                r[i * p + j] = (0..n)
-                    .map(|s| (x[s * p + i] - mu[i]).conj() * (x[s * p + j] - mu[j]))
-                    .sum::<Complex<f64>>()
-                    / n as f64;
+/// The three terms of eq. 24 for two normalised stacks with the same pixels,
+/// with the forms from [`choose_forms`], in parallel on the caller's rayon
+/// pool (no other threads are spawned). The result is bitwise identical for
+/// any number of threads. With no pixels (P = 0) all terms are 0 and the
+/// distance is NaN.
+///
+/// # Panics
+/// If the two stacks have different pixel counts.
+pub fn cmd_terms(a1: &Normalised, a2: &Normalised) -> CmdTerms {
+    cmd_terms_with_forms(a1, a2, choose_forms(a1.n, a2.n, a1.p))
+}
+
+/// Like [`cmd_terms`] but with the forms `[form1, form2, form_cross]` given
+/// explicitly (for tests and diagnostics).
+///
+/// # Panics
+/// If the pixel counts differ, or if `form_cross` is `Full` while a norm is
+/// not (the Full cross term is made from the blocks of the two Full norms).
+pub fn cmd_terms_with_forms(a1: &Normalised, a2: &Normalised, forms: [Form; 3]) -> CmdTerms {
+    cmd_terms_impl(a1, a2, forms, select_kernel())
+}
+
+// ---------------------------------------------------------------------------
+// Packing
+// ---------------------------------------------------------------------------
+
+/// Which axis of A is the item axis of a product.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum View {
+    /// Items are samples (rows of A), K runs over pixels: Gram form.
+    Rows,
+    /// Items are pixels (columns of A), K runs over samples: Full form.
+    Cols,
+}
+
+/// Geometry of one operand packed into micro-panels of `w` items: panel `i`
+/// of chunk `c` holds, for each of its `kc` inner indices, `w` real parts
+/// then `w` imaginary parts. Padding (items beyond the end, inner indices
+/// beyond K) is zero.
+#[derive(Clone, Copy)]
+struct Layout {
+    view: View,
+    w: usize,
+    items: usize,
+    k: usize,
+    kc: usize,
+    nchunks: usize,
+}
+
+impl Layout {
+    fn new(a: &Normalised, view: View, w: usize) -> Layout {
+        let (items, k) = match view {
+            View::Rows => (a.n, a.p),
+            View::Cols => (a.p, a.n),
+        };
+        // K is split into equal chunks of at most KC_MAX terms.
+        let nchunks = k.div_ceil(KC_MAX).max(1);
+        let kc = k.div_ceil(nchunks).max(1);
+        Layout {
+            view,
+            w,
+            items,
+            k,
+            kc,
+            nchunks,
+        }
+    }
+
+    /// Floats in one micro-panel of one chunk.
+    fn panel_len(&self) -> usize {
+        self.kc * 2 * self.w
+    }
+
+    /// Number of micro-panels covering all items.
+    fn npanels(&self) -> usize {
+        self.items.div_ceil(self.w)
+    }
+
+    /// Writes micro-panels `panels` of chunk `c` of `a` into `dst` (their
+    /// consecutive `panel_len()` slices, all of them, padding included, so
+    /// `dst` may hold stale data).
+    fn pack_group(&self, a: &Normalised, c: usize, panels: Range<usize>, dst: &mut [f32]) {
+        // Monomorphised on the width so that the per-k copies are fixed-size
+        // moves rather than calls to memcpy.
+        match self.w {
+            MR => self.pack_group_w::<MR>(a, c, panels, dst),
+            NR => self.pack_group_w::<NR>(a, c, panels, dst),
+            _ => unreachable!("panel width is MR or NR"),
+        }
+    }
+
+    fn pack_group_w<const W: usize>(
+        &self,
+        a: &Normalised,
+        c: usize,
+        panels: Range<usize>,
+        dst: &mut [f32],
+    ) {
+        let len = self.panel_len();
+        let dst = &mut dst[..panels.len() * len];
+        let k0 = (c * self.kc).min(self.k);
+        let k1 = (k0 + self.kc).min(self.k);
+        let i0 = (panels.start * W).min(self.items);
+        let i1 = (panels.end * W).min(self.items);
+        // Zero padding: items beyond the end (last panel), K beyond the end.
+        if i1 < panels.end * W {
+            dst[(i1 - i0) / W * len..].fill(0.0);
+        }
+        if k1 - k0 < self.kc {
+            for pan in dst.chunks_exact_mut(len) {
+                pan[(k1 - k0) * 2 * W..].fill(0.0);
             }
         }
-        let d: Vec<f64> = (0..p).map(|i| r[i * p + i].re.sqrt()).collect();
-        for i in 0..p {
-            for j in 0..p {
-                r[i * p + j] /= d[i] * d[j];
+        match self.view {
+            View::Rows => {
+                // Item rows are contiguous in K: read each row once, scatter
+                // into its lane of the panel.
+                for (pan, pi) in dst.chunks_exact_mut(len).zip(panels) {
+                    for l in 0..W.min(self.items.saturating_sub(pi * W)) {
+                        let src = (pi * W + l) * a.p;
+                        let sre = &a.re[src + k0..src + k1];
+                        let sim = &a.im[src + k0..src + k1];
+                        for (d, (&r, &i)) in pan.chunks_exact_mut(2 * W).zip(sre.iter().zip(sim)) {
+                            d[l] = r;
+                            d[W + l] = i;
+                        }
+                    }
+                }
+            }
+            View::Cols => {
+                // Sample rows hold the items: read a row segment once (whole
+                // cache lines), copy W items into each panel.
+                let full = (i1 - i0) / W;
+                for (kk, s) in (k0..k1).enumerate() {
+                    let re = &a.re[s * a.p + i0..s * a.p + i1];
+                    let im = &a.im[s * a.p + i0..s * a.p + i1];
+                    for q in 0..full {
+                        let d = &mut dst[q * len + kk * 2 * W..q * len + (kk + 1) * 2 * W];
+                        let r: &[f32; W] = re[q * W..(q + 1) * W].try_into().unwrap();
+                        let i: &[f32; W] = im[q * W..(q + 1) * W].try_into().unwrap();
+                        d[..W].copy_from_slice(r);
+                        d[W..].copy_from_slice(i);
+                    }
+                    let m = (i1 - i0) - full * W;
+                    if m > 0 {
+                        let d = &mut dst[full * len + kk * 2 * W..];
+                        d[..m].copy_from_slice(&re[full * W..]);
+                        d[W..W + m].copy_from_slice(&im[full * W..]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A set of consecutive micro-panels `first..first + count`, all chunks,
+/// stored chunk-major so that one chunk of the set is contiguous.
+struct Panels<'a> {
+    lay: Layout,
+    first: usize,
+    count: usize,
+    data: &'a [f32],
+}
+
+impl Panels<'_> {
+    /// Micro-panel `pi` (global index) of chunk `c`.
+    #[inline]
+    fn panel(&self, c: usize, pi: usize) -> &[f32] {
+        let len = self.lay.panel_len();
+        let start = (c * self.count + pi - self.first) * len;
+        &self.data[start..start + len]
+    }
+}
+
+/// Packs panels `range` of `a` into the front of `buf` (grown if needed).
+fn pack_range(a: &Normalised, lay: Layout, range: Range<usize>, buf: &mut Vec<f32>) {
+    let group = range.len() * lay.panel_len();
+    let need = lay.nchunks * group;
+    if buf.len() < need {
+        buf.resize(need, 0.0);
+    }
+    for (c, dst) in buf[..need].chunks_exact_mut(group).enumerate() {
+        lay.pack_group(a, c, range.clone(), dst);
+    }
+}
+
+/// A whole operand packed once per call (the V side of a product), in
+/// parallel.
+struct Packed {
+    lay: Layout,
+    buf: Vec<f32>,
+}
+
+impl Packed {
+    fn new(a: &Normalised, view: View, w: usize) -> Packed {
+        let lay = Layout::new(a, view, w);
+        let (len, np) = (lay.panel_len(), lay.npanels());
+        let mut buf = vec![0.0f32; lay.nchunks * np * len];
+        // Parallel units: one chunk of a group of panels covering ~BLOCK
+        // items (a contiguous slice of the chunk-major layout).
+        let per = BLOCK / lay.w;
+        let units: Vec<(usize, Range<usize>)> = (0..lay.nchunks)
+            .flat_map(|c| (0..np).step_by(per).map(move |p| (c, p..(p + per).min(np))))
+            .collect();
+        let mut slices = Vec::with_capacity(units.len());
+        let mut rest = &mut buf[..];
+        for (_, r) in &units {
+            let (head, tail) = rest.split_at_mut(r.len() * len);
+            slices.push(head);
+            rest = tail;
+        }
+        units
+            .into_par_iter()
+            .zip(slices)
+            .for_each(|((c, r), dst)| lay.pack_group(a, c, r, dst));
+        Packed { lay, buf }
+    }
+
+    fn panels(&self) -> Panels<'_> {
+        Panels {
+            lay: self.lay,
+            first: 0,
+            count: self.lay.npanels(),
+            data: &self.buf,
+        }
+    }
+}
+
+/// Re-packs item block `bi` of an NR-wide packing into MR-wide panels at the
+/// front of `buf` (grown if needed), same chunking. Reads the block's V panels
+/// chunk by chunk (contiguous), so it is much cheaper than packing from the
+/// row-major data again.
+fn repack_block(v: &Packed, bi: usize, buf: &mut Vec<f32>) {
+    let lay = v.lay;
+    let vr = block_panels(bi, lay.items, NR);
+    let ur = block_panels(bi, lay.items, MR);
+    let (vlen, ulen) = (lay.panel_len(), lay.kc * 2 * MR);
+    let (vgroup, ugroup) = (vr.len() * vlen, ur.len() * ulen);
+    let need = lay.nchunks * ugroup;
+    if buf.len() < need {
+        buf.resize(need, 0.0);
+    }
+    let np = lay.npanels();
+    // Items of the block beyond the V panels stay zero in these.
+    let mut re = [0.0f32; BLOCK];
+    let mut im = [0.0f32; BLOCK];
+    for (c, dst) in buf[..need].chunks_exact_mut(ugroup).enumerate() {
+        let src = &v.buf[(c * np + vr.start) * vlen..][..vgroup];
+        for kk in 0..lay.kc {
+            for (q, pan) in src.chunks_exact(vlen).enumerate() {
+                let row: &[f32; 2 * NR] = pan[kk * 2 * NR..(kk + 1) * 2 * NR].try_into().unwrap();
+                re[q * NR..(q + 1) * NR].copy_from_slice(&row[..NR]);
+                im[q * NR..(q + 1) * NR].copy_from_slice(&row[NR..]);
+            }
+            for (q, pan) in dst.chunks_exact_mut(ulen).enumerate() {
+                let d: &mut [f32; 2 * MR] = (&mut pan[kk * 2 * MR..(kk + 1) * 2 * MR])
+                    .try_into()
+                    .unwrap();
+                d[..MR].copy_from_slice(&re[q * MR..(q + 1) * MR]);
+                d[MR..].copy_from_slice(&im[q * MR..(q + 1) * MR]);
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Micro-kernels
+// ---------------------------------------------------------------------------
+
+/// `out[j*2*MR + l] += Re S[l, j]`, `out[j*2*MR + MR + l] += Im S[l, j]` with
+/// `S[l, j] = sum_{k < kc} conj(u_lk) v_jk`, for an MR-wide U micro-panel and
+/// an NR-wide V micro-panel (f32 products and sums, f64 accumulation in out).
+type Kernel = fn(usize, &[f32], &[f32], &mut [f64]);
+
+/// Portable micro-kernel (same contract and summation structure as the AVX2
+/// one, but plain multiply and add, so not bitwise identical to it).
+fn kernel_portable(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) {
+    let u = &u[..kc * 2 * MR];
+    let v = &v[..kc * 2 * NR];
+    let out = &mut out[..TILE];
+    let mut re = [[0.0f32; MR]; NR];
+    let mut im = [[0.0f32; MR]; NR];
+    for (uk, vk) in u.chunks_exact(2 * MR).zip(v.chunks_exact(2 * NR)) {
+        let (ur, ui) = uk.split_at(MR);
+        for j in 0..NR {
+            let (vr, vi) = (vk[j], vk[NR + j]);
+            for l in 0..MR {
+                re[j][l] += ur[l] * vr + ui[l] * vi;
+                im[j][l] += ur[l] * vi - ui[l] * vr;
+            }
+        }
+    }
+    for j in 0..NR {
+        for l in 0..MR {
+            out[j * 2 * MR + l] += re[j][l] as f64;
+            out[j * 2 * MR + MR + l] += im[j][l] as f64;
+        }
+    }
+}
+
+/// AVX2+FMA micro-kernel: 6 x 2 accumulator registers (re and im of 8 rows
+/// for each of the 6 columns), 2 vector loads and 12 broadcasts per k for 24
+/// FMAs, i.e. FMA-bound on Zen 3.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn kernel_avx2(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) {
+    use std::arch::x86_64::*;
+    assert!(u.len() >= kc * 2 * MR && v.len() >= kc * 2 * NR && out.len() >= TILE);
+    let mut re = [_mm256_setzero_ps(); NR];
+    let mut im = [_mm256_setzero_ps(); NR];
+    let up = u.as_ptr();
+    let vp = v.as_ptr();
+    // Per k: 2 vector loads, 12 broadcasts, 24 FMAs.
+    for k in 0..kc {
+        // SAFETY: k < kc and the lengths were checked above.
+        unsafe {
+            let ur = _mm256_loadu_ps(up.add(k * 2 * MR));
+            let ui = _mm256_loadu_ps(up.add(k * 2 * MR + MR));
+            let vk = vp.add(k * 2 * NR);
+            for j in 0..NR {
+                let vr = _mm256_broadcast_ss(&*vk.add(j));
+                re[j] = _mm256_fmadd_ps(ur, vr, re[j]);
+                im[j] = _mm256_fnmadd_ps(ui, vr, im[j]);
+                let vi = _mm256_broadcast_ss(&*vk.add(NR + j));
+                re[j] = _mm256_fmadd_ps(ui, vi, re[j]);
+                im[j] = _mm256_fmadd_ps(ur, vi, im[j]);
+            }
+        }
+    }
+    let op = out.as_mut_ptr();
+    for j in 0..NR {
+        for (h, acc) in [re[j], im[j]].into_iter().enumerate() {
+            // SAFETY: j * 2 * MR + h * MR + 8 <= TILE <= out.len().
+            unsafe {
+                let o = op.add(j * 2 * MR + h * MR);
+                let lo = _mm256_cvtps_pd(_mm256_castps256_ps128(acc));
+                let hi = _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(acc));
+                _mm256_storeu_pd(o, _mm256_add_pd(_mm256_loadu_pd(o), lo));
+                _mm256_storeu_pd(o.add(4), _mm256_add_pd(_mm256_loadu_pd(o.add(4)), hi));
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn kernel_avx2_checked(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) {
+    // SAFETY: only selected by `select_kernel` after runtime detection.
+    unsafe { kernel_avx2(kc, u, v, out) }
+}
+
+/// The fastest micro-kernel this CPU supports.
+fn select_kernel() -> Kernel {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+            return kernel_avx2_checked;
+        }
+    }
+    kernel_portable
+}
+
+// ---------------------------------------------------------------------------
+// Blocks and tasks
+// ---------------------------------------------------------------------------
+
+/// Micro-panel range of item block `b` for panels of width `w`.
+fn block_panels(b: usize, items: usize, w: usize) -> Range<usize> {
+    let start = b * BLOCK;
+    let end = (start + BLOCK).min(items);
+    start / w..end.div_ceil(w)
+}
+
+/// Is micro-tile (U panel `ip`, V panel `jp`) strictly below the diagonal?
+#[inline]
+fn strictly_lower(ip: usize, jp: usize) -> bool {
+    MR * ip > NR * jp + NR - 1
+}
+
+/// Is micro-tile (U panel `ip`, V panel `jp`) strictly above the diagonal?
+#[inline]
+fn strictly_upper(ip: usize, jp: usize) -> bool {
+    MR * ip + MR - 1 < NR * jp
+}
+
+/// Fills `tile` with the block of S = U^H V over all of `u`'s panels and V
+/// panels `vp` (all chunks). For a diagonal block of a Hermitian product
+/// (`diag`) the micro-tiles strictly below the diagonal are left at zero.
+fn block_product(
+    kern: Kernel,
+    u: &Panels,
+    v: &Panels,
+    vp: &Range<usize>,
+    diag: bool,
+    tile: &mut [f64],
+) {
+    debug_assert_eq!((u.lay.kc, u.lay.nchunks), (v.lay.kc, v.lay.nchunks));
+    let nu = u.count;
+    let up = u.first..u.first + nu;
+    let tile = &mut tile[..nu * vp.len() * TILE];
+    tile.fill(0.0);
+    for c in 0..u.lay.nchunks {
+        for (jl, jp) in vp.clone().enumerate() {
+            let vpan = v.panel(c, jp);
+            for (il, ip) in up.clone().enumerate() {
+                if diag && strictly_lower(ip, jp) {
+                    continue;
+                }
+                let t = (jl * nu + il) * TILE;
+                kern(u.lay.kc, u.panel(c, ip), vpan, &mut tile[t..t + TILE]);
+            }
+        }
+    }
+}
+
+/// Sum of x * y over one micro-tile in a fixed order (4 interleaved f64
+/// accumulators, so it vectorises without depending on the thread count).
+#[inline]
+fn dot_tile(x: &[f64], y: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 4];
+    for (xs, ys) in x.chunks_exact(4).zip(y.chunks_exact(4)) {
+        for l in 0..4 {
+            acc[l] += xs[l] * ys[l];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+/// `sum_ij w_ij Re(X_ij conj(Y_ij))` over a block tile (so `sum |X|^2` when
+/// x == y). Weights of a Hermitian product: 2 for every entry of an
+/// off-diagonal block; 2 above, 1 on and 0 below the diagonal of a diagonal
+/// block. A rectangular product (`hermitian == false`) weights every entry 1.
+fn weighted_sum(
+    x: &[f64],
+    y: &[f64],
+    up: &Range<usize>,
+    vp: &Range<usize>,
+    hermitian: bool,
+    diag: bool,
+) -> f64 {
+    let nu = up.len();
+    let mut total = 0.0f64;
+    for (jl, jp) in vp.clone().enumerate() {
+        for (il, ip) in up.clone().enumerate() {
+            let t = (jl * nu + il) * TILE;
+            let (xt, yt) = (&x[t..t + TILE], &y[t..t + TILE]);
+            total += if !hermitian {
+                dot_tile(xt, yt)
+            } else if !diag || strictly_upper(ip, jp) {
+                2.0 * dot_tile(xt, yt)
+            } else if strictly_lower(ip, jp) {
+                0.0
+            } else {
+                let mut s = 0.0f64;
+                for j in 0..NR {
+                    for l in 0..MR {
+                        let w = match (MR * ip + l).cmp(&(NR * jp + j)) {
+                            core::cmp::Ordering::Less => 2.0,
+                            core::cmp::Ordering::Equal => 1.0,
+                            core::cmp::Ordering::Greater => continue,
+                        };
+                        let e = j * 2 * MR + l;
+                        s += w * (xt[e] * yt[e] + xt[e + MR] * yt[e + MR]);
+                    }
+                }
+                s
+            };
+        }
+    }
+    total
+}
+
+/// One product S = U^H V whose squared entries are summed: U is packed per
+/// task (one item block at a time, amortised over a strip of blocks), V once
+/// per call.
+struct Product<'a> {
+    /// Stack of the U side.
+    ua: &'a Normalised,
+    /// Layout of the U side.
+    ulay: Layout,
+    /// The U side already packed as V panels (same stack and view), if any:
+    /// U blocks are then re-packed from it (contiguous reads) instead of from
+    /// `ua` (strided reads).
+    u_from: Option<&'a Packed>,
+    v: &'a Packed,
+    hermitian: bool,
+}
+
+impl<'a> Product<'a> {
+    /// A A^H (Rows) or A^H A (Cols) of one stack, given its V packing.
+    fn hermitian(a: &'a Normalised, v: &'a Packed) -> Self {
+        Product {
+            ua: a,
+            ulay: Layout { w: MR, ..v.lay },
+            u_from: Some(v),
+            v,
+            hermitian: true,
+        }
+    }
+
+    /// A1 A2^H, given the Rows V packing of A2 and, if there is one, of A1.
+    fn cross(a1: &'a Normalised, v1: Option<&'a Packed>, v2: &'a Packed) -> Self {
+        Product {
+            ua: a1,
+            ulay: Layout::new(a1, View::Rows, MR),
+            u_from: v1,
+            v: v2,
+            hermitian: false,
+        }
+    }
+
+    fn nblocks_u(&self) -> usize {
+        self.ulay.items.div_ceil(BLOCK)
+    }
+
+    fn nblocks_v(&self) -> usize {
+        self.v.lay.items.div_ceil(BLOCK)
+    }
+
+    /// Packs U item block `bi` into `buf`.
+    fn pack_u<'b>(&self, bi: usize, buf: &'b mut Vec<f32>) -> Panels<'b> {
+        let range = block_panels(bi, self.ulay.items, MR);
+        match self.u_from {
+            Some(v) => repack_block(v, bi, buf),
+            None => pack_range(self.ua, self.ulay, range.clone(), buf),
+        }
+        Panels {
+            lay: self.ulay,
+            first: range.start,
+            count: range.len(),
+            data: buf,
+        }
+    }
+
+    /// Block (u's block, bj) of S into `tile`; returns the panel ranges.
+    fn block(
+        &self,
+        kern: Kernel,
+        u: &Panels,
+        bi: usize,
+        bj: usize,
+        tile: &mut [f64],
+    ) -> (Range<usize>, Range<usize>) {
+        let vp = block_panels(bj, self.v.lay.items, NR);
+        let diag = self.hermitian && bi == bj;
+        block_product(kern, u, &self.v.panels(), &vp, diag, tile);
+        (u.first..u.first + u.count, vp)
+    }
+
+    /// Weighted sum of `Re(X conj(Y))` over the block tile(s) of (bi, bj).
+    fn sum(
+        &self,
+        x: &[f64],
+        y: &[f64],
+        ranges: &(Range<usize>, Range<usize>),
+        bi: usize,
+        bj: usize,
+    ) -> f64 {
+        weighted_sum(x, y, &ranges.0, &ranges.1, self.hermitian, bi == bj)
+    }
+}
+
+/// What a task computes.
+#[derive(Clone, Copy)]
+enum Kind {
+    /// `products[0]` alone into term 0, or `products[1]` into term 1 (a norm),
+    /// or `products[2]` into term 2 (the Gram cross term).
+    Single(usize),
+    /// `products[0]` and `products[1]` on the same pixel blocks: all three
+    /// terms (the Full cross term).
+    Joint,
+}
+
+/// One unit of parallel work: blocks (bi, bj) for bj in `bj`, of one kind.
+/// The U block bi is packed once per task.
+struct Task {
+    kind: Kind,
+    bi: usize,
+    bj: Range<usize>,
+    cost: f64,
+}
+
+/// Blocks per task strip: amortises the U packing, small enough to balance.
+const STRIP: usize = 8;
+
+/// Per-thread scratch: packed U blocks and f64 tiles, reused across tasks.
+struct Lane {
+    u: [Vec<f32>; 2],
+    tile: [Vec<f64>; 2],
+}
+
+fn cmd_terms_impl(a1: &Normalised, a2: &Normalised, forms: [Form; 3], kern: Kernel) -> CmdTerms {
+    assert_eq!(a1.p, a2.p, "the two stacks must have the same pixels");
+    let [form1, form2, form_cross] = forms;
+    let joint = form_cross == Form::Full;
+    assert!(
+        !joint || (form1 == Form::Full && form2 == Form::Full),
+        "a Full cross term needs both norms in Full form"
+    );
+    let view = |f: Form| match f {
+        Form::Gram => View::Rows,
+        Form::Full => View::Cols,
+    };
+    // V-side packings, each built in parallel: one per stack in the view
+    // of its norm, plus the Rows packing of A2 for a Gram cross term when
+    // the second norm is not Gram (only possible with forced forms).
+    let v1 = Packed::new(a1, view(form1), NR);
+    let v2 = Packed::new(a2, view(form2), NR);
+    let v2_rows = (!joint && form2 != Form::Gram).then(|| Packed::new(a2, View::Rows, NR));
+    // Products 0 and 1: the norms; product 2: the Gram cross term.
+    let mut products = vec![Product::hermitian(a1, &v1), Product::hermitian(a2, &v2)];
+    if !joint {
+        let v1_rows = (form1 == Form::Gram).then_some(&v1);
+        products.push(Product::cross(a1, v1_rows, v2_rows.as_ref().unwrap_or(&v2)));
+    }
+    // Fixed task list: strips of STRIP blocks along each block row (upper
+    // triangle for Hermitian products). Its order only matters for load
+    // balance (largest first), never for the result.
+    let mut tasks = Vec::new();
+    let mut strips = |kind: Kind, prod: &Product, k: usize| {
+        for bi in 0..prod.nblocks_u() {
+            let j0 = if prod.hermitian { bi } else { 0 };
+            for s in (j0..prod.nblocks_v()).step_by(STRIP) {
+                let bj = s..(s + STRIP).min(prod.nblocks_v());
+                let diag = if prod.hermitian && s == bi { 0.5 } else { 0.0 };
+                let cost = (bj.len() as f64 - diag) * k as f64;
+                tasks.push(Task { kind, bi, bj, cost });
+            }
+        }
+    };
+    if joint {
+        strips(Kind::Joint, &products[0], a1.n + a2.n);
+    } else {
+        for (which, prod) in products.iter().enumerate() {
+            strips(Kind::Single(which), prod, prod.ulay.k);
+        }
+    }
+    tasks.sort_by(|x, y| y.cost.total_cmp(&x.cost));
+
+    let run = |task: &Task, lane: &mut Lane| -> [f64; 3] {
+        let mut r = [0.0f64; 3];
+        let [u0, u1] = &mut lane.u;
+        let [t0, t1] = &mut lane.tile;
+        match task.kind {
+            Kind::Single(which) => {
+                let prod = &products[which];
+                let u = prod.pack_u(task.bi, u0);
+                for bj in task.bj.clone() {
+                    let rg = prod.block(kern, &u, task.bi, bj, t0);
+                    r[which] += prod.sum(t0, t0, &rg, task.bi, bj);
+                }
+            }
+            Kind::Joint => {
+                let (p1, p2) = (&products[0], &products[1]);
+                let ua = p1.pack_u(task.bi, u0);
+                let ub = p2.pack_u(task.bi, u1);
+                for bj in task.bj.clone() {
+                    let rg = p1.block(kern, &ua, task.bi, bj, t0);
+                    p2.block(kern, &ub, task.bi, bj, t1);
+                    r[0] += p1.sum(t0, t0, &rg, task.bi, bj);
+                    r[1] += p1.sum(t1, t1, &rg, task.bi, bj);
+                    r[2] += p1.sum(t0, t1, &rg, task.bi, bj);
+                }
             }
         }
         r
     };
-    let (r1, r2) = (corr(x1, n1), corr(x2, n2));
-    let mut tr = Complex::new(0.0, 0.0);
-    for i in 0..p {
-        for j in 0..p {
-            tr += r1[i * p + j] * r2[j * p + i];
+
+    // One lane per pool thread pulls tasks from a shared counter; each
+    // result is stored under its task index, so the reduction below runs in
+    // task order whatever thread computed what.
+    let next = AtomicUsize::new(0);
+    let lanes = rayon::current_num_threads().clamp(1, tasks.len().max(1));
+    let done: Vec<Vec<(usize, [f64; 3])>> = (0..lanes)
+        .into_par_iter()
+        .map(|_| {
+            let mut lane = Lane {
+                u: [Vec::new(), Vec::new()],
+                tile: [vec![0.0; BLOCK_TILE], vec![0.0; BLOCK_TILE]],
+            };
+            let mut out = Vec::new();
+            loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                if i >= tasks.len() {
+                    break out;
+                }
+                out.push((i, run(&tasks[i], &mut lane)));
+            }
+        })
+        .collect();
+    let mut partials = vec![[0.0f64; 3]; tasks.len()];
+    for (i, r) in done.into_iter().flatten() {
+        partials[i] = r;
+    }
+    let mut sums = [0.0f64; 3];
+    for part in &partials {
+        for (s, x) in sums.iter_mut().zip(part) {
+            *s += x;
         }
     }
-    let f = |r: &[Complex<f64>]| r.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
-    1.0 - tr.re / (f(&r1) * f(&r2))
+    CmdTerms {
+        norm1_sq: sums[0],
+        norm2_sq: sums[1],
+        cross: sums[2],
+        form1,
+        form2,
+        form_cross,
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Oracle
+// ---------------------------------------------------------------------------
+
+/// Sample correlation matrix (P x P, row-major) of a row-major N x P stack,
+/// literally: `R[p,q] = (1/N) sum_n conj(x_np - mu_p)(x_nq - mu_q) / (s_p s_q)`.
+fn oracle_corr(x: &[Complex<f64>], n: usize, p: usize) -> Vec<Complex<f64>> {
+    assert_eq!(x.len(), n * p);
+    let nf = n as f64;
+    let mu: Vec<Complex<f64>> = (0..p)
+        .map(|q| (0..n).map(|s| x[s * p + q]).sum::<Complex<f64>>() / nf)
+        .collect();
+    let sd: Vec<f64> = (0..p)
+        .map(|q| {
+            ((0..n)
+                .map(|s| (x[s * p + q] - mu[q]).norm_sqr())
+                .sum::<f64>()
+                / nf)
+                .sqrt()
+        })
+        .collect();
+    let mut r = vec![Complex::new(0.0, 0.0); p * p];
+    for a in 0..p {
+        for b in 0..p {
+            let acc: Complex<f64> = (0..n)
+                .map(|s| (x[s * p + a] - mu[a]).conj() * (x[s * p + b] - mu[b]))
+                .sum();
+            r[a * p + b] = acc / (nf * sd[a] * sd[b]);
+        }
+    }
+    r
+}
+
+/// Oracle terms: forms R1 and R2 (P x P, f64 complex) directly from the raw
+/// row-major samples (`x1`: n1 x p, `x2`: n2 x p) and evaluates `||R1||_F^2`,
+/// `||R2||_F^2` and `tr(R1 R2)` literally. O(P^2 (N1 + N2)) in f64 with P x P
+/// matrices; test-sized inputs only.
+pub fn cmd_oracle_terms(
+    x1: &[Complex<f64>],
+    n1: usize,
+    x2: &[Complex<f64>],
+    n2: usize,
+    p: usize,
+) -> CmdTerms {
+    let r1 = oracle_corr(x1, n1, p);
+    let r2 = oracle_corr(x2, n2, p);
+    let fro = |r: &[Complex<f64>]| r.iter().map(|z| z.norm_sqr()).sum::<f64>();
+    let mut tr = Complex::new(0.0, 0.0);
+    for a in 0..p {
+        for b in 0..p {
+            tr += r1[a * p + b] * r2[b * p + a];
+        }
+    }
+    CmdTerms {
+        norm1_sq: fro(&r1),
+        norm2_sq: fro(&r2),
+        cross: tr.re,
+        form1: Form::Full,
+        form2: Form::Full,
+        form_cross: Form::Full,
+    }
+}
+
+/// Slow, obviously correct oracle for the distance: forms R1 and R2 (P x P,
+/// f64 complex) directly from the raw row-major samples and evaluates eq. 24
+/// literally. Test-sized inputs only.
+pub fn cmd_oracle(x1: &[Complex<f64>], n1: usize, x2: &[Complex<f64>], n2: usize, p: usize) -> f64 {
+    cmd_oracle_terms(x1, n1, x2, n2, p).distance()
+}
+
+#[cfg(test)]
+mod tests {
+    //! Tests against the f64 oracle (accuracy of each term and of the
+    //! distance for every form), identities (d(R, R) = 0, invariance to a
+    //! complex scale), the cost model, and bitwise determinism across rayon
+    //! pool sizes.
+
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    const TOL: f64 = 1e-5;
+    const FORM_SETS: [[Form; 3]; 5] = [
+        [Form::Gram, Form::Gram, Form::Gram],
+        [Form::Full, Form::Gram, Form::Gram],
+        [Form::Gram, Form::Full, Form::Gram],
+        [Form::Full, Form::Full, Form::Gram],
+        [Form::Full, Form::Full, Form::Full],
+    ];
+
+    /// Seeded random stack (row-major n x p) with correlated pixels: a moving
+    /// average of white noise along the pixels plus a component shared by
+    /// all pixels, then a per-pixel complex offset and scale (so centring and
+    /// normalisation matter).
+    fn stack(n: usize, p: usize, seed: u64) -> Vec<Complex<f64>> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let c = |rng: &mut ChaCha8Rng| {
+            Complex::new(
+                rng.random::<f64>() * 2.0 - 1.0,
+                rng.random::<f64>() * 2.0 - 1.0,
+            )
+        };
+        let offset: Vec<Complex<f64>> = (0..p).map(|_| c(&mut rng) * 5.0).collect();
+        let scale: Vec<f64> = (0..p).map(|_| 0.5 + 3.0 * rng.random::<f64>()).collect();
+        let mut x = Vec::with_capacity(n * p);
+        for _ in 0..n {
+            let common = c(&mut rng);
+            let white: Vec<Complex<f64>> = (0..p + 2).map(|_| c(&mut rng)).collect();
+            for q in 0..p {
+                let v = white[q] + white[q + 1] * 0.8 + white[q + 2] * 0.5 + common * 0.7;
+                x.push(offset[q] + v * scale[q]);
+            }
+        }
+        x
+    }
+
+    fn normalise(x: &[Complex<f64>], n: usize, p: usize) -> Normalised {
+        let pixels: Vec<usize> = (0..p).collect();
+        Normalised::from_fn(n, &pixels, |s, q| (x[s * p + q].re, x[s * p + q].im))
+    }
+
+    fn rel(a: f64, b: f64) -> f64 {
+        (a - b).abs() / b.abs()
+    }
+
+    /// Max relative errors of the three terms and absolute error of the
+    /// distance, against the oracle terms.
+    fn errors(t: &CmdTerms, o: &CmdTerms) -> [f64; 4] {
+        [
+            rel(t.norm1_sq, o.norm1_sq),
+            rel(t.norm2_sq, o.norm2_sq),
+            rel(t.cross, o.cross),
+            (t.distance() - o.distance()).abs(),
+        ]
+    }
+
+    fn check_shapes(shapes: &[(usize, usize, usize)], kern: Kernel, what: &str) {
+        let mut worst = [0.0f64; 4];
+        for (case, &(n1, n2, p)) in shapes.iter().enumerate() {
+            let x1 = stack(n1, p, 100 + case as u64);
+            let x2 = stack(n2, p, 200 + case as u64);
+            let o = cmd_oracle_terms(&x1, n1, &x2, n2, p);
+            let (a1, a2) = (normalise(&x1, n1, p), normalise(&x2, n2, p));
+            let mut sets = FORM_SETS.to_vec();
+            sets.push(choose_forms(n1, n2, p));
+            for forms in sets {
+                let t = cmd_terms_impl(&a1, &a2, forms, kern);
+                let e = errors(&t, &o);
+                for (w, x) in worst.iter_mut().zip(e) {
+                    *w = w.max(x);
+                }
+                assert!(
+                    e.iter().all(|&x| x < TOL),
+                    "{what}: n1={n1} n2={n2} p={p} forms={forms:?}: errors {e:?}, \
+                     terms {t:?} vs oracle {o:?}"
+                );
+            }
+        }
+        println!(
+            "{what}: max rel err norm1 {:.2e}, norm2 {:.2e}, cross {:.2e}; max abs err d {:.2e}",
+            worst[0], worst[1], worst[2], worst[3]
+        );
+    }
+
+    #[test]
+    fn matches_oracle_all_forms() {
+        // N in {50, 300}, P in {64, 256}: N < P and N > P, both cross forms.
+        let mut shapes = Vec::new();
+        for &p in &[64, 256] {
+            for &(n1, n2) in &[(50, 50), (50, 300), (300, 50), (300, 300)] {
+                shapes.push((n1, n2, p));
+            }
+        }
+        check_shapes(
+            &shapes,
+            select_kernel(),
+            "oracle, N in {50,300}, P in {64,256}",
+        );
+    }
+
+    #[test]
+    fn matches_oracle_ragged_and_multi_chunk() {
+        // Sizes that are not multiples of MR, NR or BLOCK, tiny ones, and
+        // inner dimensions longer than KC_MAX (several f32 chunks).
+        let shapes = [
+            (2, 3, 1),
+            (7, 13, 5),
+            (13, 101, 61),
+            (97, 193, 200),
+            (40, 700, 600),
+        ];
+        check_shapes(&shapes, select_kernel(), "oracle, ragged shapes");
+    }
+
+    #[test]
+    fn matches_oracle_long_inner_dimension() {
+        // K = 2000 samples in the P x P form: 8 f32 chunks summed in f64.
+        check_shapes(&[(100, 2000, 512)], select_kernel(), "oracle, N2 = 2000");
+    }
+
+    #[test]
+    fn no_pixels_gives_nan() {
+        let a = Normalised::from_fn(5, &[], |_, _| (0.0, 0.0));
+        let t = cmd_terms(&a, &a);
+        assert_eq!((t.norm1_sq, t.norm2_sq, t.cross), (0.0, 0.0, 0.0));
+        assert!(t.distance().is_nan());
+    }
+
+    #[test]
+    fn portable_kernel_matches_oracle() {
+        check_shapes(
+            &[(50, 300, 64), (37, 45, 130)],
+            kernel_portable,
+            "portable kernel",
+        );
+    }
+
+    #[test]
+    fn oracle_distance_matches_terms() {
+        let (n1, n2, p) = (30, 40, 20);
+        let (x1, x2) = (stack(n1, p, 1), stack(n2, p, 2));
+        let d = cmd_oracle(&x1, n1, &x2, n2, p);
+        assert_eq!(d, cmd_oracle_terms(&x1, n1, &x2, n2, p).distance());
+        assert!(d > 0.0 && d < 1.0, "{d}");
+        assert!(cmd_oracle(&x1, n1, &x1, n1, p).abs() < 1e-12);
+    }
+
+    #[test]
+    fn identical_stacks_have_zero_distance() {
+        for &(n, p) in &[(50, 64), (300, 64), (50, 256), (300, 256)] {
+            let x = stack(n, p, 7);
+            let a = normalise(&x, n, p);
+            for forms in FORM_SETS {
+                let d = cmd_terms_with_forms(&a, &a, forms).distance();
+                assert!(d.abs() < 1e-6, "n={n} p={p} {forms:?}: d = {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn invariant_to_complex_scaling() {
+        for &(n1, n2, p) in &[(50, 300, 64), (300, 50, 256), (50, 50, 256)] {
+            let (x1, x2) = (stack(n1, p, 11), stack(n2, p, 12));
+            let c = Complex::new(-3.7, 12.25);
+            let x1c: Vec<Complex<f64>> = x1.iter().map(|&z| z * c).collect();
+            let (a1, a1c, a2) = (
+                normalise(&x1, n1, p),
+                normalise(&x1c, n1, p),
+                normalise(&x2, n2, p),
+            );
+            let (t, tc) = (cmd_terms(&a1, &a2), cmd_terms(&a1c, &a2));
+            let e = errors(&tc, &t);
+            assert!(e[..3].iter().all(|&x| x < TOL) && e[3] < 1e-6, "{e:?}");
+        }
+    }
+
+    #[test]
+    fn pixel_subset_matches_oracle_on_subset() {
+        let (n1, n2, p) = (60, 80, 50);
+        let (x1, x2) = (stack(n1, p, 21), stack(n2, p, 22));
+        let keep: Vec<usize> = (0..p).filter(|q| q % 3 != 1).collect();
+        let sub = |x: &[Complex<f64>], n: usize| -> Vec<Complex<f64>> {
+            (0..n)
+                .flat_map(|s| keep.iter().map(move |&q| x[s * p + q]))
+                .collect()
+        };
+        let o = cmd_oracle_terms(&sub(&x1, n1), n1, &sub(&x2, n2), n2, keep.len());
+        let get = |x: &[Complex<f64>]| {
+            let x = x.to_vec();
+            move |s: usize, q: usize| (x[s * p + q].re, x[s * p + q].im)
+        };
+        let a1 = Normalised::from_fn(n1, &keep, get(&x1));
+        let a2 = Normalised::from_fn(n2, &keep, get(&x2));
+        assert_eq!((a1.n, a1.p), (n1, keep.len()));
+        let e = errors(&cmd_terms(&a1, &a2), &o);
+        assert!(e.iter().all(|&x| x < TOL), "{e:?}");
+    }
+
+    #[test]
+    fn normalised_has_unit_diagonal_and_zero_mean() {
+        let (n, p) = (40, 9);
+        let a = normalise(&stack(n, p, 5), n, p);
+        for q in 0..p {
+            let (mut sr, mut si, mut ss) = (0.0f64, 0.0f64, 0.0f64);
+            for s in 0..n {
+                let (r, i) = (a.re[s * p + q] as f64, a.im[s * p + q] as f64);
+                sr += r;
+                si += i;
+                ss += r * r + i * i;
+            }
+            assert!(sr.abs() < 1e-5 && si.abs() < 1e-5 && (ss - 1.0).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn cost_model_picks_expected_forms() {
+        use Form::{Full, Gram};
+        assert_eq!(choose_forms(1000, 5000, 4096), [Full, Full, Full]);
+        assert_eq!(choose_forms(1000, 1000, 4096), [Gram, Gram, Gram]);
+        assert_eq!(choose_forms(50, 50, 256), [Gram, Gram, Gram]);
+        assert_eq!(choose_forms(300, 300, 64), [Full, Full, Full]);
+        assert_eq!(choose_forms(50, 300, 64), [Full, Full, Full]);
+        // N1 <= P < N2 always goes joint: the P x P blocks of R2 are formed
+        // anyway, R1's cost P^2 N1 / 2 is below Gram norm + Gram cross.
+        assert_eq!(choose_forms(100, 300, 256), [Full, Full, Full]);
+    }
+
+    #[test]
+    #[should_panic(expected = "Full cross term")]
+    fn full_cross_needs_full_norms() {
+        let a = normalise(&stack(10, 8, 3), 10, 8);
+        cmd_terms_with_forms(&a, &a, [Form::Gram, Form::Full, Form::Full]);
+    }
+
+    #[test]
+    fn bitwise_identical_across_thread_counts() {
+        // Enough blocks and strips for real parallelism in every form.
+        let cases = [(200, 700, 300), (150, 250, 700), (500, 90, 200)];
+        for (case, &(n1, n2, p)) in cases.iter().enumerate() {
+            let (x1, x2) = (
+                stack(n1, p, 31 + case as u64),
+                stack(n2, p, 41 + case as u64),
+            );
+            let run = |threads: usize, forms: [Form; 3]| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                pool.install(|| {
+                    let (a1, a2) = (normalise(&x1, n1, p), normalise(&x2, n2, p));
+                    let t = cmd_terms_with_forms(&a1, &a2, forms);
+                    let d = t.distance();
+                    (
+                        a1.re,
+                        a1.im,
+                        a2.re,
+                        [t.norm1_sq, t.norm2_sq, t.cross, d].map(f64::to_bits),
+                    )
+                })
+            };
+            let mut sets = FORM_SETS.to_vec();
+            sets.push(choose_forms(n1, n2, p));
+            for forms in sets {
+                let one = run(1, forms);
+                for threads in [2, 3, 8] {
+                    assert!(
+                        run(threads, forms) == one,
+                        "{n1} {n2} {p} {forms:?} {threads} threads"
+                    );
+                }
+            }
+        }
+    }
 }
