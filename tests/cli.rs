@@ -478,6 +478,7 @@ synthesis:
   methods: [method1, method2, full_covariance, uncorrelated]
   samples: 300
   save_samples: true
+metrics: [multiscale_rmse, cmd, kl_pixel, {kl_area: {block: 4}}]
 sweep:
   grid:
     synthesis.samples: [300]
@@ -558,10 +559,26 @@ fn synthesis_jobs_write_params_samples_and_generated_analyses() {
         "analysis_summary.parquet",
         "synthesis_params.parquet",
         "pixel_stats.parquet",
+        "similarity.parquet",
+        "model_order.parquet",
     ] {
         assert!(
             read(&a, t).equals_missing(&read(&b, t)),
             "{t} differs between --jobs 2 and 1"
+        );
+    }
+    // Metrics: every method and the noise floor, identical KL maps.
+    let sim = read(&a, "similarity.parquet");
+    let methods: std::collections::BTreeSet<String> = strings(&sim, "method").into_iter().collect();
+    assert_eq!(methods.len(), 5, "{methods:?}");
+    for m in [
+        "d/noise_floor_kl_area_re.npy",
+        "d.method2.synthesis.samples=300/kl_pixel_im.npy",
+    ] {
+        assert_eq!(
+            std::fs::read(a.join("maps").join(m)).unwrap(),
+            std::fs::read(b.join("maps").join(m)).unwrap(),
+            "{m}"
         );
     }
     assert_eq!(
