@@ -356,7 +356,7 @@ fn table_command(
     };
     let mut printed = 0;
     for def in chosen {
-        if let Some(text) = render(results, def, filters, pivot, format)? {
+        if let Some(text) = render(results, def, filters, pivot, format, name.is_some())? {
             if printed > 0 {
                 println!();
             }
@@ -366,8 +366,13 @@ fn table_command(
     }
     if printed == 0 {
         anyhow::bail!(
-            "no rows to show in {} (with these filters)",
-            results.display()
+            "no table of {} has rows{}",
+            results.display(),
+            if filters.is_empty() && pivot.is_none() {
+                ""
+            } else {
+                " with these filters and pivot (name one with --table to see why)"
+            }
         );
     }
     Ok(())

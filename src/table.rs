@@ -179,16 +179,19 @@ pub fn format_value(v: f64) -> String {
 }
 
 /// Renders one table from `dir`, with extra `filters` (`column=value[,value]`) and an optional
-/// pivot override. `Ok(None)` when the file is missing or no row passes the filters.
+/// pivot override. `Ok(None)` when the file is missing or no row passes the filters, and, unless
+/// `strict`, when a filter or the pivot names a column this table lacks.
 ///
 /// # Errors
-/// If the file cannot be read, or a filter or pivot names a column the file lacks.
+/// If the file cannot be read, or (when `strict`) a filter or pivot names a column the file
+/// lacks.
 pub fn render(
     dir: &Path,
     def: &TableDef,
     filters: &[(String, Vec<String>)],
     pivot: Option<&str>,
     format: Format,
+    strict: bool,
 ) -> Result<Option<String>> {
     let path = dir.join(def.file);
     if !path.exists() {
@@ -211,6 +214,9 @@ pub fn render(
         .chain(filters.iter().cloned());
     for (col, accepted) in all_filters {
         if !names.contains(&col) {
+            if !strict {
+                return Ok(None);
+            }
             bail!(
                 "{}: no column {col:?} to filter on (columns: {})",
                 path.display(),
@@ -226,6 +232,9 @@ pub fn render(
     }
     let pivot = pivot.unwrap_or(def.pivot);
     if !names.iter().any(|n| n == pivot) {
+        if !strict {
+            return Ok(None);
+        }
         bail!(
             "{}: no column {pivot:?} to pivot on (columns: {})",
             path.display(),
