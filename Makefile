@@ -9,7 +9,7 @@ BIN := $(CARGO_TARGET_DIR)/release/isar-clutter
 PYTHON ?= python3
 VENV := .venv
 
-.PHONY: build run-experiment validate test lint fmt bench bench-deps
+.PHONY: build run-experiment validate test test-deps lint fmt bench bench-deps
 
 ## build: release build of the isar-clutter binary
 build:
@@ -24,8 +24,20 @@ validate: build
 	$(BIN) validate $(SPEC)
 
 ## test: every test, with the release profile (shares the release build's dependencies)
-test:
+test: test-deps
 	cargo test --release --locked
+
+## test-deps: headless Chromium for the report's browser test (Debian's `chromium`; installed
+## with apt when running as root, otherwise a hint). Under CI=true the browser test fails
+## without it rather than skipping.
+test-deps:
+	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || \
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing chromium for the browser test (apt-get)"; \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null; \
+	else \
+		echo "chromium not found: install Debian's chromium for the report's browser test"; \
+	fi
 
 ## lint: formatting and clippy with warnings as errors
 lint:

@@ -12,6 +12,7 @@
 pub mod analysis;
 pub mod cmd;
 pub mod data;
+pub mod figures;
 pub mod filters;
 pub mod fleishman;
 pub mod metrics;
@@ -19,6 +20,7 @@ pub mod model;
 pub mod npy;
 pub mod oracle;
 pub mod plan;
+pub mod report;
 pub mod results;
 pub mod runner;
 pub mod similarity;

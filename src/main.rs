@@ -34,6 +34,17 @@ enum Command {
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
+        /// Do not build figures/ and report.html at the end.
+        #[arg(long)]
+        no_report: bool,
+    },
+    /// (Re)build figures/ and report.html of a results folder from its files.
+    Report {
+        /// The results folder of a run (outputs/<name>).
+        results: PathBuf,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
     },
     /// Print comparison tables (methods side by side) from a results folder's Parquet files.
     Table {
@@ -134,6 +145,17 @@ fn real_main() -> Result<ExitCode> {
             )?;
             Ok(ExitCode::SUCCESS)
         }
+        Command::Report { results, jobs } => {
+            let t = std::time::Instant::now();
+            let report = pool(jobs)?.install(|| isar_clutter::report::build(&results))?;
+            eprintln!(
+                "{} ({} figures, {:.2} s)",
+                report.html.display(),
+                report.figures.len(),
+                t.elapsed().as_secs_f64()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Validate { spec } => {
             let plan = plan::load(&spec)?;
             println!("{}: valid, {} job(s)", spec.display(), plan.jobs.len());
@@ -186,6 +208,7 @@ fn real_main() -> Result<ExitCode> {
             jobs,
             dry_run,
             quiet,
+            no_report,
         } => {
             let plan = plan::load(&spec)?;
             if dry_run {
@@ -206,6 +229,20 @@ fn real_main() -> Result<ExitCode> {
             );
             for (job, err) in &summary.failed {
                 eprintln!("  failed: {job}: {err}");
+            }
+            if !no_report {
+                let t = std::time::Instant::now();
+                let report = pool(jobs)?
+                    .install(|| isar_clutter::report::build(&summary.out))
+                    .context("building the report (the results are written; retry with `isar-clutter report`)")?;
+                if !quiet {
+                    eprintln!(
+                        "report: {} ({} figures, {:.2} s)",
+                        report.html.display(),
+                        report.figures.len(),
+                        t.elapsed().as_secs_f64()
+                    );
+                }
             }
             Ok(if summary.failed.is_empty() {
                 ExitCode::SUCCESS

@@ -705,7 +705,11 @@ pub fn model_order(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
             ("symmetric", Kind::B),
         ],
     );
-    for (job, r) in ok(plan, outcomes) {
+    let models = plan
+        .jobs
+        .iter()
+        .any(|j| matches!(j.method, Some(Method::Uncorrelated | Method::FourthOrder)));
+    for (job, r) in ok(plan, outcomes).filter(|_| models) {
         let Some(sim) = &r.similarity else { continue };
         let order = match job.method {
             Some(Method::Uncorrelated) => Some(2),

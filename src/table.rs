@@ -16,6 +16,8 @@ pub enum Format {
     Text,
     /// GitHub-flavoured Markdown.
     Md,
+    /// An HTML `<table>` with a caption (for the report).
+    Html,
 }
 
 /// A table definition: which file, which rows, how to lay them out.
@@ -370,6 +372,28 @@ fn layout(title: &str, header: &[String], body: &[Vec<String>], keys: usize, f: 
                 let _ = writeln!(out, "{}", line(r).join("  "));
             }
         }
+        Format::Html => {
+            let _ = writeln!(out, "<table>\n<caption>{}</caption>", escape(title));
+            let row = |cells: &[String], tag: &str| -> String {
+                cells
+                    .iter()
+                    .enumerate()
+                    .map(|(c, s)| {
+                        let class = if c < keys { "key" } else { "num" };
+                        format!("<{tag} class=\"{class}\">{}</{tag}>", escape(s))
+                    })
+                    .collect()
+            };
+            let _ = writeln!(
+                out,
+                "<thead><tr>{}</tr></thead>\n<tbody>",
+                row(header, "th")
+            );
+            for r in body {
+                let _ = writeln!(out, "<tr>{}</tr>", row(r, "td"));
+            }
+            let _ = writeln!(out, "</tbody>\n</table>");
+        }
         Format::Md => {
             let _ = writeln!(out, "**{title}**\n");
             let _ = writeln!(out, "| {} |", line(header).join(" | "));
@@ -405,4 +429,12 @@ pub fn parse_filter(s: &str) -> Result<(String, Vec<String>)> {
         c.trim().to_string(),
         v.split(',').map(|x| x.trim().to_string()).collect(),
     ))
+}
+
+/// Escapes text for HTML.
+pub fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
