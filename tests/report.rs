@@ -68,6 +68,17 @@ fn chromium() -> Option<PathBuf> {
         })
 }
 
+/// Decoded RGB pixels `(width, height, bytes)` of a PNG.
+fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
 /// PNG width and height from the IHDR chunk.
 fn png_size(p: &Path) -> (u32, u32) {
     let b = std::fs::read(p).unwrap();
@@ -132,6 +143,36 @@ fn the_report_references_existing_figures_and_loads_in_a_browser() {
     assert!(local
         .iter()
         .any(|r| r.starts_with("figures/d.alpha_v=1.0/noise_floor_kl_pixel")));
+    // Colour range of a real figure: this clutter is positively correlated everywhere
+    // (level-1 correlations about 0.3-0.9), so the [-1, 1] diverging scale shows reds near its
+    // upper part but none of the blues of correlations below -0.5, outside the colour bar.
+    let corr = decode(&out.join(format!("figures/{job}/correlation.png")));
+    // Panels only: the colour bar (the right-most 140 px) holds every colour of the scale.
+    let (w, panels) = (corr.0 as usize, corr.0 as usize - 140);
+    let near = |c: (u8, u8, u8)| {
+        corr.2
+            .chunks(3)
+            .enumerate()
+            .filter(|(i, _)| i % w < panels)
+            .map(|(_, p)| p)
+            .filter(|p| {
+                let d = |x: u8, y: u8| (f64::from(x) - f64::from(y)).powi(2);
+                (d(p[0], c.0) + d(p[1], c.1) + d(p[2], c.2)).sqrt() < 12.0
+            })
+            .count()
+    };
+    use isar_clutter::figures::diverging_rgb;
+    assert!(
+        near(diverging_rgb(0.6, -1.0, 1.0)) > 500,
+        "reds of rho = 0.6"
+    );
+    for rho in [-0.6, -0.8] {
+        assert_eq!(
+            near(diverging_rgb(rho, -1.0, 1.0)),
+            0,
+            "cells drawn for rho = {rho}"
+        );
+    }
     assert!(
         local
             .iter()
