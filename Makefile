@@ -9,7 +9,7 @@ BIN := $(CARGO_TARGET_DIR)/release/isar-clutter
 PYTHON ?= python3
 VENV := .venv
 
-.PHONY: build run-experiment validate test test-deps lint fmt bench bench-deps
+.PHONY: build run-experiment validate test test-deps lint fmt bench bench-deps data
 
 ## build: release build of the isar-clutter binary
 build:
@@ -56,3 +56,15 @@ bench-deps: $(VENV)/bin/python
 ## bench: analysis benchmark (isar-clutter run vs numpy baselines); see BENCHMARKS.md
 bench: build bench-deps
 	$(VENV)/bin/python bench/analysis_bench.py --bin $(BIN)
+
+## data: real data for the shipped experiments: NOAA's monthly surface winds
+## (monthly_navy_winds.cdf, public domain) from Debian's ferret-datasets package, downloaded
+## with apt (no root needed) and unpacked into data/ (ignored by git)
+DATA_DIR := data
+data: $(DATA_DIR)/monthly_navy_winds.cdf
+$(DATA_DIR)/monthly_navy_winds.cdf:
+	mkdir -p $(DATA_DIR)/.deb
+	cd $(DATA_DIR)/.deb && apt-get download ferret-datasets
+	dpkg -x $(DATA_DIR)/.deb/ferret-datasets_*.deb $(DATA_DIR)/.deb/root
+	cp $(DATA_DIR)/.deb/root/usr/share/ferret-vis/data/monthly_navy_winds.cdf $@
+	rm -rf $(DATA_DIR)/.deb

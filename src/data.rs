@@ -126,6 +126,14 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 truth: Some((bank, std)),
             }
         }
+        Dataset::Netcdf(n) => Materialised {
+            stack: Stack::Generated(crate::netcdf_stack::load(n).map_err(|e| NpyError::Data {
+                path: n.path.clone(),
+                reason: format!("{e:#}"),
+            })?),
+            hwn: false,
+            truth: None,
+        },
         Dataset::Npy(n) => Materialised {
             stack: Stack::load(&n.path)?,
             hwn: n.layout == Layout::Hwn,

@@ -19,6 +19,7 @@ pub mod metrics;
 pub mod mie;
 pub mod model;
 pub mod netcdf;
+pub mod netcdf_stack;
 pub mod npy;
 pub mod oracle;
 pub mod plan;

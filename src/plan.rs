@@ -269,7 +269,7 @@ fn check_job_metrics(
     let (Some(syn), None, false) = (&spec.synthesis, job.method, metrics.is_empty()) else {
         return Ok(());
     };
-    let synthetic = !matches!(job.dataset, Dataset::Npy(_));
+    let synthetic = matches!(job.dataset, Dataset::FilteredNoise(_));
     job.noise_floor = match (spec.noise_floor, synthetic) {
         (NoiseFloor::None, _) => None,
         (NoiseFloor::Draws | NoiseFloor::Auto, true) => Some(NoiseFloorPlan::Draws {

@@ -345,6 +345,8 @@ pub enum DatasetKind {
     FilteredNoise,
     /// A stack read from a `.npy` file.
     Npy,
+    /// Two variables of a NetCDF-3 file combined as `u + i v` (geophysical fields).
+    Netcdf,
 }
 
 /// Filter families of `filtered_noise`.
@@ -420,6 +422,16 @@ pub struct DatasetSpec {
     /// `npy`: axis order (`nhw` default, `hwn`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layout: Option<Layout>,
+    /// `netcdf`: the variable giving the real part, `[time, rows, cols]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u: Option<String>,
+    /// `netcdf`: the variable giving the imaginary part (absent: 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub v: Option<String>,
+    /// `netcdf`: subtract each pixel's mean over the samples of the same calendar month
+    /// (months from the time coordinate's `units`, e.g. `hour since 1980-01-14 14:00:00`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub remove_monthly_mean: Option<bool>,
 }
 
 /// A parameter that is a scalar or a spatial map.
@@ -671,6 +683,23 @@ pub enum Dataset {
     FilteredNoise(Box<FilteredNoise>),
     /// A stack on disk.
     Npy(NpyDataset),
+    /// Two variables of a NetCDF-3 file.
+    Netcdf(NetcdfDataset),
+}
+
+/// A validated `netcdf` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NetcdfDataset {
+    /// Resolved path.
+    pub path: PathBuf,
+    /// Real-part variable.
+    pub u: String,
+    /// Imaginary-part variable.
+    pub v: Option<String>,
+    /// Remove the per-calendar-month mean.
+    pub remove_monthly_mean: bool,
+    /// `(N, H, W)`: the variables' shape.
+    pub shape: (usize, usize, usize),
 }
 
 impl Dataset {
@@ -679,6 +708,7 @@ impl Dataset {
         match self {
             Dataset::FilteredNoise(f) => (f.samples, f.height, f.width),
             Dataset::Npy(n) => n.stack_shape(),
+            Dataset::Netcdf(n) => n.shape,
         }
     }
 
@@ -687,6 +717,7 @@ impl Dataset {
         match self {
             Dataset::FilteredNoise(_) => "filtered_noise",
             Dataset::Npy(_) => "npy",
+            Dataset::Netcdf(_) => "netcdf",
         }
     }
 }
@@ -883,6 +914,7 @@ impl DatasetSpec {
         ];
         match (self.kind, self.family) {
             (DatasetKind::Npy, _) => &["path", "layout"],
+            (DatasetKind::Netcdf, _) => &["path", "u", "v", "remove_monthly_mean"],
             (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => &DYADIC,
             (DatasetKind::FilteredNoise, _) => &EXP,
         }
@@ -919,6 +951,9 @@ impl DatasetSpec {
             ("texture_shape", self.texture_shape.is_some()),
             ("path", self.path.is_some()),
             ("layout", self.layout.is_some()),
+            ("u", self.u.is_some()),
+            ("v", self.v.is_some()),
+            ("remove_monthly_mean", self.remove_monthly_mean.is_some()),
         ];
         let allowed = self.fields();
         if let Some((f, _)) = fields.iter().find(|(f, set)| *set && !allowed.contains(f)) {
@@ -936,6 +971,7 @@ impl DatasetSpec {
         }
         let dataset = match self.kind {
             DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
+            DatasetKind::Netcdf => Dataset::Netcdf(self.check_netcdf(ctx, at)?),
             DatasetKind::FilteredNoise => {
                 Dataset::FilteredNoise(Box::new(self.check_noise(ctx, at)?))
             }
@@ -955,6 +991,62 @@ impl DatasetSpec {
         check_levels(levels, h, w)
             .map_err(|e| ctx.err("analysis.levels", format!("dataset {}: {e}", self.id)))?;
         Ok(dataset)
+    }
+
+    fn check_netcdf(&self, ctx: &Ctx, at: &str) -> Result<NetcdfDataset, SpecError> {
+        let rel = self
+            .path
+            .as_ref()
+            .ok_or_else(|| ctx.err(format!("{at}.path"), "kind netcdf needs `path`"))?;
+        let path = ctx.resolve(rel);
+        let file = crate::netcdf::NcFile::open(&path)
+            .map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
+        let u = self
+            .u
+            .clone()
+            .ok_or_else(|| ctx.err(format!("{at}.u"), "kind netcdf needs `u` (a variable name)"))?;
+        let names: Vec<&str> = file.variables().iter().map(|v| v.name.as_str()).collect();
+        let shape_of = |name: &str, field: &str| -> Result<(usize, usize, usize), SpecError> {
+            let var = file.variable(name).ok_or_else(|| {
+                ctx.err(
+                    format!("{at}.{field}"),
+                    format!(
+                        "{} has no variable {name:?} (it has: {})",
+                        path.display(),
+                        names.join(", ")
+                    ),
+                )
+            })?;
+            match file.shape(var)[..] {
+                [n, h, w] => Ok((n, h, w)),
+                ref s => Err(ctx.err(
+                    format!("{at}.{field}"),
+                    format!("variable {name:?} has shape {s:?}; a stack is 3-D [time, rows, cols]"),
+                )),
+            }
+        };
+        let shape = shape_of(&u, "u")?;
+        if let Some(v) = &self.v {
+            let sv = shape_of(v, "v")?;
+            if sv != shape {
+                return Err(ctx.err(
+                    format!("{at}.v"),
+                    format!("{v:?} has shape {sv:?}, {u:?} has {shape:?}; they must match"),
+                ));
+            }
+        }
+        let remove_monthly_mean = self.remove_monthly_mean.unwrap_or(false);
+        if remove_monthly_mean {
+            crate::netcdf_stack::months(&file, &u)
+                .map_err(|e| ctx.err(format!("{at}.remove_monthly_mean"), e))?;
+        }
+        Ok(NetcdfDataset {
+            path,
+            u,
+            v: self.v.clone(),
+            remove_monthly_mean,
+            shape,
+        })
     }
 
     fn check_npy(&self, ctx: &Ctx, at: &str) -> Result<NpyDataset, SpecError> {
