@@ -10,6 +10,7 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod calibration;
 pub mod cmd;
 pub mod data;
 pub mod figures;
