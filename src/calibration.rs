@@ -108,6 +108,50 @@ impl Default for ChainParams {
 }
 
 impl ChainParams {
+    /// Validates the parameters: `(field, message)` for the first bad one.
+    ///
+    /// # Errors
+    /// Non-positive radius, frequencies, gate or gain, `f_stop <= f_start`, fewer than 16
+    /// points, negative noise or residual, non-finite values.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        let pos = |name: &'static str, v: f64| {
+            if v > 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err((name, format!("{name} {v} must be finite and > 0")))
+            }
+        };
+        pos("sphere_radius", self.sphere_radius)?;
+        pos("f_start", self.f_start)?;
+        pos("gain", self.gain)?;
+        pos("gate_half_width_m", self.gate_half_width_m)?;
+        if !(self.f_stop > self.f_start && self.f_stop.is_finite()) {
+            return Err((
+                "f_stop",
+                format!(
+                    "f_stop {} must exceed f_start {}",
+                    self.f_stop, self.f_start
+                ),
+            ));
+        }
+        if self.points < 16 {
+            return Err((
+                "points",
+                format!("{} frequency points; at least 16", self.points),
+            ));
+        }
+        for (name, v) in [
+            ("noise", self.noise),
+            ("background_residual", self.background_residual),
+            ("ripple", self.ripple),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err((name, format!("{name} {v} must be finite and >= 0")));
+            }
+        }
+        Ok(())
+    }
+
     /// The frequency grid (Hz).
     pub fn freqs(&self) -> Vec<f64> {
         let n = self.points.max(2);
@@ -334,4 +378,30 @@ mod tests {
         let bin = C / (2.0 * p.points as f64 * df);
         assert!((centre - want).abs() <= bin, "{centre} vs {want}");
     }
+}
+
+/// Summary statistics of a calibration over a band: `(band, statistic, value)` with bands
+/// `full` and `inner` (the central 90 % of the points, away from the gate's edge transients),
+/// statistics `max_abs_error_db`, `rms_error_db`, `max_abs_phase_error_deg`,
+/// `max_abs_raw_error_db` (the uncalibrated data against Mie).
+pub fn summary(rows: &[CalibrationRow]) -> Vec<(&'static str, &'static str, f64)> {
+    let edge = rows.len() / 20;
+    let mut out = vec![];
+    for (band, r) in [("full", rows), ("inner", &rows[edge..rows.len() - edge])] {
+        let max = |f: &dyn Fn(&CalibrationRow) -> f64| r.iter().map(f).fold(0.0, f64::max);
+        let rms = (r.iter().map(|x| x.error_db * x.error_db).sum::<f64>() / r.len() as f64).sqrt();
+        out.push((band, "max_abs_error_db", max(&|x| x.error_db.abs())));
+        out.push((band, "rms_error_db", rms));
+        out.push((
+            band,
+            "max_abs_phase_error_deg",
+            max(&|x| x.phase_error_deg.abs()),
+        ));
+        out.push((
+            band,
+            "max_abs_raw_error_db",
+            max(&|x| (x.raw_db - x.mie_db).abs()),
+        ));
+    }
+    out
 }

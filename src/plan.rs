@@ -173,7 +173,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     let raw: Yaml =
         serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
     let ctx = Ctx { file };
-    check_top(&spec, &ctx)?;
+    check_top(&spec, raw.get("analysis").is_some(), &ctx)?;
     let metrics = spec::check_metrics(&spec, &ctx)?;
     let axes = parse_axes(&spec, &ctx)?;
     let points = sweep_points(&axes, &ctx)?;
@@ -244,6 +244,13 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     })
 }
 
+impl Plan {
+    /// Seed of the simulated calibration measurements (hash of the master seed).
+    pub fn calibration_seed(&self) -> u64 {
+        derive_seed(self.spec.seed, "calibration", "")
+    }
+}
+
 /// Checks the metrics against one job's data and sets an analysis job's noise floor.
 fn check_job_metrics(
     spec: &RawSpec,
@@ -302,7 +309,7 @@ fn check_job_metrics(
 }
 
 /// Document-level checks: name, unique dataset ids.
-fn check_top(spec: &RawSpec, ctx: &Ctx) -> Result<(), SpecError> {
+fn check_top(spec: &RawSpec, analysis_given: bool, ctx: &Ctx) -> Result<(), SpecError> {
     if spec.name.is_empty()
         || !spec
             .name
@@ -312,8 +319,19 @@ fn check_top(spec: &RawSpec, ctx: &Ctx) -> Result<(), SpecError> {
     {
         return Err(ctx.err("name", format!("name {:?} must be non-empty ASCII letters, digits, `_`, `-` or `.` (it names the output folder)", spec.name)));
     }
-    if spec.datasets.is_empty() {
+    if spec.datasets.is_empty() && spec.calibration.is_none() {
         return Err(ctx.err("datasets", "at least one dataset is needed"));
+    }
+    let text_has_analysis = spec.datasets.is_empty() || analysis_given;
+    if !text_has_analysis {
+        return Err(ctx.err(
+            "analysis",
+            "missing field `analysis` (levels of the multiscale analysis)",
+        ));
+    }
+    if let Some(c) = &spec.calibration {
+        c.check()
+            .map_err(|(field, msg)| ctx.err(format!("calibration.{field}"), msg))?;
     }
     let mut ids = HashMap::new();
     for (i, d) in spec.datasets.iter().enumerate() {

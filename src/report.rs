@@ -68,6 +68,7 @@ pub fn build(dir: &Path) -> Result<Report> {
         .collect::<Result<_>>()?;
     let mut figures: Vec<Figure> = per_job.into_iter().flatten().collect();
     figures.extend(sweep_figures(dir)?);
+    figures.extend(calibration_figures(dir)?);
     let html = page(dir, &manifest, &figures)?;
     let path = dir.join("report.html");
     crate::results::atomic_write(&path, |w| {
@@ -427,6 +428,68 @@ fn parameter_figures(dir: &Path, job: &str, df: &DataFrame) -> Result<Vec<Figure
     )?])
 }
 
+/// The calibration's spectra (Figs. 11-14): Mie, raw and calibrated sphere, and the error.
+fn calibration_figures(dir: &Path) -> Result<Vec<Figure>> {
+    let path = dir.join("calibration.parquet");
+    if !path.exists() {
+        return Ok(vec![]);
+    }
+    let df = ParquetReader::new(std::fs::File::open(&path)?)
+        .finish()
+        .with_context(|| format!("reading {}", path.display()))?;
+    let col = |c: &str| -> Result<Vec<f64>> {
+        Ok(df
+            .column(c)?
+            .f64()?
+            .iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    };
+    let f = col("freq_ghz")?;
+    let series =
+        |c: &str| -> Result<Vec<(f64, f64)>> { Ok(f.iter().copied().zip(col(c)?).collect()) };
+    let spectra = [
+        ("Mie (exact)", series("mie_dbsm")?),
+        ("raw sphere measurement", series("raw_db")?),
+        ("calibrated sphere", series("calibrated_dbsm")?),
+    ];
+    let error = [("calibrated - Mie", series("error_db")?)];
+    let mut out = vec![];
+    for (stem, caption, set, y) in [
+        (
+            "calibration_spectra",
+            "Sphere calibration: Mie, raw and calibrated response",
+            &spectra[..],
+            "dB (dBsm for Mie and calibrated)",
+        ),
+        (
+            "calibration_error",
+            "Sphere calibration: calibrated minus Mie",
+            &error[..],
+            "error (dB)",
+        ),
+    ] {
+        let refs: Vec<(&str, &[(f64, f64)])> =
+            set.iter().map(|(k, v)| (*k, v.as_slice())).collect();
+        let files = figures::curves(
+            &dir.join("figures"),
+            stem,
+            caption,
+            &refs,
+            "frequency (GHz)",
+            y,
+        )
+        .with_context(|| format!("drawing {stem}"))?;
+        out.push(Figure {
+            job: String::new(),
+            caption: caption.into(),
+            files: files.map(|f| rel(dir, &f)),
+            data: vec![rel(dir, &path)],
+        });
+    }
+    Ok(out)
+}
+
 /// Curves over every numeric swept parameter: the mean correlation per level and direction
 /// (per dataset and source), and each method's similarity summaries (`average_level_1` of the
 /// multiscale RMSE, the CMD) per dataset.
@@ -623,7 +686,7 @@ fn page(dir: &Path, manifest: &Json, figures: &[Figure]) -> Result<String> {
     for f in figures {
         if current != Some(&f.job) {
             let title = if f.job.is_empty() {
-                "Sweeps"
+                "Run-wide figures"
             } else {
                 f.job.as_str()
             };
@@ -728,6 +791,8 @@ fn page(dir: &Path, manifest: &Json, figures: &[Figure]) -> Result<String> {
             "model_order.parquet",
             "synthesis_params.parquet",
             "filter_correlation.parquet",
+            "calibration.parquet",
+            "calibration_summary.parquet",
         ]
         .iter()
         .filter(|f| dir.join(f).exists())

@@ -751,3 +751,36 @@ pub fn model_order(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
     }
     t.finish()
 }
+
+/// Runs the spec's simulated sphere calibration and writes `calibration.parquet` (one row per
+/// frequency: `freq_ghz, mie_dbsm, raw_db, calibrated_dbsm, error_db, phase_error_deg`) and
+/// `calibration_summary.parquet` (`band, statistic, value`), atomically.
+///
+/// # Errors
+/// If a file cannot be written.
+pub fn write_calibration(p: &crate::calibration::ChainParams, seed: u64, out: &Path) -> Result<()> {
+    use crate::calibration::{calibrate, simulate, summary};
+    let rows = calibrate(p, &simulate(p, seed));
+    let col = |name: &str, f: &dyn Fn(&crate::calibration::CalibrationRow) -> f64| {
+        Column::new(name.into(), rows.iter().map(f).collect::<Vec<f64>>())
+    };
+    let mut df = DataFrame::new_infer_height(vec![
+        col("freq_ghz", &|r| r.freq / 1e9),
+        col("mie_dbsm", &|r| r.mie_db),
+        col("raw_db", &|r| r.raw_db),
+        col("calibrated_dbsm", &|r| r.calibrated_db),
+        col("error_db", &|r| r.error_db),
+        col("phase_error_deg", &|r| r.phase_error_deg),
+    ])?;
+    write_parquet(&out.join("calibration.parquet"), &mut df)?;
+    let s = summary(&rows);
+    let mut df = DataFrame::new_infer_height(vec![
+        Column::new("band".into(), s.iter().map(|x| x.0).collect::<Vec<_>>()),
+        Column::new(
+            "statistic".into(),
+            s.iter().map(|x| x.1).collect::<Vec<_>>(),
+        ),
+        Column::new("value".into(), s.iter().map(|x| x.2).collect::<Vec<_>>()),
+    ])?;
+    write_parquet(&out.join("calibration_summary.parquet"), &mut df)
+}

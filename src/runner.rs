@@ -123,6 +123,9 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         })
         .collect();
     let elapsed_s = start.elapsed().as_secs_f64();
+    if let Some(c) = &plan.spec.calibration {
+        results::write_calibration(c, plan.calibration_seed(), &opts.out)?;
+    }
     write_manifest(plan, &outcomes, opts, elapsed_s, tables_s)?;
     Ok(RunSummary {
         total: outcomes.len(),
@@ -519,6 +522,7 @@ fn write_manifest(
         "master_seed": plan.spec.seed,
         "seed_derivation": "first 8 bytes (LE) of SHA-256('isar-clutter/v1/<job|data>/<master seed>/<identity>'); samples use ChaCha20 seeded with data_seed, stream = sample index",
         "threads": opts.threads,
+        "calibration_seed": plan.spec.calibration.as_ref().map(|_| plan.calibration_seed()),
         "finished_unix_s": unix,
         "timings": { "total_s": total_s, "tables_s": tables_s },
         "jobs": jobs,

@@ -60,9 +60,11 @@ pub struct RawSpec {
     /// Free text for the report.
     #[serde(default)]
     pub description: Option<String>,
-    /// Datasets to analyse.
+    /// Datasets to analyse (may be empty only with a `calibration` section).
+    #[serde(default)]
     pub datasets: Vec<DatasetSpec>,
-    /// Multiscale analysis settings.
+    /// Multiscale analysis settings (default: 1 level; needed with datasets).
+    #[serde(default)]
     pub analysis: AnalysisSpec,
     /// Parameter sweeps.
     #[serde(default)]
@@ -78,6 +80,10 @@ pub struct RawSpec {
     /// How the noise floor of the metrics is measured (default `auto`).
     #[serde(default)]
     pub noise_floor: NoiseFloor,
+    /// A simulated sphere calibration (2.3): `calibration.parquet` and
+    /// `calibration_summary.parquet`; `datasets` may then be empty.
+    #[serde(default)]
+    pub calibration: Option<crate::calibration::ChainParams>,
     /// Output options.
     #[serde(default)]
     pub outputs: OutputsSpec,
@@ -296,8 +302,15 @@ impl SynthesisSpec {
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AnalysisSpec {
+    // `Default` (1 level) serves calibration-only specs; with datasets the key is required.
     /// Number of decomposition levels `L` (maps for levels `1..=L`).
     pub levels: usize,
+}
+
+impl Default for AnalysisSpec {
+    fn default() -> Self {
+        AnalysisSpec { levels: 1 }
+    }
 }
 
 /// `outputs:` section.
