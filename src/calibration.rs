@@ -314,6 +314,32 @@ pub fn calibrate(p: &ChainParams, m: &Measurements) -> Vec<CalibrationRow> {
         .collect()
 }
 
+/// Summary statistics of a calibration over a band: `(band, statistic, value)` with bands
+/// `full` and `inner` (the central 90 % of the points, away from the gate's edge transients),
+/// statistics `max_abs_error_db`, `rms_error_db`, `max_abs_phase_error_deg`,
+/// `max_abs_raw_error_db` (the uncalibrated data against Mie).
+pub fn summary(rows: &[CalibrationRow]) -> Vec<(&'static str, &'static str, f64)> {
+    let edge = rows.len() / 20;
+    let mut out = vec![];
+    for (band, r) in [("full", rows), ("inner", &rows[edge..rows.len() - edge])] {
+        let max = |f: &dyn Fn(&CalibrationRow) -> f64| r.iter().map(f).fold(0.0, f64::max);
+        let rms = (r.iter().map(|x| x.error_db * x.error_db).sum::<f64>() / r.len() as f64).sqrt();
+        out.push((band, "max_abs_error_db", max(&|x| x.error_db.abs())));
+        out.push((band, "rms_error_db", rms));
+        out.push((
+            band,
+            "max_abs_phase_error_deg",
+            max(&|x| x.phase_error_deg.abs()),
+        ));
+        out.push((
+            band,
+            "max_abs_raw_error_db",
+            max(&|x| (x.raw_db - x.mie_db).abs()),
+        ));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -378,30 +404,4 @@ mod tests {
         let bin = C / (2.0 * p.points as f64 * df);
         assert!((centre - want).abs() <= bin, "{centre} vs {want}");
     }
-}
-
-/// Summary statistics of a calibration over a band: `(band, statistic, value)` with bands
-/// `full` and `inner` (the central 90 % of the points, away from the gate's edge transients),
-/// statistics `max_abs_error_db`, `rms_error_db`, `max_abs_phase_error_deg`,
-/// `max_abs_raw_error_db` (the uncalibrated data against Mie).
-pub fn summary(rows: &[CalibrationRow]) -> Vec<(&'static str, &'static str, f64)> {
-    let edge = rows.len() / 20;
-    let mut out = vec![];
-    for (band, r) in [("full", rows), ("inner", &rows[edge..rows.len() - edge])] {
-        let max = |f: &dyn Fn(&CalibrationRow) -> f64| r.iter().map(f).fold(0.0, f64::max);
-        let rms = (r.iter().map(|x| x.error_db * x.error_db).sum::<f64>() / r.len() as f64).sqrt();
-        out.push((band, "max_abs_error_db", max(&|x| x.error_db.abs())));
-        out.push((band, "rms_error_db", rms));
-        out.push((
-            band,
-            "max_abs_phase_error_deg",
-            max(&|x| x.phase_error_deg.abs()),
-        ));
-        out.push((
-            band,
-            "max_abs_raw_error_db",
-            max(&|x| (x.raw_db - x.mie_db).abs()),
-        ));
-    }
-    out
 }
