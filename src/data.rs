@@ -126,6 +126,27 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 truth: Some((bank, std)),
             }
         }
+        Dataset::Vegetation(v) => {
+            let opts = crate::isar::ImagingOptions {
+                size: v.image_size,
+                ..Default::default()
+            };
+            let grid = v.measurement.grid().map_err(|e| NpyError::Data {
+                path: "vegetation_isar".into(),
+                reason: e.to_string(),
+            })?;
+            let (_, images) =
+                crate::vegetation::try_simulate(&v.scene, &grid, &opts, v.samples, data_seed)
+                    .map_err(|e| NpyError::Data {
+                        path: "vegetation_isar".into(),
+                        reason: e.to_string(),
+                    })?;
+            Materialised {
+                stack: Stack::Generated(images),
+                hwn: false,
+                truth: None,
+            }
+        }
         Dataset::Netcdf(n) => Materialised {
             stack: Stack::Generated(crate::netcdf_stack::load(n).map_err(|e| NpyError::Data {
                 path: n.path.clone(),

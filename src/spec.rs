@@ -360,6 +360,8 @@ pub enum DatasetKind {
     Npy,
     /// Two variables of a NetCDF-3 file combined as `u + i v` (geophysical fields).
     Netcdf,
+    /// Simulated ISAR images of a wind-blown plant (the physical forward model).
+    VegetationIsar,
 }
 
 /// Filter families of `filtered_noise`.
@@ -435,6 +437,23 @@ pub struct DatasetSpec {
     /// `npy`: axis order (`nhw` default, `hwn`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layout: Option<Layout>,
+    /// `vegetation_isar`: plant preset `A`..`E`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plant: Option<String>,
+    /// `vegetation_isar`: wind preset `none`, `light` or `medium`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wind: Option<String>,
+    /// `vegetation_isar`: overrides of the preset's scene parameters (`plant`, `wind`,
+    /// `noise_db`, `background_residual`, `sample_interval_s`), merged key by key.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<serde_yaml_ng::Value>,
+    /// `vegetation_isar`: the stepped-frequency measurement (default 2-18 GHz x 51 degrees,
+    /// 256 x 256 points).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measurement: Option<MeasurementSpec>,
+    /// `vegetation_isar`: image size in pixels (default 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image_size: Option<usize>,
     /// `netcdf`: the variable giving the real part, `[time, rows, cols]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub u: Option<String>,
@@ -698,6 +717,88 @@ pub enum Dataset {
     Npy(NpyDataset),
     /// Two variables of a NetCDF-3 file.
     Netcdf(NetcdfDataset),
+    /// Simulated ISAR images of a plant.
+    Vegetation(Box<VegetationDataset>),
+}
+
+/// `measurement:` of a `vegetation_isar` dataset: a uniform stepped-frequency, turntable
+/// azimuth grid.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementSpec {
+    /// First frequency (Hz).
+    #[serde(default = "f_start")]
+    pub f_start: f64,
+    /// Last frequency (Hz).
+    #[serde(default = "f_stop")]
+    pub f_stop: f64,
+    /// Frequency points.
+    #[serde(default = "grid_points")]
+    pub frequencies: usize,
+    /// Azimuth span (degrees, centred on 0).
+    #[serde(default = "span")]
+    pub azimuth_span_deg: f64,
+    /// Azimuth points.
+    #[serde(default = "grid_points")]
+    pub azimuths: usize,
+}
+
+fn f_start() -> f64 {
+    2e9
+}
+fn f_stop() -> f64 {
+    18e9
+}
+fn grid_points() -> usize {
+    256
+}
+fn span() -> f64 {
+    51.0
+}
+
+impl Default for MeasurementSpec {
+    fn default() -> Self {
+        MeasurementSpec {
+            f_start: f_start(),
+            f_stop: f_stop(),
+            frequencies: grid_points(),
+            azimuth_span_deg: span(),
+            azimuths: grid_points(),
+        }
+    }
+}
+
+impl MeasurementSpec {
+    /// The measurement grid.
+    ///
+    /// # Errors
+    /// The imaging chain's error naming the bad parameter.
+    pub fn grid(&self) -> Result<crate::isar::Measurement, crate::isar::IsarError> {
+        crate::isar::Measurement::uniform(
+            self.f_start,
+            self.f_stop,
+            self.frequencies,
+            self.azimuth_span_deg.to_radians(),
+            self.azimuths,
+        )
+    }
+}
+
+/// A validated `vegetation_isar` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VegetationDataset {
+    /// Plant preset name.
+    pub plant: String,
+    /// Wind preset name.
+    pub wind: String,
+    /// The scene: the presets with the spec's overrides.
+    pub scene: crate::vegetation::SceneParams,
+    /// The measurement.
+    pub measurement: MeasurementSpec,
+    /// Image size.
+    pub image_size: usize,
+    /// Samples.
+    pub samples: usize,
 }
 
 /// A validated `netcdf` dataset.
@@ -722,6 +823,7 @@ impl Dataset {
             Dataset::FilteredNoise(f) => (f.samples, f.height, f.width),
             Dataset::Npy(n) => n.stack_shape(),
             Dataset::Netcdf(n) => n.shape,
+            Dataset::Vegetation(v) => (v.samples, v.image_size, v.image_size),
         }
     }
 
@@ -731,6 +833,7 @@ impl Dataset {
             Dataset::FilteredNoise(_) => "filtered_noise",
             Dataset::Npy(_) => "npy",
             Dataset::Netcdf(_) => "netcdf",
+            Dataset::Vegetation(_) => "vegetation_isar",
         }
     }
 }
@@ -928,6 +1031,14 @@ impl DatasetSpec {
         match (self.kind, self.family) {
             (DatasetKind::Npy, _) => &["path", "layout"],
             (DatasetKind::Netcdf, _) => &["path", "u", "v", "remove_monthly_mean"],
+            (DatasetKind::VegetationIsar, _) => &[
+                "plant",
+                "wind",
+                "samples",
+                "scene",
+                "measurement",
+                "image_size",
+            ],
             (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => &DYADIC,
             (DatasetKind::FilteredNoise, _) => &EXP,
         }
@@ -964,6 +1075,11 @@ impl DatasetSpec {
             ("texture_shape", self.texture_shape.is_some()),
             ("path", self.path.is_some()),
             ("layout", self.layout.is_some()),
+            ("plant", self.plant.is_some()),
+            ("wind", self.wind.is_some()),
+            ("scene", self.scene.is_some()),
+            ("measurement", self.measurement.is_some()),
+            ("image_size", self.image_size.is_some()),
             ("u", self.u.is_some()),
             ("v", self.v.is_some()),
             ("remove_monthly_mean", self.remove_monthly_mean.is_some()),
@@ -985,6 +1101,9 @@ impl DatasetSpec {
         let dataset = match self.kind {
             DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
             DatasetKind::Netcdf => Dataset::Netcdf(self.check_netcdf(ctx, at)?),
+            DatasetKind::VegetationIsar => {
+                Dataset::Vegetation(Box::new(self.check_vegetation(ctx, at)?))
+            }
             DatasetKind::FilteredNoise => {
                 Dataset::FilteredNoise(Box::new(self.check_noise(ctx, at)?))
             }
@@ -1004,6 +1123,67 @@ impl DatasetSpec {
         check_levels(levels, h, w)
             .map_err(|e| ctx.err("analysis.levels", format!("dataset {}: {e}", self.id)))?;
         Ok(dataset)
+    }
+
+    fn check_vegetation(&self, ctx: &Ctx, at: &str) -> Result<VegetationDataset, SpecError> {
+        use crate::vegetation::SceneParams;
+        let plant = self.plant.clone().ok_or_else(|| {
+            ctx.err(
+                format!("{at}.plant"),
+                "kind vegetation_isar needs `plant` (A, B, C, D or E)",
+            )
+        })?;
+        let wind = self.wind.clone().unwrap_or_else(|| "none".into());
+        let preset = SceneParams::preset(&plant, &wind).ok_or_else(|| {
+            let (field, what) = if crate::vegetation::PlantParams::preset(&plant).is_none() {
+                (
+                    "plant",
+                    format!("unknown plant {plant:?}; presets: A, B, C, D, E"),
+                )
+            } else {
+                (
+                    "wind",
+                    format!("unknown wind {wind:?}; presets: none, light, medium"),
+                )
+            };
+            ctx.err(format!("{at}.{field}"), what)
+        })?;
+        let scene = match &self.scene {
+            None => preset,
+            Some(over) => {
+                let mut base = serde_yaml_ng::to_value(&preset).expect("scene serialises");
+                merge(&mut base, over);
+                let s: SceneParams = serde_path_to_error::deserialize(base).map_err(|e| {
+                    ctx.err(format!("{at}.scene.{}", e.path()), e.inner().to_string())
+                })?;
+                s
+            }
+        };
+        scene
+            .validate()
+            .map_err(|e| ctx.err(format!("{at}.scene"), e.to_string()))?;
+        let measurement = self.measurement.clone().unwrap_or_default();
+        measurement
+            .grid()
+            .map_err(|e| ctx.err(format!("{at}.measurement"), e.to_string()))?;
+        let samples = self.samples.ok_or_else(|| {
+            ctx.err(
+                format!("{at}.samples"),
+                "kind vegetation_isar needs `samples`",
+            )
+        })?;
+        let image_size = self.image_size.unwrap_or(64);
+        if image_size < 2 {
+            return Err(ctx.err(format!("{at}.image_size"), "image_size must be at least 2"));
+        }
+        Ok(VegetationDataset {
+            plant,
+            wind,
+            scene,
+            measurement,
+            image_size,
+            samples,
+        })
     }
 
     fn check_netcdf(&self, ctx: &Ctx, at: &str) -> Result<NetcdfDataset, SpecError> {
@@ -1215,5 +1395,23 @@ impl DatasetSpec {
             std,
             texture_shape,
         })
+    }
+}
+
+/// Merges `over` into `base` key by key (mappings recursively; other values replace).
+fn merge(base: &mut serde_yaml_ng::Value, over: &serde_yaml_ng::Value) {
+    use serde_yaml_ng::Value;
+    match (base, over) {
+        (Value::Mapping(b), Value::Mapping(o)) => {
+            for (k, v) in o {
+                match b.get_mut(k) {
+                    Some(slot) => merge(slot, v),
+                    None => {
+                        b.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+        }
+        (slot, v) => *slot = v.clone(),
     }
 }

@@ -372,3 +372,42 @@ fn texture_shape_must_be_positive() {
         "{e}"
     );
 }
+
+#[test]
+fn vegetation_errors_name_the_field() {
+    let veg = |extra: &str| {
+        format!("name: t\nseed: 1\ndatasets:\n  - id: p\n    kind: vegetation_isar\n    samples: 4\n{extra}analysis:\n  levels: 1\n")
+    };
+    let e = error_of(&veg(""));
+    assert!(
+        e.contains("datasets[0].plant") && e.contains("needs `plant`"),
+        "{e}"
+    );
+    let e = error_of(&veg("    plant: F\n"));
+    assert!(
+        e.contains("datasets[0].plant") && e.contains("unknown plant \"F\""),
+        "{e}"
+    );
+    let e = error_of(&veg("    plant: A\n    wind: gale\n"));
+    assert!(
+        e.contains("datasets[0].wind") && e.contains("unknown wind \"gale\""),
+        "{e}"
+    );
+    let e = error_of(&veg("    plant: A\n    scene: {plant: {leaf_sise: 1}}\n"));
+    assert!(
+        e.contains("datasets[0].scene.plant") && e.contains("unknown field `leaf_sise`"),
+        "{e}"
+    );
+    let e = error_of(&veg("    plant: A\n    scene: {noise_db: x}\n"));
+    assert!(e.contains("datasets[0].scene.noise_db"), "{e}");
+    let e = error_of(&veg("    plant: A\n    measurement: {frequencies: 2}\n"));
+    assert!(
+        e.contains("datasets[0].measurement") && e.contains("n_f"),
+        "{e}"
+    );
+    let e = error_of(&veg("    plant: A\n    path: x.npy\n"));
+    assert!(
+        e.contains("datasets[0].path") && e.contains("does not apply"),
+        "{e}"
+    );
+}
