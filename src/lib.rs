@@ -16,6 +16,7 @@ pub mod data;
 pub mod figures;
 pub mod filters;
 pub mod fleishman;
+pub mod hypotheses;
 pub mod isar;
 pub mod metrics;
 pub mod mie;

@@ -38,6 +38,8 @@ pub struct JobResult {
     pub bytes: usize,
     /// The metrics: generated vs original (synthesis jobs) or the noise floor (analysis jobs).
     pub similarity: Option<SimilarityOutcome>,
+    /// With `hypotheses`: the mean 2-D correlating function of the original and its pair counts.
+    pub correlating: Option<(Array2<f64>, Array2<usize>)>,
 }
 
 /// The metrics one job computed.
@@ -783,4 +785,89 @@ pub fn write_calibration(p: &crate::calibration::ChainParams, seed: u64, out: &P
         Column::new("value".into(), s.iter().map(|x| x.2).collect::<Vec<_>>()),
     ])?;
     write_parquet(&out.join("calibration_summary.parquet"), &mut df)
+}
+
+/// `correlating_function`: one row per analysis job and offset `(dy, dx)`: the mean over pixel
+/// pairs of the correlation at that offset (5.1.3), the offset's length and the pairs used.
+pub fn correlating_function(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut t = Table::new(
+        plan,
+        &[
+            ("job", Kind::S),
+            ("dataset", Kind::S),
+            ("dy", Kind::I),
+            ("dx", Kind::I),
+            ("distance", Kind::F),
+            ("mean_correlation", Kind::F),
+            ("pairs", Kind::I),
+        ],
+    );
+    for (job, r) in ok(plan, outcomes) {
+        let Some((c, pairs)) = &r.correlating else {
+            continue;
+        };
+        let half = (c.nrows() / 2) as i64;
+        for ((a, b), &v) in c.indexed_iter() {
+            let (dy, dx) = (a as i64 - half, b as i64 - half);
+            t.s("job", &job.id);
+            t.s("dataset", &job.dataset_id);
+            t.i("dy", dy);
+            t.i("dx", dx);
+            t.f("distance", Some(((dy * dy + dx * dx) as f64).sqrt()));
+            t.f("mean_correlation", Some(v).filter(|v| !v.is_nan()));
+            t.i("pairs", pairs[[a, b]] as i64);
+            t.row(job);
+        }
+    }
+    t.finish()
+}
+
+/// `hypotheses` (Table 24): the tests of `crate::hypotheses` over the analysis jobs whose
+/// dataset is named `plant_<letter>_<wind>` (first sweep point of each).
+pub fn hypotheses(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
+    let mut stats = vec![];
+    for (job, r) in ok(plan, outcomes) {
+        let (Some(a), Some((c, _)), None) = (&r.analysis, &r.correlating, job.method) else {
+            continue;
+        };
+        let Some((plant, wind)) = crate::hypotheses::parse_id(&job.dataset_id) else {
+            continue;
+        };
+        if stats
+            .iter()
+            .any(|s: &crate::hypotheses::PlantStats| s.dataset == job.dataset_id)
+        {
+            continue;
+        }
+        stats.push(crate::hypotheses::PlantStats {
+            dataset: &job.dataset_id,
+            plant,
+            wind,
+            analysis: a,
+            correlating: c,
+        });
+    }
+    let rows = crate::hypotheses::test(&stats);
+    Ok(DataFrame::new_infer_height(vec![
+        Column::new(
+            "hypothesis".into(),
+            rows.iter().map(|r| r.hypothesis).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "dataset".into(),
+            rows.iter().map(|r| r.dataset.clone()).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "statistic".into(),
+            rows.iter().map(|r| r.statistic.clone()).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "value".into(),
+            rows.iter().map(|r| r.value).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "verdict".into(),
+            rows.iter().map(|r| r.verdict).collect::<Vec<_>>(),
+        ),
+    ])?)
 }

@@ -216,8 +216,13 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
         ),
         None => None,
     };
+    let correlating = plan.spec.hypotheses.as_ref().map(|hs| {
+        let stack = data.stack.to_complex128(data.hwn);
+        crate::hypotheses::correlating_function(stack.view(), hs.max_offset)
+    });
     let (n, h, w) = job.dataset.shape();
     let result = JobResult {
+        correlating,
         source: "original",
         analysis: Some(analysis),
         synthesis: None,
@@ -391,6 +396,7 @@ fn run_synthesis_job(
         analysis_s,
         bytes: syn.samples * h * w * 8,
         similarity,
+        correlating: None,
     })
 }
 
@@ -417,6 +423,13 @@ fn write_outputs(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()>
         Output::Table("similarity.parquet", results::similarity),
         Output::Table("model_order.parquet", results::model_order),
     ];
+    if plan.spec.hypotheses.is_some() {
+        tasks.push(Output::Table("hypotheses.parquet", results::hypotheses));
+        tasks.push(Output::Table(
+            "correlating_function.parquet",
+            results::correlating_function,
+        ));
+    }
     if plan.spec.outputs.npy_maps {
         for o in outcomes {
             if let Ok(r) = &o.result {

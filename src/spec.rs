@@ -80,6 +80,10 @@ pub struct RawSpec {
     /// How the noise floor of the metrics is measured (default `auto`).
     #[serde(default)]
     pub noise_floor: NoiseFloor,
+    /// Hypothesis tests H1-H4 over `plant_<letter>_<wind>` datasets (ch. 5.1):
+    /// `hypotheses.parquet` and `correlating_function.parquet`.
+    #[serde(default)]
+    pub hypotheses: Option<HypothesesSpec>,
     /// A simulated sphere calibration (2.3): `calibration.parquet` and
     /// `calibration_summary.parquet`; `datasets` may then be empty.
     #[serde(default)]
@@ -87,6 +91,19 @@ pub struct RawSpec {
     /// Output options.
     #[serde(default)]
     pub outputs: OutputsSpec,
+}
+
+/// `hypotheses:` section.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct HypothesesSpec {
+    /// Largest offset (pixels, each axis) of the mean 2-D correlating function (default 4).
+    #[serde(default = "four")]
+    pub max_offset: usize,
+}
+
+fn four() -> usize {
+    4
 }
 
 /// The reference comparison that shows which metric differences are real: the same metrics

@@ -69,3 +69,51 @@ fn simulated_plants_run_reproducibly_and_order_by_motion() {
     let (va, vc) = (mean("plant_A_light"), mean("plant_C_light"));
     assert!(va > 2.0 * vc, "plant A {va} vs plant C {vc}");
 }
+
+/// H1-H4 through the runner: the table has every hypothesis with a verdict, Table 16 has one
+/// variance per dataset, and H1 (light wind moves plant A more than no wind) is verified.
+#[test]
+fn hypotheses_table_from_a_small_plant_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let spec = tmp.path().join("h.yaml");
+    let small = "samples: 12, image_size: 32, measurement: {frequencies: 64, azimuths: 64}";
+    std::fs::write(
+        &spec,
+        format!(
+            "name: h\nseed: 4\ndatasets:\n  - {{id: plant_A_none, kind: vegetation_isar, plant: A, wind: none, {small}}}\n  - {{id: plant_A_light, kind: vegetation_isar, plant: A, wind: light, {small}}}\nanalysis:\n  levels: 2\nhypotheses: {{max_offset: 2}}\n"
+        ),
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    run(&spec, &out, "2");
+    let h = read(&out, "hypotheses.parquet");
+    let s = |c: &str| -> Vec<Option<String>> {
+        h.column(c)
+            .unwrap()
+            .str()
+            .unwrap()
+            .iter()
+            .map(|v| v.map(str::to_string))
+            .collect()
+    };
+    let (hyp, ds, stat, verdict) = (s("hypothesis"), s("dataset"), s("statistic"), s("verdict"));
+    for name in ["table16", "H1", "H2", "H3", "H4"] {
+        assert!(hyp.iter().any(|x| x.as_deref() == Some(name)), "no {name}");
+    }
+    assert_eq!(
+        hyp.iter()
+            .filter(|x| x.as_deref() == Some("table16"))
+            .count(),
+        2
+    );
+    let i = (0..h.height())
+        .find(|&i| {
+            hyp[i].as_deref() == Some("H1")
+                && ds[i].as_deref() == Some("plant_A")
+                && stat[i].as_deref() == Some("variance_ratio_light_over_none")
+        })
+        .expect("H1 row for plant A");
+    assert_eq!(verdict[i].as_deref(), Some("verified"));
+    let cf = read(&out, "correlating_function.parquet");
+    assert_eq!(cf.height(), 2 * 25, "5 x 5 offsets per dataset");
+}
