@@ -126,6 +126,33 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 truth: Some((bank, std)),
             }
         }
+        Dataset::Kspace(k) => {
+            let e = Stack::load(&k.path)?.to_complex128(false);
+            let opts = crate::isar::ImagingOptions {
+                size: k.image_size,
+                ..Default::default()
+            };
+            let planes: Vec<Result<ndarray::Array2<Complex64>, String>> = (0..k.samples)
+                .into_par_iter()
+                .map(|s| {
+                    crate::isar::try_image(e.index_axis(ndarray::Axis(0), s), &k.measurement, &opts)
+                        .map_err(|e| e.to_string())
+                })
+                .collect();
+            let mut images = Array3::zeros((k.samples, k.image_size, k.image_size));
+            for (s, p) in planes.into_iter().enumerate() {
+                let p = p.map_err(|reason| NpyError::Data {
+                    path: k.path.clone(),
+                    reason,
+                })?;
+                images.index_axis_mut(ndarray::Axis(0), s).assign(&p);
+            }
+            Materialised {
+                stack: Stack::Generated(images),
+                hwn: false,
+                truth: None,
+            }
+        }
         Dataset::Vegetation(v) => {
             let opts = crate::isar::ImagingOptions {
                 size: v.image_size,

@@ -409,3 +409,26 @@ pub fn read_real_map(path: &Path) -> Result<Array2<f64>, NpyError> {
         )),
     }
 }
+
+/// Reads a real 1-D vector (`float32` or `float64`) as f64.
+///
+/// # Errors
+/// [`NpyError`] if the file is not a readable 1-D real array.
+pub fn read_real_vector(path: &Path) -> Result<ndarray::Array1<f64>, NpyError> {
+    let header = read_header(path)?;
+    let data = |reason: String| NpyError::Data {
+        path: path.to_path_buf(),
+        reason,
+    };
+    if header.shape.len() != 1 {
+        return Err(data(format!(
+            "a vector must be 1-D, this one has shape {:?}",
+            header.shape
+        )));
+    }
+    match header.dtype {
+        Dtype::Float64 => read_array::<f64, ndarray::Ix1>(path, &header),
+        Dtype::Float32 => read_array::<f32, ndarray::Ix1>(path, &header).map(|a| a.mapv(f64::from)),
+        _ => Err(data("a vector must be real (float32 or float64)".into())),
+    }
+}

@@ -379,6 +379,8 @@ pub enum DatasetKind {
     Netcdf,
     /// Simulated ISAR images of a wind-blown plant (the physical forward model).
     VegetationIsar,
+    /// Measured k-space data `E(f, phi)` imaged by the ISAR chain.
+    Kspace,
 }
 
 /// Filter families of `filtered_noise`.
@@ -468,7 +470,13 @@ pub struct DatasetSpec {
     /// 256 x 256 points).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measurement: Option<MeasurementSpec>,
-    /// `vegetation_isar`: image size in pixels (default 64).
+    /// `kspace`: frequencies in Hz (a list, or a 1-D `.npy`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub freqs: Option<Vector>,
+    /// `kspace`: azimuths in degrees (a list, or a 1-D `.npy`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub azimuths_deg: Option<Vector>,
+    /// `vegetation_isar`, `kspace`: image size in pixels (default 64).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub image_size: Option<usize>,
     /// `netcdf`: the variable giving the real part, `[time, rows, cols]`.
@@ -736,6 +744,33 @@ pub enum Dataset {
     Netcdf(NetcdfDataset),
     /// Simulated ISAR images of a plant.
     Vegetation(Box<VegetationDataset>),
+    /// Measured k-space data.
+    Kspace(Box<KspaceDataset>),
+}
+
+/// A vector of numbers: a list in the spec, or a 1-D `.npy` file.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum Vector {
+    /// Values written in the spec.
+    List(Vec<f64>),
+    /// A 1-D `.npy` of real values, relative to the spec file.
+    File(PathBuf),
+}
+
+/// A validated `kspace` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KspaceDataset {
+    /// The `[N, n_f, n_phi]` stack of `E(f, phi)`.
+    pub path: PathBuf,
+    /// Its header.
+    pub header: NpyHeader,
+    /// The measurement grid (frequencies in Hz, azimuths in radians).
+    pub measurement: crate::isar::Measurement,
+    /// Image size.
+    pub image_size: usize,
+    /// Samples `N`.
+    pub samples: usize,
 }
 
 /// `measurement:` of a `vegetation_isar` dataset: a uniform stepped-frequency, turntable
@@ -841,6 +876,7 @@ impl Dataset {
             Dataset::Npy(n) => n.stack_shape(),
             Dataset::Netcdf(n) => n.shape,
             Dataset::Vegetation(v) => (v.samples, v.image_size, v.image_size),
+            Dataset::Kspace(k) => (k.samples, k.image_size, k.image_size),
         }
     }
 
@@ -851,6 +887,7 @@ impl Dataset {
             Dataset::Npy(_) => "npy",
             Dataset::Netcdf(_) => "netcdf",
             Dataset::Vegetation(_) => "vegetation_isar",
+            Dataset::Kspace(_) => "kspace",
         }
     }
 }
@@ -1048,6 +1085,7 @@ impl DatasetSpec {
         match (self.kind, self.family) {
             (DatasetKind::Npy, _) => &["path", "layout"],
             (DatasetKind::Netcdf, _) => &["path", "u", "v", "remove_monthly_mean"],
+            (DatasetKind::Kspace, _) => &["path", "freqs", "azimuths_deg", "image_size"],
             (DatasetKind::VegetationIsar, _) => &[
                 "plant",
                 "wind",
@@ -1097,6 +1135,8 @@ impl DatasetSpec {
             ("scene", self.scene.is_some()),
             ("measurement", self.measurement.is_some()),
             ("image_size", self.image_size.is_some()),
+            ("freqs", self.freqs.is_some()),
+            ("azimuths_deg", self.azimuths_deg.is_some()),
             ("u", self.u.is_some()),
             ("v", self.v.is_some()),
             ("remove_monthly_mean", self.remove_monthly_mean.is_some()),
@@ -1118,6 +1158,7 @@ impl DatasetSpec {
         let dataset = match self.kind {
             DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
             DatasetKind::Netcdf => Dataset::Netcdf(self.check_netcdf(ctx, at)?),
+            DatasetKind::Kspace => Dataset::Kspace(Box::new(self.check_kspace(ctx, at)?)),
             DatasetKind::VegetationIsar => {
                 Dataset::Vegetation(Box::new(self.check_vegetation(ctx, at)?))
             }
@@ -1140,6 +1181,75 @@ impl DatasetSpec {
         check_levels(levels, h, w)
             .map_err(|e| ctx.err("analysis.levels", format!("dataset {}: {e}", self.id)))?;
         Ok(dataset)
+    }
+
+    fn check_kspace(&self, ctx: &Ctx, at: &str) -> Result<KspaceDataset, SpecError> {
+        let rel = self
+            .path
+            .as_ref()
+            .ok_or_else(|| ctx.err(format!("{at}.path"), "kind kspace needs `path`"))?;
+        let path = ctx.resolve(rel);
+        let header =
+            npy::read_header(&path).map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
+        let [n, nf, nphi] = header.shape[..] else {
+            return Err(ctx.err(
+                format!("{at}.path"),
+                format!(
+                    "{} has shape {:?}; k-space data are [N, n_f, n_phi]",
+                    path.display(),
+                    header.shape
+                ),
+            ));
+        };
+        let vector = |v: &Option<Vector>, name: &str, len: usize| -> Result<Vec<f64>, SpecError> {
+            let at = format!("{at}.{name}");
+            let values = match v {
+                None => return Err(ctx.err(&at, format!("kind kspace needs `{name}`"))),
+                Some(Vector::List(l)) => l.clone(),
+                Some(Vector::File(f)) => {
+                    let f = ctx.resolve(f);
+                    let h = npy::read_header(&f).map_err(|e| ctx.err(&at, e.to_string()))?;
+                    if h.shape.len() != 1 {
+                        return Err(ctx.err(
+                            &at,
+                            format!("{} must be 1-D, it has shape {:?}", f.display(), h.shape),
+                        ));
+                    }
+                    let m = npy::read_real_vector(&f).map_err(|e| ctx.err(&at, e.to_string()))?;
+                    m.iter().copied().collect()
+                }
+            };
+            if values.len() != len {
+                return Err(ctx.err(
+                    &at,
+                    format!(
+                        "{} values; the data have {len} along this axis",
+                        values.len()
+                    ),
+                ));
+            }
+            Ok(values)
+        };
+        let freqs = vector(&self.freqs, "freqs", nf)?;
+        let azimuths = vector(&self.azimuths_deg, "azimuths_deg", nphi)?
+            .iter()
+            .map(|d| d.to_radians())
+            .collect();
+        let measurement = crate::isar::Measurement { freqs, azimuths };
+        measurement
+            .validate()
+            .map_err(|e| ctx.err(format!("{at}.freqs"), e.to_string()))?;
+        let image_size = self.image_size.unwrap_or(64);
+        if image_size < 2 {
+            return Err(ctx.err(format!("{at}.image_size"), "image_size must be at least 2"));
+        }
+        Ok(KspaceDataset {
+            path,
+            header,
+            measurement,
+            image_size,
+            samples: n,
+        })
     }
 
     fn check_vegetation(&self, ctx: &Ctx, at: &str) -> Result<VegetationDataset, SpecError> {
