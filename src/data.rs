@@ -26,6 +26,8 @@ pub struct Materialised {
     pub hwn: bool,
     /// For synthetic data: the filter bank and the standard-deviation map (the ground truth).
     pub truth: Option<(FilterBank, Array2<f64>)>,
+    /// For `vegetation_isar` with `save_kspace`: the simulated `E(f, phi)`, `[N, n_f, n_phi]`.
+    pub kspace: Option<Array3<Complex64>>,
 }
 
 /// Builds the per-pixel filter bank of a `filtered_noise` dataset.
@@ -124,6 +126,7 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 stack: Stack::Generated(stack),
                 hwn: false,
                 truth: Some((bank, std)),
+                kspace: None,
             }
         }
         Dataset::Kspace(k) => {
@@ -151,6 +154,7 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 stack: Stack::Generated(images),
                 hwn: false,
                 truth: None,
+                kspace: None,
             }
         }
         Dataset::Vegetation(v) => {
@@ -162,7 +166,7 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 path: "vegetation_isar".into(),
                 reason: e.to_string(),
             })?;
-            let (_, images) =
+            let (kspace, images) =
                 crate::vegetation::try_simulate(&v.scene, &grid, &opts, v.samples, data_seed)
                     .map_err(|e| NpyError::Data {
                         path: "vegetation_isar".into(),
@@ -172,6 +176,7 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 stack: Stack::Generated(images),
                 hwn: false,
                 truth: None,
+                kspace: v.save_kspace.then_some(kspace),
             }
         }
         Dataset::Netcdf(n) => Materialised {
@@ -181,11 +186,13 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
             })?),
             hwn: false,
             truth: None,
+            kspace: None,
         },
         Dataset::Npy(n) => Materialised {
             stack: Stack::load(&n.path)?,
             hwn: n.layout == Layout::Hwn,
             truth: None,
+            kspace: None,
         },
     })
 }

@@ -216,6 +216,21 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
         ),
         None => None,
     };
+    if let (Some(k), Dataset::Vegetation(v)) = (&data.kspace, &job.dataset) {
+        let dir = out.join("kspace");
+        let k64 = k.mapv(|z| num_complex::Complex::new(z.re as f32, z.im as f32));
+        results::write_npy(&dir.join(format!("{}.npy", job.id)), &k64)?;
+        let grid = v.measurement.grid()?;
+        results::write_npy(
+            &dir.join(format!("{}.freqs.npy", job.id)),
+            &ndarray::Array1::from(grid.freqs.clone()),
+        )?;
+        let deg: Vec<f64> = grid.azimuths.iter().map(|a| a.to_degrees()).collect();
+        results::write_npy(
+            &dir.join(format!("{}.azimuths_deg.npy", job.id)),
+            &ndarray::Array1::from(deg),
+        )?;
+    }
     let correlating = plan.spec.hypotheses.as_ref().map(|hs| {
         let stack = data.stack.to_complex128(data.hwn);
         crate::hypotheses::correlating_function(stack.view(), hs.max_offset)

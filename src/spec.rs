@@ -476,6 +476,10 @@ pub struct DatasetSpec {
     /// `kspace`: azimuths in degrees (a list, or a 1-D `.npy`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub azimuths_deg: Option<Vector>,
+    /// `vegetation_isar`: write the simulated k-space data to `kspace/<job>.npy` (with
+    /// `kspace/<job>.freqs.npy` in Hz and `kspace/<job>.azimuths_deg.npy`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub save_kspace: Option<bool>,
     /// `vegetation_isar`, `kspace`: image size in pixels (default 64).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub image_size: Option<usize>,
@@ -851,6 +855,8 @@ pub struct VegetationDataset {
     pub image_size: usize,
     /// Samples.
     pub samples: usize,
+    /// Write the simulated k-space data to `kspace/<job>.npy`.
+    pub save_kspace: bool,
 }
 
 /// A validated `netcdf` dataset.
@@ -1093,6 +1099,7 @@ impl DatasetSpec {
                 "scene",
                 "measurement",
                 "image_size",
+                "save_kspace",
             ],
             (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => &DYADIC,
             (DatasetKind::FilteredNoise, _) => &EXP,
@@ -1136,6 +1143,7 @@ impl DatasetSpec {
             ("measurement", self.measurement.is_some()),
             ("image_size", self.image_size.is_some()),
             ("freqs", self.freqs.is_some()),
+            ("save_kspace", self.save_kspace.is_some()),
             ("azimuths_deg", self.azimuths_deg.is_some()),
             ("u", self.u.is_some()),
             ("v", self.v.is_some()),
@@ -1310,6 +1318,7 @@ impl DatasetSpec {
             measurement,
             image_size,
             samples,
+            save_kspace: self.save_kspace.unwrap_or(false),
         })
     }
 

@@ -11,7 +11,7 @@ const SPEC: &str = "name: veg
 seed: 9
 datasets:
   - {id: plant_A_light, kind: vegetation_isar, plant: A, wind: light, samples: 16, image_size: 32,
-     measurement: {frequencies: 64, azimuths: 64}}
+     measurement: {frequencies: 64, azimuths: 48}, save_kspace: true}
   - {id: plant_C_light, kind: vegetation_isar, plant: C, wind: light, samples: 16, image_size: 32,
      measurement: {frequencies: 64, azimuths: 64}, scene: {noise_db: -40}}
 analysis:
@@ -55,6 +55,16 @@ fn simulated_plants_run_reproducibly_and_order_by_motion() {
             "{t} depends on threads"
         );
     }
+    // The k-space samples behind the images, with their axes.
+    let k = isar_clutter::npy::read_header(&a.join("kspace/plant_A_light.npy")).unwrap();
+    assert_eq!(k.shape, [16, 64, 48]);
+    assert_eq!(k.dtype, isar_clutter::npy::Dtype::Complex64);
+    let f = isar_clutter::npy::read_real_vector(&a.join("kspace/plant_A_light.freqs.npy")).unwrap();
+    assert_eq!((f.len(), f[0], f[63]), (64, 2e9, 18e9));
+    let az = isar_clutter::npy::read_real_vector(&a.join("kspace/plant_A_light.azimuths_deg.npy"))
+        .unwrap();
+    assert!((az[0] + 25.5).abs() < 1e-9 && (az[47] - 25.5).abs() < 1e-9);
+    assert!(!a.join("kspace/plant_C_light.npy").exists());
     let px = read(&a, "pixel_stats.parquet");
     assert_eq!(px.height(), 2 * 32 * 32);
     let ds = px.column("dataset").unwrap().str().unwrap();
