@@ -98,7 +98,9 @@ fn noise() -> f64 {
     1e-5
 }
 fn gate() -> f64 {
-    0.15
+    // Wide enough to keep the system ripple's echoes (+-c ripple_delay_s / 2 = +-0.22 m), so
+    // that a(f) corrects the whole system response, not only the part near the sphere.
+    0.4
 }
 
 impl Default for ChainParams {
@@ -230,7 +232,7 @@ pub fn simulate(p: &ChainParams, seed: u64) -> Measurements {
 
 /// Time gating: inverse FFT of `x` (Hann-tapered across the band, to keep range sidelobes low),
 /// keep the range bins within `half_width_m` of the strongest return (a rectangular gate),
-/// FFT back and undo the taper. Returns the gated data and the gate's centre (m of range).
+/// FFT back and undo the taper (bins where the taper is below 0.1 keep the ungated data). Returns the gated data and the gate's centre (m of range).
 pub fn time_gate(x: &[Complex64], freqs: &[f64], half_width_m: f64) -> (Vec<Complex64>, f64) {
     let n = x.len();
     let df = (freqs[n - 1] - freqs[0]) / (n - 1) as f64;
@@ -255,12 +257,68 @@ pub fn time_gate(x: &[Complex64], freqs: &[f64], half_width_m: f64) -> (Vec<Comp
         }
     }
     planner.plan_fft_forward(n).process(&mut buf);
+    // Undo the taper; where it is below 0.1 (the outer ~10 % of the band) the division would
+    // amplify the gate's transient, so those bins keep the ungated data.
     let out = buf
         .iter()
         .zip(&taper)
-        .map(|(v, t)| v / (n as f64 * t.max(1e-3)))
+        .zip(x)
+        .map(|((v, &t), &raw)| if t >= 0.1 { v / (n as f64 * t) } else { raw })
         .collect();
     (out, peak as f64 * bin_m)
+}
+
+/// The calibration factor `a(f) = Mie(f) / gate(sphere - background)` of the chain `p`, from
+/// measurements simulated with `seed`, over `p`'s frequencies.
+pub fn factor(p: &ChainParams, seed: u64) -> Vec<Complex64> {
+    let m = simulate(p, seed);
+    let mie = pec_sphere_response(p.sphere_radius, &m.freqs);
+    let d: Vec<Complex64> = m
+        .sphere
+        .iter()
+        .zip(&m.background)
+        .map(|(a, b)| a - b)
+        .collect();
+    let (s, _) = time_gate(&d, &m.freqs, p.gate_half_width_m);
+    mie.iter().zip(&s).map(|(m, s)| m / s).collect()
+}
+
+/// Passes one azimuth's scene response `e(f)` (over `p`'s frequencies) through the chain
+/// (system response, chamber clutter, noise), subtracts a background measurement and applies
+/// the calibration factor `a`: the calibrated measurement of the scene. `stream` selects the
+/// noise of this measurement (two ChaCha20 streams: scene and background).
+pub fn measure_and_calibrate(
+    p: &ChainParams,
+    e: &[Complex64],
+    a: &[Complex64],
+    seed: u64,
+    stream: u64,
+) -> Vec<Complex64> {
+    let freqs = p.freqs();
+    let mut rng = ChaCha20Rng::seed_from_u64(seed);
+    rng.set_stream(stream);
+    let mut noise = || {
+        let z: f64 = StandardNormal.sample(&mut rng);
+        let w: f64 = StandardNormal.sample(&mut rng);
+        Complex64::new(z, w) * (p.noise / std::f64::consts::SQRT_2)
+    };
+    let clutter = |f: f64, scale: f64| -> Complex64 {
+        p.clutter
+            .iter()
+            .map(|&(d, amp)| two_way(f, d) * (amp * scale))
+            .sum()
+    };
+    let r = 1.0 + p.background_residual;
+    freqs
+        .iter()
+        .enumerate()
+        .map(|(i, &f)| {
+            let h = p.system(f);
+            let scene = h * (e[i] + clutter(f, r)) + noise();
+            let background = h * clutter(f, 1.0) + noise();
+            a[i] * (scene - background)
+        })
+        .collect()
 }
 
 /// One row of the calibration table.

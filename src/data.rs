@@ -166,12 +166,15 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                 path: "vegetation_isar".into(),
                 reason: e.to_string(),
             })?;
-            let (kspace, images) =
+            let (mut kspace, mut images) =
                 crate::vegetation::try_simulate(&v.scene, &grid, &opts, v.samples, data_seed)
                     .map_err(|e| NpyError::Data {
                         path: "vegetation_isar".into(),
                         reason: e.to_string(),
                     })?;
+            if let Some(chain) = &v.calibration {
+                (kspace, images) = calibrated(chain, &kspace, &grid, &opts, data_seed)?;
+            }
             Materialised {
                 stack: Stack::Generated(images),
                 hwn: false,
@@ -195,4 +198,46 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
             kspace: None,
         },
     })
+}
+
+/// Measures simulated k-space data through the calibration chain and calibrates them (one
+/// measurement per sample and azimuth, each with its own noise stream), then images them.
+fn calibrated(
+    chain: &crate::calibration::ChainParams,
+    kspace: &Array3<Complex64>,
+    grid: &crate::isar::Measurement,
+    opts: &crate::isar::ImagingOptions,
+    data_seed: u64,
+) -> Result<(Array3<Complex64>, Array3<Complex64>), NpyError> {
+    use crate::calibration::{factor, measure_and_calibrate};
+    let seed = crate::plan::derive_seed(data_seed, "calibration", "");
+    let a = factor(chain, seed);
+    let (n, nf, nphi) = kspace.dim();
+    let mut out = Array3::zeros((n, nf, nphi));
+    out.as_slice_mut()
+        .expect("standard layout")
+        .par_chunks_mut(nf * nphi)
+        .enumerate()
+        .for_each(|(s, plane)| {
+            for j in 0..nphi {
+                let e: Vec<Complex64> = (0..nf).map(|i| kspace[[s, i, j]]).collect();
+                // Streams 0-3 are the sphere's; each (sample, azimuth) measurement gets its own.
+                let stream = 4 + (s * nphi + j) as u64;
+                let c = measure_and_calibrate(chain, &e, &a, seed, stream);
+                for i in 0..nf {
+                    plane[i * nphi + j] = c[i];
+                }
+            }
+        });
+    let mut images = Array3::zeros((n, opts.size, opts.size));
+    for s in 0..n {
+        let img = crate::isar::try_image(out.index_axis(ndarray::Axis(0), s), grid, opts).map_err(
+            |e| NpyError::Data {
+                path: "vegetation_isar".into(),
+                reason: e.to_string(),
+            },
+        )?;
+        images.index_axis_mut(ndarray::Axis(0), s).assign(&img);
+    }
+    Ok((out, images))
 }

@@ -476,6 +476,12 @@ pub struct DatasetSpec {
     /// `kspace`: azimuths in degrees (a list, or a 1-D `.npy`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub azimuths_deg: Option<Vector>,
+    /// `vegetation_isar`: pass the simulated k-space data through a simulated measurement
+    /// chain (system response, chamber clutter, background subtraction, noise) and calibrate
+    /// them with a sphere (`a(f)`), as real measurements are; the chain's `f_start`, `f_stop`
+    /// and `points` replace the measurement's frequencies.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<crate::calibration::ChainParams>,
     /// `vegetation_isar`: write the simulated k-space data to `kspace/<job>.npy` (with
     /// `kspace/<job>.freqs.npy` in Hz and `kspace/<job>.azimuths_deg.npy`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -857,6 +863,8 @@ pub struct VegetationDataset {
     pub samples: usize,
     /// Write the simulated k-space data to `kspace/<job>.npy`.
     pub save_kspace: bool,
+    /// The measurement chain and calibration applied to the k-space data.
+    pub calibration: Option<crate::calibration::ChainParams>,
 }
 
 /// A validated `netcdf` dataset.
@@ -1100,6 +1108,7 @@ impl DatasetSpec {
                 "measurement",
                 "image_size",
                 "save_kspace",
+                "calibration",
             ],
             (DatasetKind::FilteredNoise, Some(Family::Dyadic)) => &DYADIC,
             (DatasetKind::FilteredNoise, _) => &EXP,
@@ -1144,6 +1153,7 @@ impl DatasetSpec {
             ("image_size", self.image_size.is_some()),
             ("freqs", self.freqs.is_some()),
             ("save_kspace", self.save_kspace.is_some()),
+            ("calibration", self.calibration.is_some()),
             ("azimuths_deg", self.azimuths_deg.is_some()),
             ("u", self.u.is_some()),
             ("v", self.v.is_some()),
@@ -1297,7 +1307,14 @@ impl DatasetSpec {
         scene
             .validate()
             .map_err(|e| ctx.err(format!("{at}.scene"), e.to_string()))?;
-        let measurement = self.measurement.clone().unwrap_or_default();
+        let mut measurement = self.measurement.clone().unwrap_or_default();
+        if let Some(c) = &self.calibration {
+            c.check()
+                .map_err(|(field, msg)| ctx.err(format!("{at}.calibration.{field}"), msg))?;
+            measurement.f_start = c.f_start;
+            measurement.f_stop = c.f_stop;
+            measurement.frequencies = c.points;
+        }
         measurement
             .grid()
             .map_err(|e| ctx.err(format!("{at}.measurement"), e.to_string()))?;
@@ -1319,6 +1336,7 @@ impl DatasetSpec {
             image_size,
             samples,
             save_kspace: self.save_kspace.unwrap_or(false),
+            calibration: self.calibration.clone(),
         })
     }
 
