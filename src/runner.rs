@@ -87,25 +87,53 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         .num_threads(opts.threads.max(1))
         .build()?;
     let bar = progress(plan.jobs.len(), opts);
-    let outcomes: Vec<JobOutcome> = pool.install(|| {
-        plan.jobs
+    let groups = data_groups(plan);
+    let mut outcomes: Vec<JobOutcome> = pool.install(|| {
+        groups
             .par_iter()
-            .enumerate()
-            .map(|(index, job)| {
-                let t = Instant::now();
-                let result = catch_unwind(AssertUnwindSafe(|| run_job(plan, job, &opts.out)))
-                    .unwrap_or_else(|p| Err(anyhow::anyhow!("job panicked: {}", panic_message(&p))))
-                    .map_err(|e| format!("{e:#}"));
-                let outcome = JobOutcome {
-                    index,
-                    result,
-                    elapsed_s: t.elapsed().as_secs_f64(),
-                };
-                report(&bar, opts, job, &outcome);
-                outcome
+            .flat_map_iter(|group| {
+                // Expensive datasets read by several jobs are materialised once for the group
+                // (no lock: the group owns them), then dropped when its jobs are done.
+                let shared =
+                    (group.len() > 1 && expensive(&plan.jobs[group[0]].dataset)).then(|| {
+                        let job = &plan.jobs[group[0]];
+                        catch_unwind(AssertUnwindSafe(|| {
+                            materialise(&job.dataset, job.data_seed)
+                                .map_err(|e| format!("dataset {}: {e:#}", job.dataset_id))
+                        }))
+                        .unwrap_or_else(|p| Err(format!("dataset panicked: {}", panic_message(&p))))
+                    });
+                group
+                    .par_iter()
+                    .map(|&index| {
+                        let job = &plan.jobs[index];
+                        let t = Instant::now();
+                        let result = match &shared {
+                            Some(Err(e)) => Err(e.clone()),
+                            _ => {
+                                let data = shared.as_ref().and_then(|r| r.as_ref().ok());
+                                catch_unwind(AssertUnwindSafe(|| {
+                                    run_job(plan, job, &opts.out, data)
+                                }))
+                                .unwrap_or_else(|p| {
+                                    Err(anyhow::anyhow!("job panicked: {}", panic_message(&p)))
+                                })
+                                .map_err(|e| format!("{e:#}"))
+                            }
+                        };
+                        let outcome = JobOutcome {
+                            index,
+                            result,
+                            elapsed_s: t.elapsed().as_secs_f64(),
+                        };
+                        report(&bar, opts, job, &outcome);
+                        outcome
+                    })
+                    .collect::<Vec<_>>()
             })
             .collect()
     });
+    outcomes.sort_by_key(|o| o.index);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -133,6 +161,42 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         out: opts.out.clone(),
         elapsed_s,
     })
+}
+
+/// Job indices grouped by the data they read (their data seed), groups in order of first
+/// appearance, jobs in plan order.
+fn data_groups(plan: &Plan) -> Vec<Vec<usize>> {
+    let mut groups: Vec<(u64, Vec<usize>)> = vec![];
+    for (i, job) in plan.jobs.iter().enumerate() {
+        match groups.iter_mut().find(|(seed, _)| *seed == job.data_seed) {
+            Some((_, g)) => g.push(i),
+            None => groups.push((job.data_seed, vec![i])),
+        }
+    }
+    groups.into_iter().map(|(_, g)| g).collect()
+}
+
+/// Datasets worth sharing between jobs: simulated or decoded ones (a mapped `.npy` is free and
+/// synthetic filtered noise cheap next to its jobs).
+fn expensive(d: &Dataset) -> bool {
+    matches!(
+        d,
+        Dataset::Vegetation(_) | Dataset::Kspace(_) | Dataset::Netcdf(_)
+    )
+}
+
+/// The job's data: the group's shared copy, or its own.
+fn data_of<'a>(
+    job: &Job,
+    shared: Option<&'a Materialised>,
+    owned: &'a mut Option<Materialised>,
+) -> Result<&'a Materialised> {
+    if let Some(d) = shared {
+        return Ok(d);
+    }
+    let d = materialise(&job.dataset, job.data_seed)
+        .with_context(|| format!("dataset {}", job.dataset_id))?;
+    Ok(owned.insert(d))
 }
 
 fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
@@ -172,13 +236,13 @@ fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
 }
 
 /// Runs one job: materialise, analyse, compute the ground truth.
-fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
+fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) -> Result<JobResult> {
     if let (Some(method), Some(syn)) = (job.method, &job.synthesis) {
-        return run_synthesis_job(plan, job, method, syn, out);
+        return run_synthesis_job(plan, job, method, syn, out, shared);
     }
     let t = Instant::now();
-    let data = materialise(&job.dataset, job.data_seed)
-        .with_context(|| format!("dataset {}", job.dataset_id))?;
+    let mut owned = None;
+    let data = data_of(job, shared, &mut owned)?;
     let data_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let analysis = data
@@ -211,7 +275,7 @@ fn run_job(plan: &Plan, job: &Job, out: &Path) -> Result<JobResult> {
     }
     let similarity = match job.noise_floor {
         Some(nf) => Some(
-            noise_floor(plan, job, nf, &data, &analysis)
+            noise_floor(plan, job, nf, data, &analysis)
                 .with_context(|| format!("noise floor ({})", nf.as_str()))?,
         ),
         None => None,
@@ -324,10 +388,11 @@ fn run_synthesis_job(
     method: Method,
     syn: &SynthesisSpec,
     out: &Path,
+    shared: Option<&Materialised>,
 ) -> Result<JobResult> {
     let t = Instant::now();
-    let data = materialise(&job.dataset, job.data_seed)
-        .with_context(|| format!("dataset {}", job.dataset_id))?;
+    let mut owned = None;
+    let data = data_of(job, shared, &mut owned)?;
     let data_s = t.elapsed().as_secs_f64();
     let levels = match method {
         Method::Method2 => syn.dyadic_levels(&job.analysis),
