@@ -597,65 +597,31 @@ impl NcFile {
                 .filter_map(|&x| T::try_from(x as i64).ok())
                 .collect()
         }
-        let data: Vec<f64> = match raw {
-            Raw::Bytes(v) => {
-                let m: Vec<i8> = int_missing(&missing);
-                v.iter()
-                    .map(|x| {
-                        if m.contains(x) {
-                            f64::NAN
-                        } else {
-                            tr(f64::from(*x))
-                        }
-                    })
-                    .collect()
-            }
-            Raw::Shorts(v) => {
-                let m: Vec<i16> = int_missing(&missing);
-                v.iter()
-                    .map(|x| {
-                        if m.contains(x) {
-                            f64::NAN
-                        } else {
-                            tr(f64::from(*x))
-                        }
-                    })
-                    .collect()
-            }
-            Raw::Ints(v) => {
-                let m: Vec<i32> = int_missing(&missing);
-                v.iter()
-                    .map(|x| {
-                        if m.contains(x) {
-                            f64::NAN
-                        } else {
-                            tr(f64::from(*x))
-                        }
-                    })
-                    .collect()
-            }
-            Raw::Floats(v) => {
-                let m: Vec<f32> = missing.iter().map(|&x| x as f32).collect();
-                v.iter()
-                    .map(|x| {
-                        if m.contains(x) {
-                            f64::NAN
-                        } else {
-                            tr(f64::from(*x))
-                        }
-                    })
-                    .collect()
-            }
-            Raw::Doubles(v) => v
-                .iter()
-                .map(|&x| {
-                    if missing.contains(&x) {
+        // Missing values compared in the stored type, the rest scaled.
+        fn decode<T: Copy + PartialEq + Into<f64>>(
+            v: &[T],
+            missing: &[T],
+            tr: impl Fn(f64) -> f64,
+        ) -> Vec<f64> {
+            v.iter()
+                .map(|x| {
+                    if missing.contains(x) {
                         f64::NAN
                     } else {
-                        tr(x)
+                        tr((*x).into())
                     }
                 })
-                .collect(),
+                .collect()
+        }
+        let data: Vec<f64> = match raw {
+            Raw::Bytes(v) => decode(&v, &int_missing::<i8>(&missing), tr),
+            Raw::Shorts(v) => decode(&v, &int_missing::<i16>(&missing), tr),
+            Raw::Ints(v) => decode(&v, &int_missing::<i32>(&missing), tr),
+            Raw::Floats(v) => {
+                let m: Vec<f32> = missing.iter().map(|&x| x as f32).collect();
+                decode(&v, &m, tr)
+            }
+            Raw::Doubles(v) => decode(&v, &missing, tr),
         };
         ArrayD::from_shape_vec(IxDyn(&shape), data).map_err(|e| NcError::BadHeader {
             path: self.path.clone(),
