@@ -162,6 +162,21 @@ impl ChainParams {
             .collect()
     }
 
+    /// The chamber clutter's response at `f`, amplitudes scaled by `scale`.
+    fn clutter(&self, f: f64, scale: f64) -> Complex64 {
+        self.clutter
+            .iter()
+            .map(|&(d, a)| two_way(f, d) * (a * scale))
+            .sum()
+    }
+
+    /// One draw of complex receiver noise.
+    fn noise(&self, rng: &mut ChaCha20Rng) -> Complex64 {
+        let z: f64 = StandardNormal.sample(rng);
+        let w: f64 = StandardNormal.sample(rng);
+        Complex64::new(z, w) * (self.noise / std::f64::consts::SQRT_2)
+    }
+
     /// The system response `H(f)`.
     pub fn system(&self, f: f64) -> Complex64 {
         let mag = self.gain
@@ -195,12 +210,6 @@ fn two_way(f: f64, d: f64) -> Complex64 {
 pub fn simulate(p: &ChainParams, seed: u64) -> Measurements {
     let freqs = p.freqs();
     let mie = pec_sphere_response(p.sphere_radius, &freqs);
-    let clutter = |f: f64, scale: f64| -> Complex64 {
-        p.clutter
-            .iter()
-            .map(|&(d, a)| two_way(f, d) * (a * scale))
-            .sum()
-    };
     let measure = |stream: u64, with_sphere: bool, scale: f64| -> Vec<Complex64> {
         let mut rng = ChaCha20Rng::seed_from_u64(seed);
         rng.set_stream(stream);
@@ -213,10 +222,8 @@ pub fn simulate(p: &ChainParams, seed: u64) -> Measurements {
                 } else {
                     Complex64::new(0.0, 0.0)
                 };
-                let z: f64 = StandardNormal.sample(&mut rng);
-                let w: f64 = StandardNormal.sample(&mut rng);
-                let n = Complex64::new(z, w) * (p.noise / std::f64::consts::SQRT_2);
-                p.system(f) * (target + clutter(f, scale)) + n
+                let n = p.noise(&mut rng);
+                p.system(f) * (target + p.clutter(f, scale)) + n
             })
             .collect()
     };
@@ -271,16 +278,25 @@ pub fn time_gate(x: &[Complex64], freqs: &[f64], half_width_m: f64) -> (Vec<Comp
 /// The calibration factor `a(f) = Mie(f) / gate(sphere - background)` of the chain `p`, from
 /// measurements simulated with `seed`, over `p`'s frequencies.
 pub fn factor(p: &ChainParams, seed: u64) -> Vec<Complex64> {
-    let m = simulate(p, seed);
+    factor_of(p, &simulate(p, seed))
+}
+
+/// `a(f)` from given measurements.
+fn factor_of(p: &ChainParams, m: &Measurements) -> Vec<Complex64> {
     let mie = pec_sphere_response(p.sphere_radius, &m.freqs);
-    let d: Vec<Complex64> = m
-        .sphere
-        .iter()
-        .zip(&m.background)
-        .map(|(a, b)| a - b)
-        .collect();
-    let (s, _) = time_gate(&d, &m.freqs, p.gate_half_width_m);
+    let s = gated_difference(p, &m.sphere, &m.background, &m.freqs);
     mie.iter().zip(&s).map(|(m, s)| m / s).collect()
+}
+
+/// A measurement minus its background, time-gated around the strongest return.
+fn gated_difference(
+    p: &ChainParams,
+    x: &[Complex64],
+    background: &[Complex64],
+    freqs: &[f64],
+) -> Vec<Complex64> {
+    let d: Vec<Complex64> = x.iter().zip(background).map(|(a, b)| a - b).collect();
+    time_gate(&d, freqs, p.gate_half_width_m).0
 }
 
 /// Passes one azimuth's scene response `e(f)` (over `p`'s frequencies) through the chain
@@ -297,25 +313,14 @@ pub fn measure_and_calibrate(
     let freqs = p.freqs();
     let mut rng = ChaCha20Rng::seed_from_u64(seed);
     rng.set_stream(stream);
-    let mut noise = || {
-        let z: f64 = StandardNormal.sample(&mut rng);
-        let w: f64 = StandardNormal.sample(&mut rng);
-        Complex64::new(z, w) * (p.noise / std::f64::consts::SQRT_2)
-    };
-    let clutter = |f: f64, scale: f64| -> Complex64 {
-        p.clutter
-            .iter()
-            .map(|&(d, amp)| two_way(f, d) * (amp * scale))
-            .sum()
-    };
     let r = 1.0 + p.background_residual;
     freqs
         .iter()
         .enumerate()
         .map(|(i, &f)| {
             let h = p.system(f);
-            let scene = h * (e[i] + clutter(f, r)) + noise();
-            let background = h * clutter(f, 1.0) + noise();
+            let scene = h * (e[i] + p.clutter(f, r)) + p.noise(&mut rng);
+            let background = h * p.clutter(f, 1.0) + p.noise(&mut rng);
             a[i] * (scene - background)
         })
         .collect()
@@ -342,24 +347,12 @@ pub struct CalibrationRow {
 /// `gate(verify - verify_background)`; one row per frequency.
 pub fn calibrate(p: &ChainParams, m: &Measurements) -> Vec<CalibrationRow> {
     let mie = pec_sphere_response(p.sphere_radius, &m.freqs);
-    let sub = |a: &[Complex64], b: &[Complex64]| -> Vec<Complex64> {
-        a.iter().zip(b).map(|(x, y)| x - y).collect()
-    };
-    let (s, _) = time_gate(
-        &sub(&m.sphere, &m.background),
-        &m.freqs,
-        p.gate_half_width_m,
-    );
-    let (v, _) = time_gate(
-        &sub(&m.verify, &m.verify_background),
-        &m.freqs,
-        p.gate_half_width_m,
-    );
+    let a = factor_of(p, m);
+    let v = gated_difference(p, &m.verify, &m.verify_background, &m.freqs);
     let db = |z: Complex64| 20.0 * z.norm().log10();
     (0..m.freqs.len())
         .map(|i| {
-            let a = mie[i] / s[i];
-            let c = a * v[i];
+            let c = a[i] * v[i];
             CalibrationRow {
                 freq: m.freqs[i],
                 mie_db: db(mie[i]),
