@@ -9,7 +9,7 @@ use crate::table::{self, escape, Format};
 use anyhow::{Context, Result};
 use ndarray::Array2;
 use num_complex::Complex64;
-use polars::prelude::{DataFrame, DataType, ParquetReader, SerReader};
+use polars::prelude::{DataFrame, DataType};
 use rayon::prelude::*;
 use serde_json::Value as Json;
 use std::collections::BTreeMap;
@@ -346,14 +346,8 @@ fn example_sample(dir: &Path, job: &str, file: &Path) -> Result<Figure> {
 
 /// `synthesis_params.parquet`, if the run has one with rows.
 fn synthesis_params(dir: &Path) -> Result<Option<DataFrame>> {
-    let path = dir.join("synthesis_params.parquet");
-    if !path.exists() {
-        return Ok(None);
-    }
-    let df = ParquetReader::new(std::fs::File::open(&path)?)
-        .finish()
-        .with_context(|| format!("reading {}", path.display()))?;
-    Ok((df.height() > 0).then_some(df))
+    let df = crate::results::read_parquet(&dir.join("synthesis_params.parquet"))?;
+    Ok(df.filter(|df| df.height() > 0))
 }
 
 /// Filter parameter maps of a Method 1 or 2 job (Figs. 25-27, 34-36).
@@ -431,12 +425,9 @@ fn parameter_figures(dir: &Path, job: &str, df: &DataFrame) -> Result<Vec<Figure
 /// The calibration's spectra (Figs. 11-14): Mie, raw and calibrated sphere, and the error.
 fn calibration_figures(dir: &Path) -> Result<Vec<Figure>> {
     let path = dir.join("calibration.parquet");
-    if !path.exists() {
+    let Some(df) = crate::results::read_parquet(&path)? else {
         return Ok(vec![]);
-    }
-    let df = ParquetReader::new(std::fs::File::open(&path)?)
-        .finish()
-        .with_context(|| format!("reading {}", path.display()))?;
+    };
     let col = |c: &str| -> Result<Vec<f64>> {
         Ok(df
             .column(c)?
@@ -525,33 +516,15 @@ fn curve_figures(
     pick: &dyn Fn(&Row) -> Option<(String, String)>,
 ) -> Result<Vec<Figure>> {
     let path = dir.join(file);
-    if !path.exists() {
+    let Some(df) = crate::results::read_parquet(&path)? else {
         return Ok(vec![]);
-    }
-    let df = ParquetReader::new(std::fs::File::open(&path)?)
-        .finish()
-        .with_context(|| format!("reading {}", path.display()))?;
-    let library = [
-        "level",
-        "units",
-        "samples_original",
-        "samples_compared",
-        "bins",
-        "smoothing",
-        "block",
-        "value",
-        "mean_correlation",
-        "mean_covariance",
-        "nan_cells",
-        "cells",
-        "rows",
-        "cols",
-        "expected_mean_correlation",
-    ];
+    };
     let axes: Vec<String> = df
         .columns()
         .iter()
-        .filter(|c| !library.contains(&c.name().as_str()) && c.dtype() == &DataType::Float64)
+        .filter(|c| {
+            !table::LIBRARY_COLUMNS.contains(&c.name().as_str()) && c.dtype() == &DataType::Float64
+        })
         .map(|c| c.name().to_string())
         .collect();
     let text: Vec<(String, Vec<String>)> = df

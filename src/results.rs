@@ -117,6 +117,21 @@ pub fn atomic_write(
     result.with_context(|| format!("writing {}", path.display()))
 }
 
+/// Reads a Parquet table of a results folder; `Ok(None)` if the file does not exist.
+///
+/// # Errors
+/// If the file exists but cannot be opened or read; the message names it.
+pub fn read_parquet(path: &Path) -> Result<Option<DataFrame>> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let df = anyhow::Context::with_context(ParquetReader::new(file).finish(), || {
+        format!("reading {}", path.display())
+    })?;
+    Ok(Some(df))
+}
+
 /// Writes a DataFrame as Parquet (Snappy-compressed), atomically.
 ///
 /// # Errors

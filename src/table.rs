@@ -4,7 +4,7 @@
 //! default the method) across the page, in aligned text for the terminal or in Markdown.
 
 use anyhow::{bail, Context, Result};
-use polars::prelude::{DataFrame, DataType, ParquetReader, SerReader};
+use polars::prelude::{DataFrame, DataType};
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -45,9 +45,9 @@ pub struct TableDef {
     pub null_label: &'static str,
 }
 
-/// Columns the library writes; any other column of a file is a swept parameter and becomes a
-/// row key.
-const LIBRARY_COLUMNS: &[&str] = &[
+/// Columns the library writes; any other column of a file is a swept parameter (a row key
+/// here, a curve's axis in the report).
+pub const LIBRARY_COLUMNS: &[&str] = &[
     "dataset",
     "method",
     "source",
@@ -223,13 +223,9 @@ pub fn render(
     strict: bool,
 ) -> Result<Option<String>> {
     let path = dir.join(def.file);
-    if !path.exists() {
+    let Some(df) = crate::results::read_parquet(&path)? else {
         return Ok(None);
-    }
-    let file = std::fs::File::open(&path).with_context(|| format!("opening {}", path.display()))?;
-    let df = ParquetReader::new(file)
-        .finish()
-        .with_context(|| format!("reading {}", path.display()))?;
+    };
     let names: Vec<String> = df
         .get_column_names()
         .iter()
