@@ -3,8 +3,9 @@
 //! matches its Mie series inside the band while the raw data do not; bad parameters are refused
 //! with their YAML path.
 
-use polars::prelude::*;
-use std::fs::File;
+mod common;
+
+use common::read_table;
 use std::path::Path;
 use std::process::Command;
 
@@ -18,13 +19,9 @@ fn the_calibration_experiment_recovers_the_mie_series() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let spectra = ParquetReader::new(File::open(tmp.path().join("calibration.parquet")).unwrap())
-        .finish()
-        .unwrap();
+    let spectra = read_table(tmp.path(), "calibration.parquet");
     assert_eq!(spectra.height(), 801);
-    let s = ParquetReader::new(File::open(tmp.path().join("calibration_summary.parquet")).unwrap())
-        .finish()
-        .unwrap();
+    let s = read_table(tmp.path(), "calibration_summary.parquet");
     let get = |band: &str, stat: &str| -> f64 {
         let b = s.column("band").unwrap().str().unwrap();
         let st = s.column("statistic").unwrap().str().unwrap();

@@ -4,9 +4,10 @@
 //! distance; the level-1 RMSE of Methods 1 and 2 and of the baseline is within 2x of the noise
 //! floor. Also: the model-order table and the `table` command read back from that run.
 
-use polars::prelude::*;
+mod common;
+
+use common::{opt_strings, read_table};
 use std::collections::HashMap;
-use std::fs::File;
 use std::path::Path;
 use std::process::Command;
 
@@ -41,18 +42,8 @@ metrics: [multiscale_rmse, cmd, kl_pixel, {kl_area: {block: 8, bins: 16}}]
 type Values = HashMap<(String, String, String, Option<i64>, Option<String>), f64>;
 
 fn values(dir: &Path, metric: &str) -> Values {
-    let df = ParquetReader::new(File::open(dir.join("similarity.parquet")).unwrap())
-        .finish()
-        .unwrap();
-    let s = |c: &str| -> Vec<Option<String>> {
-        df.column(c)
-            .unwrap()
-            .str()
-            .unwrap()
-            .iter()
-            .map(|v| v.map(str::to_string))
-            .collect()
-    };
+    let df = read_table(dir, "similarity.parquet");
+    let s = |c: &str| opt_strings(&df, c);
     let (ds, method, m, stat, dir_) = (
         s("dataset"),
         s("method"),
@@ -152,9 +143,7 @@ fn the_dissertations_similarity_findings_hold_on_a_seeded_run() {
         .join("maps/nonexp.fourth_order/kl_pixel_re.npy")
         .exists());
     assert!(out.join("maps/nonexp/noise_floor_kl_area_im.npy").exists());
-    let mo = ParquetReader::new(File::open(out.join("model_order.parquet")).unwrap())
-        .finish()
-        .unwrap();
+    let mo = read_table(&out, "model_order.parquet");
     assert_eq!(
         mo.height(),
         2 * 2 * 3,
@@ -225,9 +214,7 @@ fn the_model_order_test_separates_gaussian_from_k_distributed_clutter() {
         .status()
         .unwrap();
     assert!(status.success());
-    let df = ParquetReader::new(File::open(out.join("model_order.parquet")).unwrap())
-        .finish()
-        .unwrap();
+    let df = read_table(&out, "model_order.parquet");
     let ds: Vec<String> = df
         .column("dataset")
         .unwrap()

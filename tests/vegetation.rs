@@ -2,8 +2,9 @@
 //! image stacks of the requested size, the same seed gives the same tables whatever the thread
 //! count, and light wind moves plant A more than plant C (the dissertation's Table 16 ordering).
 
-use polars::prelude::*;
-use std::fs::File;
+mod common;
+
+use common::{opt_strings, read_table as read};
 use std::path::Path;
 use std::process::Command;
 
@@ -33,12 +34,6 @@ fn run(spec: &Path, out: &Path, jobs: &str) {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
-
-fn read(dir: &Path, name: &str) -> DataFrame {
-    ParquetReader::new(File::open(dir.join(name)).unwrap())
-        .finish()
-        .unwrap()
 }
 
 #[test]
@@ -97,15 +92,7 @@ fn hypotheses_table_from_a_small_plant_run() {
     let out = tmp.path().join("out");
     run(&spec, &out, "2");
     let h = read(&out, "hypotheses.parquet");
-    let s = |c: &str| -> Vec<Option<String>> {
-        h.column(c)
-            .unwrap()
-            .str()
-            .unwrap()
-            .iter()
-            .map(|v| v.map(str::to_string))
-            .collect()
-    };
+    let s = |c: &str| opt_strings(&h, c);
     let (hyp, ds, stat, verdict) = (s("hypothesis"), s("dataset"), s("statistic"), s("verdict"));
     for name in ["table16", "H1", "H2", "H3", "H4"] {
         assert!(hyp.iter().any(|x| x.as_deref() == Some(name)), "no {name}");

@@ -45,3 +45,22 @@ pub fn max_diff(a: &ndarray::Array2<f64>, b: &ndarray::Array2<f64>) -> f64 {
         })
         .fold(0.0, f64::max)
 }
+
+/// Reads the Parquet table `name` of a results folder.
+pub fn read_table(dir: &std::path::Path, name: &str) -> polars::prelude::DataFrame {
+    use polars::prelude::{ParquetReader, SerReader};
+    ParquetReader::new(std::fs::File::open(dir.join(name)).unwrap())
+        .finish()
+        .unwrap()
+}
+
+/// A string column with its nulls.
+pub fn opt_strings(df: &polars::prelude::DataFrame, column: &str) -> Vec<Option<String>> {
+    df.column(column)
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(|v| v.map(str::to_string))
+        .collect()
+}
