@@ -16,7 +16,7 @@ use crate::spec::SynthesisSpec;
 use crate::synthesis::{fit, FitOptions, Method};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use ndarray::{s, ArrayView3};
+use ndarray::{s, Array3, ArrayView3};
 use num_complex::Complex64;
 use rayon::prelude::*;
 use serde_json::json;
@@ -273,12 +273,15 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
             }
         }
     }
-    let similarity = match job.noise_floor {
-        Some(nf) => Some(
-            noise_floor(plan, job, nf, data, &analysis)
+    // The complex128 copy of the stack, made once for the noise floor and the hypotheses.
+    let original = (job.noise_floor.is_some() || plan.spec.hypotheses.is_some())
+        .then(|| data.stack.to_complex128(data.hwn));
+    let similarity = match (job.noise_floor, &original) {
+        (Some(nf), Some(original)) => Some(
+            noise_floor(plan, job, nf, data, original, &analysis)
                 .with_context(|| format!("noise floor ({})", nf.as_str()))?,
         ),
-        None => None,
+        _ => None,
     };
     if let (Some(k), Dataset::Vegetation(v)) = (&data.kspace, &job.dataset) {
         let dir = out.join("kspace");
@@ -295,10 +298,13 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
             &ndarray::Array1::from(deg),
         )?;
     }
-    let correlating = plan.spec.hypotheses.as_ref().map(|hs| {
-        let stack = data.stack.to_complex128(data.hwn);
-        crate::hypotheses::correlating_function(stack.view(), hs.max_offset)
-    });
+    let correlating = plan
+        .spec
+        .hypotheses
+        .as_ref()
+        .zip(original.as_ref())
+        .map(|(hs, stack)| crate::hypotheses::correlating_function(stack.view(), hs.max_offset));
+    drop(original);
     let (n, h, w) = job.dataset.shape();
     let result = JobResult {
         correlating,
@@ -317,12 +323,14 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
 }
 
 /// The metrics between two independent stacks of the original data: the original against an
-/// independent draw of the synthetic model (`draws`), or one half against the other.
+/// independent draw of the synthetic model (`draws`), or one half against the other
+/// (`original`: the stack as complex128).
 fn noise_floor(
     plan: &Plan,
     job: &Job,
     nf: NoiseFloorPlan,
     data: &Materialised,
+    original: &Array3<Complex64>,
     analysis: &Analysis,
 ) -> Result<SimilarityOutcome> {
     let t = Instant::now();
@@ -335,7 +343,6 @@ fn noise_floor(
             None
         })
     };
-    let original = data.stack.to_complex128(data.hwn);
     let comparison = match nf {
         NoiseFloorPlan::Draws { samples, seed } => {
             let (Dataset::FilteredNoise(f), Some((bank, _))) = (&job.dataset, &data.truth) else {
