@@ -1,5 +1,5 @@
-//! Shared helpers for the integration tests: seeded random stacks and tolerances (a module,
-//! not a test target).
+//! Shared helpers for the integration tests: seeded random stacks, tolerances and readers of a
+//! results folder's Parquet tables (a module, not a test target).
 #![allow(dead_code)]
 
 use ndarray::Array3;
