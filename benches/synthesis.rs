@@ -122,10 +122,17 @@ fn main() {
                         t.elapsed().as_secs_f64()
                     })
                     .collect();
+                let rate = m as f64 / median(reps);
+                // Full covariance: 2 N flops (a fused multiply-add) per real output column.
+                let gemm = if method == Method::FullCovariance {
+                    format!(", kernel {:.1} GFLOP/s of f32 FMA", rate * 2.0 * n_fit as f64 * 2.0 * 4096.0 / 1e9)
+                } else {
+                    String::new()
+                };
                 println!(
-                    "fitted on {n_fit}: {:<16} {:>8.0} samples/s",
+                    "fitted on {n_fit}: {:<16} {:>8.0} samples/s{gemm}",
                     method.as_str(),
-                    m as f64 / median(reps)
+                    rate
                 );
             }
         }

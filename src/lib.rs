@@ -18,6 +18,7 @@ pub mod filters;
 pub mod fleishman;
 pub mod hypotheses;
 pub mod isar;
+pub mod lowrank;
 pub mod metrics;
 pub mod mie;
 pub mod model;

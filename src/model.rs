@@ -224,6 +224,7 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
             filter,
             deviations,
             fourth,
+            packed: Default::default(),
         },
         info,
     ))

@@ -163,6 +163,8 @@ pub struct Model {
     pub deviations: Option<Array3<Complex64>>,
     /// Fourth order: Fleishman coefficients.
     pub fourth: Option<FourthOrderModel>,
+    /// Full covariance: `deviations` packed for the sampler's kernel, made on first use.
+    pub(crate) packed: std::sync::OnceLock<crate::lowrank::Panels>,
 }
 
 /// The fourth-order model's per-pixel parameters.
@@ -411,90 +413,9 @@ fn levenberg_marquardt(
     (x, res)
 }
 
-/// `out[c] += sum_i z[c][i] dev[i]` for every sample `c` of a batch, `i` ascending per element,
-/// tiled over pixels so a deviation tile serves the whole batch; AVX2 code where the CPU has it
-/// (same arithmetic, so the same bits).
-fn combine_deviations(dev: &[Complex64], z: &[Vec<f64>], p: usize, out: &mut [Complex64]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { combine_deviations_avx2(dev, z, p, out) };
-        }
-    }
-    combine_deviations_body(dev, z, p, out)
-}
-
-/// [`combine_deviations_body`] with AVX2 registers: for a full batch of 8 samples and up to 256
-/// deviations, each group of 4 components keeps the 8 samples' partial sums in registers over
-/// all `N` deviations
-/// (`i` ascending, a multiply then an add, as in the plain loop, so the bits are the same).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn combine_deviations_avx2(dev: &[Complex64], z: &[Vec<f64>], p: usize, out: &mut [Complex64]) {
-    use std::arch::x86_64::*;
-    const B: usize = 8;
-    let n = dev.len() / p;
-    // Many deviations do not fit the cache: the tiled loop reuses each tile across the batch.
-    if z.len() != B || n > 256 {
-        return combine_deviations_body(dev, z, p, out);
-    }
-    let flat: &[f64] = bytemuck::cast_slice(dev);
-    let out: &mut [f64] = bytemuck::cast_slice_mut(out);
-    let comps = 2 * p;
-    assert!(flat.len() == n * comps && out.len() == B * comps && z.iter().all(|zc| zc.len() == n));
-    // z transposed: zt[i * B + c].
-    let zt: Vec<f64> = (0..n).flat_map(|i| z.iter().map(move |zc| zc[i])).collect();
-    let mut q = 0;
-    while q + 4 <= comps {
-        // SAFETY: q + 4 <= comps bounds every load and store of a sample's or a deviation's
-        // components; i < n and c < B bound zt (length n B), all asserted above.
-        unsafe {
-            let mut acc = [_mm256_setzero_pd(); B];
-            for (c, a) in acc.iter_mut().enumerate() {
-                *a = _mm256_loadu_pd(out.as_ptr().add(c * comps + q));
-            }
-            for i in 0..n {
-                let d = _mm256_loadu_pd(flat.as_ptr().add(i * comps + q));
-                let zi = zt.as_ptr().add(i * B);
-                for (c, a) in acc.iter_mut().enumerate() {
-                    *a = _mm256_add_pd(*a, _mm256_mul_pd(d, _mm256_set1_pd(*zi.add(c))));
-                }
-            }
-            for (c, a) in acc.iter().enumerate() {
-                _mm256_storeu_pd(out.as_mut_ptr().add(c * comps + q), *a);
-            }
-        }
-        q += 4;
-    }
-    for c in 0..B {
-        for qq in q..comps {
-            for i in 0..n {
-                out[c * comps + qq] += flat[i * comps + qq] * z[c][i];
-            }
-        }
-    }
-}
-
-#[inline(always)]
-fn combine_deviations_body(dev: &[Complex64], z: &[Vec<f64>], p: usize, out: &mut [Complex64]) {
-    const TILE: usize = 256;
-    let n = dev.len() / p;
-    let flat: &[f64] = bytemuck::cast_slice(dev);
-    let out: &mut [f64] = bytemuck::cast_slice_mut(out);
-    for t0 in (0..p).step_by(TILE) {
-        let t1 = (t0 + TILE).min(p);
-        for i in 0..n {
-            let d = &flat[2 * (i * p + t0)..2 * (i * p + t1)];
-            for (c, zc) in z.iter().enumerate() {
-                let zi = zc[i];
-                for (x, v) in out[2 * (c * p + t0)..2 * (c * p + t1)].iter_mut().zip(d) {
-                    *x += v * zi;
-                }
-            }
-        }
-    }
-}
+/// Samples per task of the full-covariance sampler: each deviation panel serves this many
+/// samples while it is in L1.
+const FULL_COVARIANCE_BATCH: usize = 48;
 
 /// Gaussian elimination with partial pivoting for a small dense system.
 fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
@@ -582,6 +503,7 @@ pub fn fit(
         filter: None,
         deviations: None,
         fourth: None,
+        packed: Default::default(),
     };
     match method {
         Method::Uncorrelated => {}
@@ -720,16 +642,12 @@ impl Model {
                     *x = mu + *x * (s / sd);
                 }
             }
-            (None, Some(dev)) => {
-                for (p, x) in out.iter_mut().enumerate() {
-                    *x = self.mean[[p / w, p % w]];
-                }
-                for d in dev.outer_iter() {
-                    let z: f64 = StandardNormal.sample(&mut rng);
-                    let d = d.as_slice().expect("standard layout");
-                    for (x, v) in out.iter_mut().zip(d) {
-                        *x += v * z;
-                    }
+            (None, Some(_)) => {
+                let mut acc = vec![0.0f32; 2 * h * w];
+                self.full_covariance_sums(seed, index, 1, &mut acc, |_, _| {});
+                let mean = self.mean.as_slice().expect("standard layout");
+                for ((x, mu), a) in out.iter_mut().zip(mean).zip(acc.chunks_exact(2)) {
+                    *x = mu + Complex64::new(f64::from(a[0]), f64::from(a[1]));
                 }
             }
             (None, None) if self.fourth.is_some() => {
@@ -761,33 +679,33 @@ impl Model {
         }
     }
 
-    /// Full covariance for a batch of samples at once: the same draws and the same order of
-    /// additions per element as [`Model::sample_into`] (bitwise equal), but each deviation is
-    /// read once per batch and pixel tile instead of once per sample.
-    fn full_covariance_batch(
+    /// Full covariance: the deviation sums `sum_k z_k d_k` of samples `first .. first + count`
+    /// into `acc` (`count x 2P` f32, real and imaginary parts interleaved), `z_k` the sample's
+    /// normals drawn in order from its ChaCha20 stream (see [`crate::lowrank`] for the
+    /// arithmetic, which does not depend on `count`).
+    fn full_covariance_sums(
         &self,
-        dev: &Array3<Complex64>,
         seed: u64,
         first: usize,
-        out: &mut [Complex64],
+        count: usize,
+        acc: &mut [f32],
+        finish: impl Fn(usize, &mut [f32]),
     ) {
-        let (h, w) = self.shape();
-        let p = h * w;
-        let count = out.len() / p;
-        let n = dev.dim().0;
-        let z: Vec<Vec<f64>> = (0..count)
-            .map(|c| {
-                let mut rng = ChaCha20Rng::seed_from_u64(seed);
-                rng.set_stream((first + c) as u64);
-                (0..n).map(|_| StandardNormal.sample(&mut rng)).collect()
-            })
-            .collect();
-        let mean = self.mean.as_slice().expect("standard layout");
-        for c in 0..count {
-            out[c * p..(c + 1) * p].copy_from_slice(mean);
+        let dev = self.deviations.as_ref().expect("a full-covariance model");
+        let panels = self
+            .packed
+            .get_or_init(|| crate::lowrank::Panels::new(dev.view()));
+        let n = panels.n();
+        let mut z = vec![0.0f32; count * n];
+        for (c, zc) in z.chunks_exact_mut(n.max(1)).enumerate() {
+            let mut rng = ChaCha20Rng::seed_from_u64(seed);
+            rng.set_stream((first + c) as u64);
+            for v in zc {
+                let x: f64 = StandardNormal.sample(&mut rng);
+                *v = x as f32;
+            }
         }
-        let dev = dev.as_slice().expect("standard layout");
-        combine_deviations(dev, &z, p, out);
+        crate::lowrank::combine_then(panels, &z, count, acc, finish);
     }
 
     /// Generates samples `first .. first + count` as complex64 (the format of saved samples),
@@ -800,19 +718,25 @@ impl Model {
     ) -> Array3<num_complex::Complex<f32>> {
         let (h, w) = self.shape();
         let mut out = Array3::from_elem((count, h, w), num_complex::Complex::new(0.0f32, 0.0));
-        if let (None, Some(dev)) = (&self.filter, &self.deviations) {
-            const BATCH: usize = 8;
-            out.as_slice_mut()
-                .expect("standard layout")
-                .par_chunks_mut(BATCH * h * w)
+        if let (None, Some(_)) = (&self.filter, &self.deviations) {
+            let mean: &[f64] = bytemuck::cast_slice(self.mean.as_slice().expect("standard layout"));
+            let flat: &mut [f32] =
+                bytemuck::cast_slice_mut(out.as_slice_mut().expect("standard layout"));
+            flat.par_chunks_mut(FULL_COVARIANCE_BATCH * 2 * h * w)
                 .enumerate()
-                .for_each_init(Vec::new, |buf, (b, block)| {
-                    // One buffer per worker, reused: fresh pages cost microseconds each here.
-                    buf.resize(block.len(), Complex64::new(0.0, 0.0));
-                    self.full_covariance_batch(dev, seed, first + b * BATCH, buf);
-                    for (o, x) in block.iter_mut().zip(buf.iter()) {
-                        *o = num_complex::Complex::new(x.re as f32, x.im as f32);
-                    }
+                .for_each(|(b, block)| {
+                    let count = block.len() / (2 * h * w);
+                    self.full_covariance_sums(
+                        seed,
+                        first + b * FULL_COVARIANCE_BATCH,
+                        count,
+                        block,
+                        |c0, values| {
+                            for (x, mu) in values.iter_mut().zip(&mean[c0..]) {
+                                *x = (mu + f64::from(*x)) as f32;
+                            }
+                        },
+                    );
                 });
             return out;
         }
@@ -837,6 +761,28 @@ impl Model {
     pub fn generate(&self, seed: u64, first: usize, count: usize) -> Array3<Complex64> {
         let (h, w) = self.shape();
         let mut out = Array3::zeros((count, h, w));
+        if let (None, Some(_)) = (&self.filter, &self.deviations) {
+            let mean = self.mean.as_slice().expect("standard layout");
+            out.as_slice_mut()
+                .expect("standard layout")
+                .par_chunks_mut(FULL_COVARIANCE_BATCH * h * w)
+                .enumerate()
+                .for_each(|(b, block)| {
+                    let count = block.len() / (h * w);
+                    let mut acc = vec![0.0f32; 2 * block.len()];
+                    self.full_covariance_sums(
+                        seed,
+                        first + b * FULL_COVARIANCE_BATCH,
+                        count,
+                        &mut acc,
+                        |_, _| {},
+                    );
+                    for (i, (x, a)) in block.iter_mut().zip(acc.chunks_exact(2)).enumerate() {
+                        *x = mean[i % (h * w)] + Complex64::new(f64::from(a[0]), f64::from(a[1]));
+                    }
+                });
+            return out;
+        }
         out.as_slice_mut()
             .expect("standard layout")
             .par_chunks_mut(h * w)
