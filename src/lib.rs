@@ -9,6 +9,11 @@
 
 #![warn(missing_docs)]
 
+/// Every binary, test and benchmark linking this crate allocates through [`alloc::LargeMapAlloc`].
+#[global_allocator]
+static GLOBAL: alloc::LargeMapAlloc = alloc::LargeMapAlloc;
+
+pub mod alloc;
 pub mod analysis;
 pub mod calibration;
 pub mod cmd;

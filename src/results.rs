@@ -11,6 +11,7 @@ use anyhow::{Context, Result};
 use ndarray::Array2;
 use polars::prelude::*;
 use serde_json::Value as Json;
+use std::borrow::Cow;
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -99,22 +100,66 @@ pub fn atomic_write(
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
-    fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
     let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     let result = (|| {
-        let mut w = BufWriter::new(
-            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?,
-        );
+        // The folder is made only when it is missing (one failed open, not a mkdir per file).
+        let file = match File::create(&tmp) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                fs::create_dir_all(dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+                File::create(&tmp)
+            }
+            other => other,
+        }
+        .with_context(|| format!("cannot create {}", tmp.display()))?;
+        // One write call for most outputs: each costs about 20 us on the development VM.
+        let mut w = BufWriter::with_capacity(1 << 20, file);
         write(&mut w)?;
         w.flush()?;
-        fs::rename(&tmp, path)
+        drop(w);
+        replace(&tmp, path)
             .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
     }
     result.with_context(|| format!("writing {}", path.display()))
+}
+
+/// Moves the finished file `tmp` to `path`. Where `path` exists (a re-run into the same
+/// folder), Linux (glibc) swaps the two names atomically (`renameat2` with `RENAME_EXCHANGE`) and the
+/// old file is then removed: a plain rename over an existing file makes ext4 start writing the
+/// new file's data back at once (its `auto_da_alloc` safeguard), about 0.2 ms per file on the
+/// development VM, which was a fifth of a short run's time. Readers see the old or the new
+/// file, never a partial one, either way.
+fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        use std::ffi::CString;
+        use std::os::unix::ffi::OsStrExt;
+        let (a, b) = (
+            CString::new(tmp.as_os_str().as_bytes())?,
+            CString::new(path.as_os_str().as_bytes())?,
+        );
+        // SAFETY: both are valid NUL-terminated paths, relative to the working directory.
+        let swapped = unsafe {
+            libc::renameat2(
+                libc::AT_FDCWD,
+                a.as_ptr(),
+                libc::AT_FDCWD,
+                b.as_ptr(),
+                libc::RENAME_EXCHANGE,
+            )
+        } == 0;
+        if swapped {
+            // `tmp` now names the old file; a failure to remove it loses no result.
+            let _ = fs::remove_file(tmp);
+            return Ok(());
+        }
+        // No file at `path` yet (or a file system without RENAME_EXCHANGE): a plain rename.
+    }
+    fs::rename(tmp, path)
 }
 
 /// Reads a Parquet table of a results folder; `Ok(None)` if the file does not exist.
@@ -140,6 +185,7 @@ pub fn write_parquet(path: &Path, df: &mut DataFrame) -> Result<()> {
     atomic_write(path, |w| {
         ParquetWriter::new(w)
             .with_compression(ParquetCompression::Snappy)
+            .set_parallel(false)
             .finish(df)?;
         Ok(())
     })
@@ -211,7 +257,10 @@ pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
 struct Table<'a> {
     plan: &'a Plan,
     jobs: Vec<&'a Job>,
-    cols: Vec<(String, Values)>,
+    cols: Vec<(String, Values<'a>)>,
+    /// Index of the column after the last one written: rows fill columns in declaration
+    /// order, so the name lookup usually succeeds at once.
+    next: usize,
 }
 
 /// Column types: nullable string, i64, u64, f64 and bool.
@@ -225,8 +274,8 @@ enum Kind {
 }
 
 /// Column data.
-enum Values {
-    Str(Vec<Option<String>>),
+enum Values<'a> {
+    Str(Vec<Option<Cow<'a, str>>>),
     Int(Vec<Option<i64>>),
     UInt(Vec<u64>),
     Float(Vec<Option<f64>>),
@@ -252,22 +301,27 @@ impl<'a> Table<'a> {
             plan,
             jobs: vec![],
             cols,
+            next: 0,
         }
     }
 
-    fn col(&mut self, name: &str) -> &mut Values {
-        &mut self
-            .cols
-            .iter_mut()
-            .find(|(n, _)| n == name)
-            .expect("declared column")
-            .1
+    fn col(&mut self, name: &str) -> &mut Values<'a> {
+        let at = match self.cols.get(self.next) {
+            Some((n, _)) if n == name => self.next,
+            _ => self
+                .cols
+                .iter()
+                .position(|(n, _)| n == name)
+                .expect("declared column"),
+        };
+        self.next = (at + 1) % self.cols.len();
+        &mut self.cols[at].1
     }
 
-    fn s(&mut self, name: &str, v: impl Into<String>) {
+    fn s(&mut self, name: &str, v: impl Into<Cow<'a, str>>) {
         self.s_opt(name, Some(v.into()))
     }
-    fn s_opt(&mut self, name: &str, v: Option<String>) {
+    fn s_opt(&mut self, name: &str, v: Option<Cow<'a, str>>) {
         if let Values::Str(c) = self.col(name) {
             c.push(v)
         }
@@ -306,7 +360,10 @@ impl<'a> Table<'a> {
             .cols
             .into_iter()
             .map(|(n, v)| match v {
-                Values::Str(v) => Column::new(n.as_str().into(), v),
+                Values::Str(v) => Column::new(
+                    n.as_str().into(),
+                    v.iter().map(|s| s.as_deref()).collect::<Vec<_>>(),
+                ),
                 Values::Int(v) => Column::new(n.as_str().into(), v),
                 Values::UInt(v) => Column::new(n.as_str().into(), v),
                 Values::Float(v) => Column::new(n.as_str().into(), v),
@@ -543,9 +600,9 @@ pub fn jobs_table(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
         t.s("job", &job.id);
         t.s("dataset", &job.dataset_id);
         t.s("kind", job.dataset.kind());
-        t.s_opt("method", job.method.map(|m| m.as_str().to_string()));
+        t.s_opt("method", job.method.map(|m| m.as_str().into()));
         t.s("status", if o.result.is_ok() { "ok" } else { "failed" });
-        t.s_opt("error", o.result.as_ref().err().cloned());
+        t.s_opt("error", o.result.as_ref().err().map(|e| e.as_str().into()));
         t.u("seed", job.seed);
         t.u("data_seed", job.data_seed);
         t.u("generation_seed", job.generation_seed);
@@ -679,20 +736,20 @@ pub fn similarity(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
             t.s("method", sim.compared);
             t.s("metric", row.metric);
             t.i_opt("level", row.level.map(|l| l as i64));
-            t.s_opt("direction", row.direction.map(|d| d.as_str().to_string()));
-            t.s_opt("component", row.component.map(str::to_string));
+            t.s_opt("direction", row.direction.map(|d| d.as_str().into()));
+            t.s_opt("component", row.component.map(Into::into));
             t.s("statistic", row.statistic);
             t.f("value", Some(row.value).filter(|v| !v.is_nan()));
             t.i("units", row.units as i64);
             t.i("samples_original", sim.comparison.samples.0 as i64);
             t.i("samples_compared", sim.comparison.samples.1 as i64);
-            t.s_opt("noise_floor", sim.noise_floor.map(str::to_string));
+            t.s_opt("noise_floor", sim.noise_floor.map(Into::into));
             t.i_opt("bins", row.kl.map(|k| k.bins as i64));
             t.f("smoothing", row.kl.map(|k| k.smoothing));
             t.b("symmetric", row.kl.map(|k| k.symmetric));
             t.b("db", row.kl.map(|k| k.db));
             t.i_opt("block", row.block.map(|b| b as i64));
-            t.s_opt("cmd_form", row.form.clone());
+            t.s_opt("cmd_form", row.form.as_deref().map(Into::into));
             t.row(job);
         }
     }
@@ -885,4 +942,33 @@ pub fn hypotheses(plan: &Plan, outcomes: &[JobOutcome]) -> Result<DataFrame> {
             rows.iter().map(|r| r.verdict).collect::<Vec<_>>(),
         ),
     ])?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atomic_write_makes_its_folder_and_replaces_an_existing_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a/b/out.bin");
+        atomic_write(&path, |w| Ok(w.write_all(b"first")?)).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"first");
+        // A re-run: the old file is swapped out and removed, the new one is in place whole.
+        atomic_write(&path, |w| Ok(w.write_all(&[7u8; 3 << 20])?)).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), vec![7u8; 3 << 20]);
+        // A failing writer leaves the last good file and no temporary file.
+        let err = atomic_write(&path, |w| {
+            w.write_all(b"partial")?;
+            anyhow::bail!("disk full")
+        })
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("out.bin"), "{err:#}");
+        assert_eq!(fs::read(&path).unwrap().len(), 3 << 20);
+        let names: Vec<_> = fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, ["out.bin"]);
+    }
 }
