@@ -75,7 +75,7 @@ def write_spec(path, name, npy, levels):
 
 
 def run_tool(binary, spec, out, threads):
-    subprocess.run([binary, "run", str(spec), "--out", str(out), "--jobs", str(threads), "--quiet"], check=True)
+    subprocess.run([binary, "run", str(spec), "--out", str(out), "--jobs", str(threads), "--quiet", "--no-report"], check=True)
 
 
 def main():
