@@ -64,16 +64,20 @@ impl fmt::Display for Direction {
 
 /// An element type the analysis can read: complex or real, single or double precision.
 pub trait Sample: Copy + Send + Sync + 'static {
-    /// Writes the interleaved components `[re0, im0, re1, im1, ...]` of `src`, minus `shift`,
-    /// into `x` (length `2 * src.len()`), and adds them and their squares to `s` and `q`.
-    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]);
+    /// Writes the interleaved components `[re0, im0, re1, im1, ...]` of `src`, minus those of
+    /// `shift` (same length, converted to f64 alike), into `x` (length `2 * src.len()`), and
+    /// adds them and their squares to `s` and `q`.
+    fn load_shifted(src: &[Self], shift: &[Self], x: &mut [f64], s: &mut [f64], q: &mut [f64]);
+
+    /// The interleaved components of `v` as f64 (the imaginary part of real input is 0).
+    fn components(v: Self) -> [f64; 2];
 }
 
 /// The shared body of [`Sample::load_shifted`] over a flat slice of components.
 #[inline(always)]
 fn load_components<C: Copy + Into<f64>>(
     comp: &[C],
-    shift: &[f64],
+    shift: &[C],
     x: &mut [f64],
     s: &mut [f64],
     q: &mut [f64],
@@ -81,7 +85,7 @@ fn load_components<C: Copy + Into<f64>>(
     let n = comp.len();
     let (shift, x, s, q) = (&shift[..n], &mut x[..n], &mut s[..n], &mut q[..n]);
     for k in 0..n {
-        let v = comp[k].into() - shift[k];
+        let v = comp[k].into() - shift[k].into();
         x[k] = v;
         s[k] += v;
         q[k] += v * v;
@@ -90,15 +94,35 @@ fn load_components<C: Copy + Into<f64>>(
 
 impl Sample for Complex<f32> {
     #[inline(always)]
-    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
-        load_components(bytemuck::cast_slice::<_, f32>(src), shift, x, s, q)
+    fn load_shifted(src: &[Self], shift: &[Self], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+        load_components(
+            bytemuck::cast_slice::<_, f32>(src),
+            bytemuck::cast_slice::<_, f32>(shift),
+            x,
+            s,
+            q,
+        )
+    }
+
+    fn components(v: Self) -> [f64; 2] {
+        [v.re.into(), v.im.into()]
     }
 }
 
 impl Sample for Complex<f64> {
     #[inline(always)]
-    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
-        load_components(bytemuck::cast_slice::<_, f64>(src), shift, x, s, q)
+    fn load_shifted(src: &[Self], shift: &[Self], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+        load_components(
+            bytemuck::cast_slice::<_, f64>(src),
+            bytemuck::cast_slice::<_, f64>(shift),
+            x,
+            s,
+            q,
+        )
+    }
+
+    fn components(v: Self) -> [f64; 2] {
+        [v.re, v.im]
     }
 }
 
@@ -106,13 +130,13 @@ impl Sample for Complex<f64> {
 #[inline(always)]
 fn load_real<C: Copy + Into<f64>>(
     src: &[C],
-    shift: &[f64],
+    shift: &[C],
     x: &mut [f64],
     s: &mut [f64],
     q: &mut [f64],
 ) {
     for (k, v) in src.iter().enumerate() {
-        let v = (*v).into() - shift[2 * k];
+        let v = (*v).into() - shift[k].into();
         x[2 * k] = v;
         x[2 * k + 1] = 0.0;
         s[2 * k] += v;
@@ -122,15 +146,23 @@ fn load_real<C: Copy + Into<f64>>(
 
 impl Sample for f32 {
     #[inline(always)]
-    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+    fn load_shifted(src: &[Self], shift: &[Self], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
         load_real(src, shift, x, s, q)
+    }
+
+    fn components(v: Self) -> [f64; 2] {
+        [v.into(), 0.0]
     }
 }
 
 impl Sample for f64 {
     #[inline(always)]
-    fn load_shifted(src: &[Self], shift: &[f64], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
+    fn load_shifted(src: &[Self], shift: &[Self], x: &mut [f64], s: &mut [f64], q: &mut [f64]) {
         load_real(src, shift, x, s, q)
+    }
+
+    fn components(v: Self) -> [f64; 2] {
+        [v, 0.0]
     }
 }
 
@@ -339,7 +371,8 @@ struct LevelAcc {
     /// Unit grid of this level inside the band.
     urows: usize,
     ucols: usize,
-    /// Unit components of the current sample (shifted).
+    /// Unit components of the current sample (shifted); level 1 uses only the front, for the
+    /// two pixel rows being paired.
     x: Vec<f64>,
     /// Sums of shifted components (level 1: accumulated; coarser: derived at the end).
     s: Vec<f64>,
@@ -364,25 +397,76 @@ fn accumulate_cell(t: [f64; 4], b: [f64; 4], a: &mut [f64; CELL]) -> [f64; 2] {
     [(t[0] + t[2]) + (b[0] + b[2]), (t[1] + t[3]) + (b[1] + b[3])]
 }
 
+/// One row of cells: `top` and `bot` hold the components of the cells' upper and lower units
+/// (4 per cell), `acc` their accumulators; the cell sums go to `out` when given.
+#[inline(always)]
+fn add_cell_row(top: &[f64], bot: &[f64], acc: &mut [f64], mut out: Option<&mut [f64]>) {
+    for (c, ((t, b), a)) in top
+        .chunks_exact(4)
+        .zip(bot.chunks_exact(4))
+        .zip(acc.chunks_exact_mut(CELL))
+        .enumerate()
+    {
+        let t: [f64; 4] = t.try_into().expect("chunk of 4");
+        let b: [f64; 4] = b.try_into().expect("chunk of 4");
+        let sum = accumulate_cell(t, b, a.try_into().expect("chunk of CELL"));
+        if let Some(o) = out.as_deref_mut() {
+            o[2 * c..2 * c + 2].copy_from_slice(&sum);
+        }
+    }
+}
+
 impl LevelAcc {
     fn new(urows: usize, ucols: usize) -> Self {
         let comps = 2 * urows * ucols;
         LevelAcc {
             urows,
             ucols,
-            x: vec![0.0; comps],
+            x: vec![0.0; comps.max(4 * ucols)],
             s: vec![0.0; comps],
             q: vec![0.0; comps],
             pairs: vec![0.0; (urows / 2) * (ucols / 2) * CELL],
         }
     }
 
-    /// Level 1: loads one sample's band (shifted) into `x`, adds it to the moment sums, then
-    /// adds its pairs like any level.
+    /// Level 1: loads one sample's band (shifted), two pixel rows at a time, into the front of
+    /// `x` (so the loaded values are still in L1 when their pairs are formed), adds them to the
+    /// moment sums, and adds the pairs of that row of cells.
     #[inline(always)]
-    fn add_pixels<T: Sample>(&mut self, src: &[T], shift: &[f64], next: Option<&mut [f64]>) {
-        T::load_shifted(src, shift, &mut self.x, &mut self.s, &mut self.q);
-        self.add_pairs(next);
+    fn add_pixels<T: Sample>(&mut self, src: &[T], shift: &[T], mut next: Option<&mut [f64]>) {
+        let (crows, ccols, w) = (self.urows / 2, self.ucols / 2, self.ucols);
+        for r in 0..crows {
+            let px = 2 * r * w..(2 * r + 2) * w;
+            let comps = 4 * r * w..4 * (r + 1) * w;
+            let x = &mut self.x[..4 * w];
+            T::load_shifted(
+                &src[px.clone()],
+                &shift[px],
+                x,
+                &mut self.s[comps.clone()],
+                &mut self.q[comps],
+            );
+            let (top, bot) = x.split_at(2 * w);
+            add_cell_row(
+                &top[..4 * ccols],
+                &bot[..4 * ccols],
+                &mut self.pairs[r * ccols * CELL..][..ccols * CELL],
+                next.as_deref_mut()
+                    .map(|n| &mut n[r * 2 * ccols..][..2 * ccols]),
+            );
+        }
+        // An odd last pixel row belongs to no cell but to the moments.
+        if self.urows % 2 == 1 {
+            let px = (self.urows - 1) * w..self.urows * w;
+            let comps = 2 * px.start..2 * px.end;
+            T::load_shifted(
+                &src[px.clone()],
+                &shift[px],
+                &mut self.x[..2 * w],
+                &mut self.s[comps.clone()],
+                &mut self.q[comps],
+            );
+        }
     }
 
     /// Adds the pair products of every complete cell of the current unit values `x`, and
@@ -391,25 +475,13 @@ impl LevelAcc {
     fn add_pairs(&mut self, mut next: Option<&mut [f64]>) {
         let (crows, ccols, row) = (self.urows / 2, self.ucols / 2, 2 * self.ucols);
         for r in 0..crows {
-            let top = &self.x[2 * r * row..][..4 * ccols];
-            let bot = &self.x[(2 * r + 1) * row..][..4 * ccols];
-            let acc = &mut self.pairs[r * ccols * CELL..][..ccols * CELL];
-            let mut out = next
-                .as_deref_mut()
-                .map(|n| &mut n[r * 2 * ccols..][..2 * ccols]);
-            for (c, ((t, b), a)) in top
-                .chunks_exact(4)
-                .zip(bot.chunks_exact(4))
-                .zip(acc.chunks_exact_mut(CELL))
-                .enumerate()
-            {
-                let t: [f64; 4] = t.try_into().expect("chunk of 4");
-                let b: [f64; 4] = b.try_into().expect("chunk of 4");
-                let sum = accumulate_cell(t, b, a.try_into().expect("chunk of CELL"));
-                if let Some(o) = out.as_deref_mut() {
-                    o[2 * c..2 * c + 2].copy_from_slice(&sum);
-                }
-            }
+            add_cell_row(
+                &self.x[2 * r * row..][..4 * ccols],
+                &self.x[(2 * r + 1) * row..][..4 * ccols],
+                &mut self.pairs[r * ccols * CELL..][..ccols * CELL],
+                next.as_deref_mut()
+                    .map(|n| &mut n[r * 2 * ccols..][..2 * ccols]),
+            );
         }
     }
 
@@ -591,13 +663,9 @@ fn analyse_band_body<T: Sample>(data: &[T], band: Band) -> BandResult {
         .collect();
     let plane = h * w;
     let span = r0 * w..(r0 + rows) * w;
-    // The shift: sample 0's pixel components.
-    let mut shift = vec![0.0; 2 * rows * w];
-    {
-        let zero = vec![0.0; shift.len()];
-        let (mut s, mut q) = (zero.clone(), zero.clone());
-        T::load_shifted(&data[span.clone()], &zero, &mut shift, &mut s, &mut q);
-    }
+    // The shift: sample 0's pixels, read in their stored type (half the cache footprint of
+    // f64 components) and converted like every sample.
+    let shift = &data[span.clone()];
     for sample in 0..n {
         let src = &data[sample * plane + span.start..sample * plane + span.end];
         if sample + 1 < n {
@@ -606,7 +674,7 @@ fn analyse_band_body<T: Sample>(data: &[T], band: Band) -> BandResult {
         let (first, rest) = accs.split_first_mut().expect("at least one level");
         first.add_pixels(
             src,
-            &shift,
+            shift,
             rest.first_mut().map(|next| next.x.as_mut_slice()),
         );
         for l in 1..levels {
@@ -623,12 +691,15 @@ fn analyse_band_body<T: Sample>(data: &[T], band: Band) -> BandResult {
     let inv = 1.0 / n as f64;
     let mut mean = Vec::with_capacity(rows * w);
     let mut variance = Vec::with_capacity(rows * w);
-    for k in 0..rows * w {
-        let (mr, mi) = (px.s[2 * k] * inv, px.s[2 * k + 1] * inv);
-        mean.push(Complex64::new(shift[2 * k] + mr, shift[2 * k + 1] + mi));
-        variance.push(non_negative(
-            (px.q[2 * k] + px.q[2 * k + 1]) * inv - mr * mr - mi * mi,
-        ));
+    for ((&sh, s), q) in shift
+        .iter()
+        .zip(px.s.chunks_exact(2))
+        .zip(px.q.chunks_exact(2))
+    {
+        let (mr, mi) = (s[0] * inv, s[1] * inv);
+        let [sr, si] = T::components(sh);
+        mean.push(Complex64::new(sr + mr, si + mi));
+        variance.push(non_negative((q[0] + q[1]) * inv - mr * mr - mi * mi));
     }
     BandResult {
         mean,

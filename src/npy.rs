@@ -269,9 +269,8 @@ impl Stack {
             let a = ArrayView3::from_shape((s[0], s[1], s[2]).set_f(m.header.fortran_order), &data)
                 .expect("size checked at load");
             view(a, hwn).mapv(|v| {
-                let mut x = [0.0; 2];
-                T::load_shifted(&[v], &[0.0, 0.0], &mut x, &mut [0.0; 2], &mut [0.0; 2]);
-                Complex::new(x[0], x[1])
+                let [re, im] = T::components(v);
+                Complex::new(re, im)
             })
         }
         match self {

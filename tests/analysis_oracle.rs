@@ -55,15 +55,19 @@ fn closed_form_matches_direct_pair_covariance_and_4x4_solve() {
 
 #[test]
 fn pixel_mean_and_variance_match_two_pass() {
-    let stack = random_stack(7, 30, 8, 6);
-    let a = analyse(stack.view(), 1).unwrap();
-    for r in 0..8 {
-        for c in 0..6 {
-            let px = stack.slice(s![.., r, c]);
-            let mu: Complex64 = px.iter().sum::<Complex64>() / 30.0;
-            let var = px.iter().map(|v| (v - mu).norm_sqr()).sum::<f64>() / 30.0;
-            assert!((a.mean[[r, c]] - mu).norm() < 1e-12);
-            assert!((a.variance[[r, c]] - var).abs() < 1e-12 * var.max(1.0));
+    // Odd heights and widths: pixels in an odd last row or column belong to no cell but still
+    // have a mean and a variance (the tail band of 35 rows at 3 levels has 3 rows).
+    for (seed, n, h, w, levels) in [(7, 30, 8, 6, 1), (8, 20, 13, 22, 2), (9, 25, 35, 9, 3)] {
+        let stack = random_stack(seed, n, h, w);
+        let a = analyse(stack.view(), levels).unwrap();
+        for r in 0..h {
+            for c in 0..w {
+                let px = stack.slice(s![.., r, c]);
+                let mu: Complex64 = px.iter().sum::<Complex64>() / n as f64;
+                let var = px.iter().map(|v| (v - mu).norm_sqr()).sum::<f64>() / n as f64;
+                assert!((a.mean[[r, c]] - mu).norm() < 1e-12, "{h}x{w} ({r}, {c})");
+                assert!((a.variance[[r, c]] - var).abs() < 1e-12 * var.max(1.0));
+            }
         }
     }
 }
