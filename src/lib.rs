@@ -5,7 +5,8 @@
 //!
 //! Modules follow the data flow: [`spec`] -> [`plan`] -> [`data`] (with [`npy`] and
 //! [`filters`]) -> [`analysis`] -> [`results`], driven by [`runner`]. The numerical kernels
-//! ([`analysis`], [`filters`]) are free of I/O; [`oracle`] holds their slow references.
+//! ([`analysis`], [`filters`], [`lowrank`], [`cmd`]) are free of I/O; [`oracle`] holds their
+//! slow references. [`alloc`] is the process's allocator (large blocks mapped from the kernel).
 
 #![warn(missing_docs)]
 
