@@ -17,7 +17,7 @@ const MR: usize = 6;
 /// L1 while the tile's sums run.
 const KC: usize = 256;
 
-/// The deviations packed for [`combine`]: panels of [`NR`] columns, each holding all `N`
+/// The deviations packed for [`combine`]: panels of 16 columns, each holding all `N`
 /// deviations in order (`data[(j * n + k) * NR + c]` is column `j * NR + c` of deviation `k`),
 /// columns beyond `2P` zero.
 #[derive(Clone)]
