@@ -61,6 +61,7 @@ pub fn build(dir: &Path) -> Result<Report> {
                 .collect()
         })
         .unwrap_or_default();
+    remove_stale_job_figures(dir, &jobs)?;
     let params = synthesis_params(dir)?;
     let per_job: Vec<Vec<Figure>> = jobs
         .par_iter()
@@ -80,6 +81,23 @@ pub fn build(dir: &Path) -> Result<Report> {
         html: path,
         figures,
     })
+}
+
+/// Removes `figures/<job>` folders of jobs that the manifest does not list as ok (left by an
+/// earlier run of an edited spec, or by a job that failed this time), so `figures/` holds only
+/// what the page shows.
+fn remove_stale_job_figures(dir: &Path, jobs: &[String]) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir.join("figures")) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let current = jobs.iter().any(|j| entry.file_name().to_str() == Some(j));
+        if !current && entry.path().is_dir() {
+            std::fs::remove_dir_all(entry.path())
+                .with_context(|| format!("removing stale {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// Reads a real 2-D map if the file exists.

@@ -195,11 +195,16 @@ fn the_report_references_existing_figures_and_loads_in_a_browser() {
     ] {
         assert!(html.contains(needle), "report lacks {needle:?}");
     }
-    // `report` rebuilds the same page from the files alone.
+    // `report` rebuilds the same page from the files alone, and drops the figures of a job
+    // that is no longer in the run (as an edited spec leaves them).
     std::fs::remove_file(&html_path).unwrap();
+    let stale = out.join("figures").join("removed_job");
+    std::fs::create_dir_all(&stale).unwrap();
+    std::fs::write(stale.join("correlation.png"), b"old").unwrap();
     let o = bin().arg("report").arg(&out).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read_to_string(&html_path).unwrap(), html);
+    assert!(!stale.exists(), "stale job figures were kept");
 
     // The browser test.
     let Some(browser) = chromium() else {
