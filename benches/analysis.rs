@@ -2,6 +2,10 @@
 //! median time and input throughput of a 3-level analysis of a 1000 x 64 x 64 complex64
 //! stack on rayon pools of 1 and 2 threads, after warm-up. Figures go to BENCHMARKS.md.
 
+/// The binary's allocator, so that figures match what `isar-clutter` does.
+#[global_allocator]
+static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
+
 use isar_clutter::analysis::analyse;
 use ndarray::Array3;
 use num_complex::Complex;

@@ -3,6 +3,10 @@
 //! Gram/P x P forms and GFLOP/s, and the per-pixel and per-area KL maps of the same stacks, on a
 //! rayon pool of 2 threads. Figures go to BENCHMARKS.md.
 
+/// The binary's allocator, so that figures match what `isar-clutter` does.
+#[global_allocator]
+static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
+
 use isar_clutter::data::{filter_bank, generate};
 use isar_clutter::metrics::{kl_maps, KlOptions};
 use isar_clutter::similarity::{normalised, usable_pixels};

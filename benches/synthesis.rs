@@ -3,6 +3,10 @@
 //! GFLOP/s, and this machine's measured peak for comparison (a fused multiply-add loop over
 //! registers on every thread). Figures go to BENCHMARKS.md.
 
+/// The binary's allocator, so that figures match what `isar-clutter` does.
+#[global_allocator]
+static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
+
 use isar_clutter::analysis::analyse;
 use isar_clutter::data::{filter_bank, generate, white_seed};
 use isar_clutter::filters::filter_seed;

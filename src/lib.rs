@@ -6,13 +6,9 @@
 //! Modules follow the data flow: [`spec`] -> [`plan`] -> [`data`] (with [`npy`] and
 //! [`filters`]) -> [`analysis`] -> [`results`], driven by [`runner`]. The numerical kernels
 //! ([`analysis`], [`filters`], [`lowrank`], [`cmd`]) are free of I/O; [`oracle`] holds their
-//! slow references. [`alloc`] is the process's allocator (large blocks mapped from the kernel).
+//! slow references. [`alloc`] is the binary's allocator (large blocks mapped from the kernel).
 
 #![warn(missing_docs)]
-
-/// Every binary, test and benchmark linking this crate allocates through [`alloc::LargeMapAlloc`].
-#[global_allocator]
-static GLOBAL: alloc::LargeMapAlloc = alloc::LargeMapAlloc;
 
 pub mod alloc;
 pub mod analysis;

@@ -1,6 +1,10 @@
 //! The `isar-clutter` command line: `run` an experiment spec, `validate` it, or print its job
 //! table with `run --dry-run`. Errors print their cause chain; a run with failed jobs exits 1.
 
+/// Large blocks come straight from the kernel (see [`isar_clutter::alloc`]).
+#[global_allocator]
+static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
+
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use isar_clutter::plan::{self, Plan};
