@@ -70,6 +70,7 @@ pub fn build(dir: &Path) -> Result<Report> {
     let mut figures: Vec<Figure> = per_job.into_iter().flatten().collect();
     figures.extend(sweep_figures(dir)?);
     figures.extend(calibration_figures(dir)?);
+    remove_undrawn_figures(dir, &figures)?;
     let html = page(dir, &manifest, &figures)?;
     let path = dir.join("report.html");
     crate::results::atomic_write(&path, |w| {
@@ -95,6 +96,36 @@ fn remove_stale_job_figures(dir: &Path, jobs: &[String]) -> Result<()> {
         if !current && entry.path().is_dir() {
             std::fs::remove_dir_all(entry.path())
                 .with_context(|| format!("removing stale {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Removes the `.png` and `.svg` files under `figures/` (and its job folders) that this build
+/// did not draw: figures of a parameter no longer swept, or of outputs a job no longer has.
+fn remove_undrawn_figures(dir: &Path, figures: &[Figure]) -> Result<()> {
+    let drawn: std::collections::HashSet<PathBuf> = figures
+        .iter()
+        .flat_map(|f| f.files.iter().map(|p| dir.join(p)))
+        .collect();
+    let root = dir.join("figures");
+    let mut folders = vec![root.clone()];
+    if let Ok(entries) = std::fs::read_dir(&root) {
+        folders.extend(entries.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
+    }
+    for folder in folders {
+        let Ok(entries) = std::fs::read_dir(&folder) else {
+            continue;
+        };
+        for path in entries.flatten().map(|e| e.path()) {
+            let figure = matches!(
+                path.extension().and_then(|e| e.to_str()),
+                Some("png" | "svg")
+            );
+            if figure && path.is_file() && !drawn.contains(&path) {
+                std::fs::remove_file(&path)
+                    .with_context(|| format!("removing stale {}", path.display()))?;
+            }
         }
     }
     Ok(())

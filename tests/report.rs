@@ -201,10 +201,19 @@ fn the_report_references_existing_figures_and_loads_in_a_browser() {
     let stale = out.join("figures").join("removed_job");
     std::fs::create_dir_all(&stale).unwrap();
     std::fs::write(stale.join("correlation.png"), b"old").unwrap();
+    let stale_sweep = out
+        .join("figures")
+        .join("sweep_correlation_removed_axis.svg");
+    std::fs::write(&stale_sweep, b"old").unwrap();
     let o = bin().arg("report").arg(&out).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read_to_string(&html_path).unwrap(), html);
     assert!(!stale.exists(), "stale job figures were kept");
+    assert!(!stale_sweep.exists(), "a stale run-wide figure was kept");
+    // Every figure the page shows is still there (checked above for the first build).
+    for r in &local {
+        assert!(out.join(r).is_file(), "the rebuilt report lost {r}");
+    }
 
     // The browser test.
     let Some(browser) = chromium() else {
