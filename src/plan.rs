@@ -276,18 +276,26 @@ fn check_job_metrics(
     let (Some(syn), None, false) = (&spec.synthesis, job.method, metrics.is_empty()) else {
         return Ok(());
     };
-    let synthetic = matches!(job.dataset, Dataset::FilteredNoise(_));
-    job.noise_floor = match (spec.noise_floor, synthetic) {
+    // Datasets that can be drawn again: filtered noise (cheap: the default), simulated plants
+    // (as costly as the dataset itself: only when `draws` is asked for).
+    let drawable = match job.dataset {
+        Dataset::FilteredNoise(_) => Some(true),
+        Dataset::Vegetation(_) => Some(false),
+        _ => None,
+    };
+    let draws = NoiseFloorPlan::Draws {
+        samples: syn.samples,
+        seed: derive_seed(spec.seed, "noise_floor", &job.identity),
+    };
+    job.noise_floor = match (spec.noise_floor, drawable) {
         (NoiseFloor::None, _) => None,
-        (NoiseFloor::Draws | NoiseFloor::Auto, true) => Some(NoiseFloorPlan::Draws {
-            samples: syn.samples,
-            seed: derive_seed(spec.seed, "noise_floor", &job.identity),
-        }),
-        (NoiseFloor::Draws, false) => {
+        (NoiseFloor::Auto, Some(true)) | (NoiseFloor::Draws, Some(_)) => Some(draws),
+        (NoiseFloor::Draws, None) => {
             return Err(ctx.err(
                 "noise_floor",
                 format!(
-                    "`draws` needs a synthetic dataset; {} is read from a file (use `halves`)",
+                    "`draws` needs a synthetic or simulated dataset; {} is read from a file \
+                     (use `halves`)",
                     job.dataset_id
                 ),
             ))

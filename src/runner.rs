@@ -345,12 +345,23 @@ fn noise_floor(
     };
     let comparison = match nf {
         NoiseFloorPlan::Draws { samples, seed } => {
-            let (Dataset::FilteredNoise(f), Some((bank, _))) = (&job.dataset, &data.truth) else {
-                anyhow::bail!("draws need a synthetic dataset");
+            let draw = match (&job.dataset, &data.truth) {
+                (Dataset::FilteredNoise(f), Some((bank, _))) => {
+                    let mut spec = (**f).clone();
+                    spec.samples = samples;
+                    crate::data::generate(&spec, bank, seed)
+                }
+                (Dataset::Vegetation(v), _) => {
+                    // An independent simulation of the same scene: new seed, no k-space kept.
+                    let mut spec = (**v).clone();
+                    spec.samples = samples;
+                    spec.save_kspace = false;
+                    crate::data::materialise(&Dataset::Vegetation(Box::new(spec)), seed)?
+                        .stack
+                        .to_complex128(false)
+                }
+                _ => anyhow::bail!("draws need a synthetic or simulated dataset"),
             };
-            let mut spec = (**f).clone();
-            spec.samples = samples;
-            let draw = crate::data::generate(&spec, bank, seed);
             let draw_analysis = analyse(draw.view())?;
             let a = Side {
                 stack: original.view(),

@@ -345,7 +345,10 @@ fn noise_floor_errors() {
         "{e}"
     );
     let e = load(&format!("{text}noise_floor: draws\n"));
-    assert!(e.contains("`draws` needs a synthetic dataset"), "{e}");
+    assert!(
+        e.contains("`draws` needs a synthetic or simulated dataset"),
+        "{e}"
+    );
     let e = load(&format!("{text}noise_floor: twice\n"));
     assert!(
         e.contains("noise_floor") && e.contains("unknown variant `twice`"),

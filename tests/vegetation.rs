@@ -174,3 +174,32 @@ fn calibrated_plant_measurements_match_the_ideal_simulation() {
     let err_clean = rel(&clean);
     assert!(err_clean < err / 2.0, "clean chain {err_clean} vs {err}");
 }
+
+/// `noise_floor: draws` on simulated plants compares the original with an independent
+/// simulation of the same scene (`synthesis.samples` samples, its own seed); `auto` keeps the
+/// cheap `halves`.
+#[test]
+fn plant_noise_floor_draws_an_independent_simulation() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = "name: nf\nseed: 5\ndatasets:\n  - {id: plant_B_light, kind: vegetation_isar, plant: B, wind: light, samples: 8, image_size: 32, measurement: {frequencies: 64, azimuths: 48}}\nanalysis:\n  levels: 1\nsynthesis:\n  methods: [uncorrelated]\n  samples: 6\nmetrics: [multiscale_rmse]\n";
+    for (mode, want, compared) in [("draws", "draws", 6), ("auto", "halves", 4)] {
+        let spec = tmp.path().join(format!("{mode}.yaml"));
+        std::fs::write(&spec, format!("{base}noise_floor: {mode}\n")).unwrap();
+        let out = tmp.path().join(mode);
+        run(&spec, &out, "2");
+        let t = read(&out, "similarity.parquet");
+        let (method, floor) = (opt_strings(&t, "method"), opt_strings(&t, "noise_floor"));
+        let compared_col = t.column("samples_compared").unwrap().i64().unwrap();
+        let value = t.column("value").unwrap().f64().unwrap();
+        let rows: Vec<usize> = (0..t.height())
+            .filter(|&i| method[i].as_deref() == Some("noise_floor"))
+            .collect();
+        assert!(!rows.is_empty(), "{mode}: no noise-floor rows");
+        for &i in &rows {
+            assert_eq!(floor[i].as_deref(), Some(want), "{mode}");
+            assert_eq!(compared_col.get(i), Some(compared), "{mode}");
+            let v = value.get(i).unwrap();
+            assert!(v.is_finite() && v > 0.0, "{mode}: {v}");
+        }
+    }
+}
