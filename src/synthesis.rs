@@ -642,14 +642,7 @@ impl Model {
                     *x = mu + *x * (s / sd);
                 }
             }
-            (None, Some(_)) => {
-                let mut acc = vec![0.0f32; 2 * h * w];
-                self.full_covariance_sums(seed, index, 1, &mut acc, |_, _| {});
-                let mean = self.mean.as_slice().expect("standard layout");
-                for ((x, mu), a) in out.iter_mut().zip(mean).zip(acc.chunks_exact(2)) {
-                    *x = mu + Complex64::new(f64::from(a[0]), f64::from(a[1]));
-                }
-            }
+            (None, Some(_)) => self.full_covariance_c128(seed, index, out),
             (None, None) if self.fourth.is_some() => {
                 let f = self.fourth.as_ref().expect("checked");
                 for (p, x) in out.iter_mut().enumerate() {
@@ -708,6 +701,18 @@ impl Model {
         crate::lowrank::combine_then(panels, &z, count, acc, finish);
     }
 
+    /// Full covariance: samples `first ..` (as many as `out` holds, `H * W` each) in complex128,
+    /// the mean plus the f32 deviation sums.
+    fn full_covariance_c128(&self, seed: u64, first: usize, out: &mut [Complex64]) {
+        let p = self.mean.len();
+        let mut acc = vec![0.0f32; 2 * out.len()];
+        self.full_covariance_sums(seed, first, out.len() / p, &mut acc, |_, _| {});
+        let mean = self.mean.as_slice().expect("standard layout");
+        for (i, (x, a)) in out.iter_mut().zip(acc.chunks_exact(2)).enumerate() {
+            *x = mean[i % p] + Complex64::new(f64::from(a[0]), f64::from(a[1]));
+        }
+    }
+
     /// Generates samples `first .. first + count` as complex64 (the format of saved samples),
     /// in parallel on the caller's rayon pool; each sample is computed in f64 and rounded.
     pub fn generate_c64(
@@ -762,24 +767,12 @@ impl Model {
         let (h, w) = self.shape();
         let mut out = Array3::zeros((count, h, w));
         if let (None, Some(_)) = (&self.filter, &self.deviations) {
-            let mean = self.mean.as_slice().expect("standard layout");
             out.as_slice_mut()
                 .expect("standard layout")
                 .par_chunks_mut(FULL_COVARIANCE_BATCH * h * w)
                 .enumerate()
                 .for_each(|(b, block)| {
-                    let count = block.len() / (h * w);
-                    let mut acc = vec![0.0f32; 2 * block.len()];
-                    self.full_covariance_sums(
-                        seed,
-                        first + b * FULL_COVARIANCE_BATCH,
-                        count,
-                        &mut acc,
-                        |_, _| {},
-                    );
-                    for (i, (x, a)) in block.iter_mut().zip(acc.chunks_exact(2)).enumerate() {
-                        *x = mean[i % (h * w)] + Complex64::new(f64::from(a[0]), f64::from(a[1]));
-                    }
+                    self.full_covariance_c128(seed, first + b * FULL_COVARIANCE_BATCH, block)
                 });
             return out;
         }
