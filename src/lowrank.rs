@@ -18,8 +18,7 @@ const MR: usize = 6;
 const KC: usize = 256;
 
 /// The deviations packed for [`combine`]: panels of 16 columns, each holding all `N`
-/// deviations in order (`data[(j * n + k) * NR + c]` is column `j * NR + c` of deviation `k`),
-/// columns beyond `2P` zero.
+/// deviations in order (see `slot`), columns beyond `2P` zero.
 #[derive(Clone)]
 pub struct Panels {
     n: usize,
@@ -36,6 +35,11 @@ impl std::fmt::Debug for Panels {
     }
 }
 
+/// Where column `c` of deviation `k` sits in a packing of `n` deviations.
+fn slot(n: usize, k: usize, c: usize) -> usize {
+    ((c / NR) * n + k) * NR + c % NR
+}
+
 impl Panels {
     /// Packs deviations `[N, H, W]` (complex) as `N x 2HW` real columns, rounded to f32.
     pub fn new(dev: ArrayView3<Complex64>) -> Panels {
@@ -46,7 +50,7 @@ impl Panels {
         for (k, d) in dev.outer_iter().enumerate() {
             for (p, z) in d.iter().enumerate() {
                 for (c, v) in [(2 * p, z.re), (2 * p + 1, z.im)] {
-                    data[((c / NR) * n + k) * NR + c % NR] = v as f32;
+                    data[slot(n, k, c)] = v as f32;
                 }
             }
         }
@@ -65,7 +69,7 @@ impl Panels {
 
     /// Deviation `k`'s column `c`, as packed.
     fn at(&self, k: usize, c: usize) -> f32 {
-        self.data[((c / NR) * self.n + k) * NR + c % NR]
+        self.data[slot(self.n, k, c)]
     }
 }
 
@@ -112,8 +116,8 @@ pub fn combine_then(
             }
         }
         for j in 0..npanels {
-            let panel = &panels.data[(j * n + k0) * NR..(j * n + k0 + kc) * NR];
             let c0 = j * NR;
+            let panel = &panels.data[slot(n, k0, c0)..slot(n, k0 + kc, c0)];
             let cw = NR.min(cols - c0);
             for rb in 0..nrb {
                 let rh = MR.min(rows - rb * MR);
