@@ -422,7 +422,7 @@ impl LevelAcc {
         LevelAcc {
             urows,
             ucols,
-            x: vec![0.0; comps.max(4 * ucols)],
+            x: vec![0.0; comps],
             s: vec![0.0; comps],
             q: vec![0.0; comps],
             pairs: vec![0.0; (urows / 2) * (ucols / 2) * CELL],
@@ -434,11 +434,12 @@ impl LevelAcc {
     /// moment sums, and adds the pairs of that row of cells.
     #[inline(always)]
     fn add_pixels<T: Sample>(&mut self, src: &[T], shift: &[T], mut next: Option<&mut [f64]>) {
-        let (crows, ccols, w) = (self.urows / 2, self.ucols / 2, self.ucols);
-        for r in 0..crows {
-            let px = 2 * r * w..(2 * r + 2) * w;
-            let comps = 4 * r * w..4 * (r + 1) * w;
-            let x = &mut self.x[..4 * w];
+        let (ccols, w) = (self.ucols / 2, self.ucols);
+        // Rows 2r and 2r + 1 (an odd last row alone: it belongs to no cell, only to the moments).
+        for r in 0..self.urows.div_ceil(2) {
+            let px = 2 * r * w..((2 * r + 2) * w).min(self.urows * w);
+            let comps = 2 * px.start..2 * px.end;
+            let x = &mut self.x[..comps.len()];
             T::load_shifted(
                 &src[px.clone()],
                 &shift[px],
@@ -446,26 +447,16 @@ impl LevelAcc {
                 &mut self.s[comps.clone()],
                 &mut self.q[comps],
             );
-            let (top, bot) = x.split_at(2 * w);
-            add_cell_row(
-                &top[..4 * ccols],
-                &bot[..4 * ccols],
-                &mut self.pairs[r * ccols * CELL..][..ccols * CELL],
-                next.as_deref_mut()
-                    .map(|n| &mut n[r * 2 * ccols..][..2 * ccols]),
-            );
-        }
-        // An odd last pixel row belongs to no cell but to the moments.
-        if self.urows % 2 == 1 {
-            let px = (self.urows - 1) * w..self.urows * w;
-            let comps = 2 * px.start..2 * px.end;
-            T::load_shifted(
-                &src[px.clone()],
-                &shift[px],
-                &mut self.x[..2 * w],
-                &mut self.s[comps.clone()],
-                &mut self.q[comps],
-            );
+            if x.len() == 4 * w {
+                let (top, bot) = x.split_at(2 * w);
+                add_cell_row(
+                    &top[..4 * ccols],
+                    &bot[..4 * ccols],
+                    &mut self.pairs[r * ccols * CELL..][..ccols * CELL],
+                    next.as_deref_mut()
+                        .map(|n| &mut n[r * 2 * ccols..][..2 * ccols]),
+                );
+            }
         }
     }
 
