@@ -61,7 +61,6 @@ pub fn build(dir: &Path) -> Result<Report> {
                 .collect()
         })
         .unwrap_or_default();
-    remove_stale_job_figures(dir, &jobs)?;
     let params = synthesis_params(dir)?;
     let per_job: Vec<Vec<Figure>> = jobs
         .par_iter()
@@ -70,7 +69,7 @@ pub fn build(dir: &Path) -> Result<Report> {
     let mut figures: Vec<Figure> = per_job.into_iter().flatten().collect();
     figures.extend(sweep_figures(dir)?);
     figures.extend(calibration_figures(dir)?);
-    remove_undrawn_figures(dir, &figures)?;
+    prune_figures(dir, &jobs, &figures)?;
     let html = page(dir, &manifest, &figures)?;
     let path = dir.join("report.html");
     crate::results::atomic_write(&path, |w| {
@@ -84,35 +83,20 @@ pub fn build(dir: &Path) -> Result<Report> {
     })
 }
 
-/// Removes `figures/<job>` folders of jobs that the manifest does not list as ok (left by an
-/// earlier run of an edited spec, or by a job that failed this time), so `figures/` holds only
-/// what the page shows.
-fn remove_stale_job_figures(dir: &Path, jobs: &[String]) -> Result<()> {
-    let Ok(entries) = std::fs::read_dir(dir.join("figures")) else {
-        return Ok(());
-    };
-    for entry in entries.flatten() {
-        let current = jobs.iter().any(|j| entry.file_name().to_str() == Some(j));
-        if !current && entry.path().is_dir() {
-            std::fs::remove_dir_all(entry.path())
-                .with_context(|| format!("removing stale {}", entry.path().display()))?;
-        }
-    }
-    Ok(())
-}
-
-/// Removes the `.png` and `.svg` files under `figures/` (and its job folders) that this build
-/// did not draw: figures of a parameter no longer swept, or of outputs a job no longer has.
-fn remove_undrawn_figures(dir: &Path, figures: &[Figure]) -> Result<()> {
+/// Makes `figures/` hold only what this build drew: the folders of jobs that the manifest
+/// does not list as ok go (left by an earlier run of an edited spec, or by a job that failed
+/// this time), and so does every `.png` and `.svg` not drawn now (a parameter no longer swept,
+/// an output a job no longer has).
+fn prune_figures(dir: &Path, jobs: &[String], figures: &[Figure]) -> Result<()> {
+    let root = dir.join("figures");
+    let ids: Vec<&str> = jobs.iter().map(String::as_str).collect();
+    crate::results::remove_folders_except(&root, &ids)?;
     let drawn: std::collections::HashSet<PathBuf> = figures
         .iter()
         .flat_map(|f| f.files.iter().map(|p| dir.join(p)))
         .collect();
-    let root = dir.join("figures");
     let mut folders = vec![root.clone()];
-    if let Ok(entries) = std::fs::read_dir(&root) {
-        folders.extend(entries.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
-    }
+    folders.extend(ids.iter().map(|j| root.join(j)));
     for folder in folders {
         let Ok(entries) = std::fs::read_dir(&folder) else {
             continue;

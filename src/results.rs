@@ -127,9 +127,31 @@ pub fn atomic_write(
     result.with_context(|| format!("writing {}", path.display()))
 }
 
+/// Removes the sub-folders of `parent` whose names are not in `keep` (outputs of jobs an
+/// earlier run had and this one has not); nothing if `parent` does not exist.
+///
+/// # Errors
+/// If a folder cannot be removed; the message names it.
+pub fn remove_folders_except(parent: &Path, keep: &[&str]) -> Result<()> {
+    let Ok(entries) = fs::read_dir(parent) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let kept = entry
+            .file_name()
+            .to_str()
+            .is_some_and(|n| keep.contains(&n));
+        if !kept && entry.path().is_dir() {
+            fs::remove_dir_all(entry.path())
+                .with_context(|| format!("removing stale {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
+}
+
 /// Moves the finished file `tmp` to `path`. Where `path` exists (a re-run into the same
-/// folder), Linux (glibc) swaps the two names atomically (`renameat2` with `RENAME_EXCHANGE`) and the
-/// old file is then removed: a plain rename over an existing file makes ext4 start writing the
+/// folder), Linux (glibc) swaps the two names atomically (`renameat2` with
+/// `RENAME_EXCHANGE`) and the old file is then removed: a plain rename over an existing file makes ext4 start writing the
 /// new file's data back at once (its `auto_da_alloc` safeguard), about 0.2 ms per file on the
 /// development VM, which was a fifth of a short run's time. Readers see the old or the new
 /// file, never a partial one, either way.

@@ -547,22 +547,8 @@ fn write_outputs(plan: &Plan, outcomes: &[JobOutcome], out: &Path) -> Result<()>
 /// Removes `maps/<job>` folders of jobs that are not in this plan (left by an earlier run of
 /// an edited spec into the same folder), so `maps/` matches `jobs.parquet`.
 fn remove_stale_maps(plan: &Plan, out: &Path) -> Result<()> {
-    let maps = out.join("maps");
-    let Ok(entries) = std::fs::read_dir(&maps) else {
-        return Ok(());
-    };
-    for entry in entries.flatten() {
-        let name = entry.file_name();
-        let current = plan
-            .jobs
-            .iter()
-            .any(|j| name.to_str() == Some(j.id.as_str()));
-        if !current && entry.path().is_dir() {
-            std::fs::remove_dir_all(entry.path())
-                .with_context(|| format!("removing stale {}", entry.path().display()))?;
-        }
-    }
-    Ok(())
+    let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
+    results::remove_folders_except(&out.join("maps"), &ids)
 }
 
 /// Commit and dirty flag of the source tree when the binary was built (null outside git).
