@@ -5,20 +5,14 @@
 
 mod common;
 
-use common::read_table;
+use common::{read_table, run_spec};
 use std::path::Path;
-use std::process::Command;
 
 #[test]
 fn the_calibration_experiment_recovers_the_mie_series() {
     let tmp = tempfile::tempdir().unwrap();
     let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments/calibration.yaml");
-    let o = Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(["run", spec.to_str().unwrap(), "--quiet", "--out"])
-        .arg(tmp.path())
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_spec(&spec, tmp.path(), &[]);
     let spectra = read_table(tmp.path(), "calibration.parquet");
     assert_eq!(spectra.height(), 801);
     let s = read_table(tmp.path(), "calibration_summary.parquet");

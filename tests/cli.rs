@@ -2,6 +2,9 @@
 //! columns (a public contract), readback of the Parquet tables, sweeps and job ids,
 //! thread-count invariance, and a failing job that does not take the others down.
 
+mod common;
+
+use common::read_table as read;
 use ndarray::Array3;
 use ndarray_npy::WriteNpyExt;
 use num_complex::Complex;
@@ -36,12 +39,6 @@ fn bin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
         .args(args)
         .output()
-        .unwrap()
-}
-
-fn read(dir: &Path, name: &str) -> DataFrame {
-    ParquetReader::new(File::open(dir.join(name)).unwrap())
-        .finish()
         .unwrap()
 }
 

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{opt_strings, read_table};
+use common::{opt_strings, read_table, run_spec};
 use std::collections::HashMap;
 use std::path::Path;
 use std::process::Command;
@@ -91,13 +91,7 @@ fn the_dissertations_similarity_findings_hold_on_a_seeded_run() {
     let spec = tmp.path().join("findings.yaml");
     std::fs::write(&spec, SPEC).unwrap();
     let out = tmp.path().join("out");
-    let status = Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(["run", spec.to_str().unwrap(), "--out"])
-        .arg(&out)
-        .arg("--quiet")
-        .status()
-        .unwrap();
-    assert!(status.success());
+    run_spec(&spec, &out, &[]);
     let r = values(&out, "multiscale_rmse");
     // Method 2 closer than Method 1 at levels 2 and 3 on non-exponential data (Tables 6, 28),
     // direction by direction.
@@ -208,12 +202,7 @@ fn the_model_order_test_separates_gaussian_from_k_distributed_clutter() {
     let spec = tmp.path().join("mo.yaml");
     std::fs::write(&spec, MODEL_ORDER).unwrap();
     let out = tmp.path().join("out");
-    let status = Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(["run", spec.to_str().unwrap(), "--quiet", "--out"])
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(status.success());
+    run_spec(&spec, &out, &[]);
     let df = read_table(&out, "model_order.parquet");
     let ds: Vec<String> = df
         .column("dataset")

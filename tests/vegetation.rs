@@ -4,9 +4,8 @@
 
 mod common;
 
-use common::{opt_strings, read_table as read};
+use common::{opt_strings, read_table as read, run_spec};
 use std::path::Path;
-use std::process::Command;
 
 const SPEC: &str = "name: veg
 seed: 9
@@ -20,20 +19,7 @@ analysis:
 ";
 
 fn run(spec: &Path, out: &Path, jobs: &str) {
-    let o = Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args([
-            "run",
-            spec.to_str().unwrap(),
-            "--quiet",
-            "--no-report",
-            "--jobs",
-            jobs,
-            "--out",
-        ])
-        .arg(out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_spec(spec, out, &["--no-report", "--jobs", jobs]);
 }
 
 #[test]

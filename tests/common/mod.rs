@@ -64,3 +64,18 @@ pub fn opt_strings(df: &polars::prelude::DataFrame, column: &str) -> Vec<Option<
         .map(|v| v.map(str::to_string))
         .collect()
 }
+
+/// Runs `isar-clutter run SPEC --quiet --out OUT` plus `extra` arguments and asserts that it
+/// succeeded (its stderr in the message if not).
+pub fn run_spec(spec: &std::path::Path, out: &std::path::Path, extra: &[&str]) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
+        .arg("run")
+        .arg(spec)
+        .arg("--quiet")
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
