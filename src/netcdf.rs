@@ -407,39 +407,20 @@ impl<'a> Header<'a> {
             let nbytes = count * ty.size();
             let raw = self.take(pad4(nbytes as u64) as usize, &ctx)?;
             let raw = &raw[..nbytes];
-            let value = match ty {
-                NcType::Char => {
+            let value = match Raw::decode(ty, raw) {
+                None => {
+                    // NC_CHAR.
                     let mut end = raw.len();
                     while end > 0 && raw[end - 1] == 0 {
                         end -= 1;
                     }
                     AttrValue::Text(String::from_utf8_lossy(&raw[..end]).into_owned())
                 }
-                NcType::Byte => AttrValue::Bytes(raw.iter().map(|&b| b as i8).collect()),
-                NcType::Short => AttrValue::Shorts(
-                    raw.chunks_exact(2)
-                        .map(|c| i16::from_be_bytes([c[0], c[1]]))
-                        .collect(),
-                ),
-                NcType::Int => AttrValue::Ints(
-                    raw.chunks_exact(4)
-                        .map(|c| i32::from_be_bytes([c[0], c[1], c[2], c[3]]))
-                        .collect(),
-                ),
-                NcType::Float => AttrValue::Floats(
-                    raw.chunks_exact(4)
-                        .map(|c| f32::from_be_bytes([c[0], c[1], c[2], c[3]]))
-                        .collect(),
-                ),
-                NcType::Double => AttrValue::Doubles(
-                    raw.chunks_exact(8)
-                        .map(|c| {
-                            let mut a = [0u8; 8];
-                            a.copy_from_slice(c);
-                            f64::from_be_bytes(a)
-                        })
-                        .collect(),
-                ),
+                Some(Raw::Bytes(v)) => AttrValue::Bytes(v),
+                Some(Raw::Shorts(v)) => AttrValue::Shorts(v),
+                Some(Raw::Ints(v)) => AttrValue::Ints(v),
+                Some(Raw::Floats(v)) => AttrValue::Floats(v),
+                Some(Raw::Doubles(v)) => AttrValue::Doubles(v),
             };
             out.push((name, value));
         }
@@ -454,6 +435,40 @@ enum Raw {
     Ints(Vec<i32>),
     Floats(Vec<f32>),
     Doubles(Vec<f64>),
+}
+
+impl Raw {
+    /// Decodes big-endian values of a numeric type (`None` for NC_CHAR).
+    fn decode(ty: NcType, b: &[u8]) -> Option<Raw> {
+        Some(match ty {
+            NcType::Char => return None,
+            NcType::Byte => Raw::Bytes(b.iter().map(|&x| x as i8).collect()),
+            NcType::Short => Raw::Shorts(
+                b.chunks_exact(2)
+                    .map(|c| i16::from_be_bytes([c[0], c[1]]))
+                    .collect(),
+            ),
+            NcType::Int => Raw::Ints(
+                b.chunks_exact(4)
+                    .map(|c| i32::from_be_bytes([c[0], c[1], c[2], c[3]]))
+                    .collect(),
+            ),
+            NcType::Float => Raw::Floats(
+                b.chunks_exact(4)
+                    .map(|c| f32::from_be_bytes([c[0], c[1], c[2], c[3]]))
+                    .collect(),
+            ),
+            NcType::Double => Raw::Doubles(
+                b.chunks_exact(8)
+                    .map(|c| {
+                        let mut a = [0u8; 8];
+                        a.copy_from_slice(c);
+                        f64::from_be_bytes(a)
+                    })
+                    .collect(),
+            ),
+        })
+    }
 }
 
 impl NcFile {
@@ -693,39 +708,9 @@ impl NcFile {
     }
 
     fn read_raw(&self, var: &Variable) -> Result<Raw, NcError> {
-        let b = self.raw_bytes(var)?;
-        Ok(match var.nc_type {
-            NcType::Char => {
-                return Err(NcError::NotNumeric {
-                    path: self.path.clone(),
-                    var: var.name.clone(),
-                });
-            }
-            NcType::Byte => Raw::Bytes(b.iter().map(|&x| x as i8).collect()),
-            NcType::Short => Raw::Shorts(
-                b.chunks_exact(2)
-                    .map(|c| i16::from_be_bytes([c[0], c[1]]))
-                    .collect(),
-            ),
-            NcType::Int => Raw::Ints(
-                b.chunks_exact(4)
-                    .map(|c| i32::from_be_bytes([c[0], c[1], c[2], c[3]]))
-                    .collect(),
-            ),
-            NcType::Float => Raw::Floats(
-                b.chunks_exact(4)
-                    .map(|c| f32::from_be_bytes([c[0], c[1], c[2], c[3]]))
-                    .collect(),
-            ),
-            NcType::Double => Raw::Doubles(
-                b.chunks_exact(8)
-                    .map(|c| {
-                        let mut a = [0u8; 8];
-                        a.copy_from_slice(c);
-                        f64::from_be_bytes(a)
-                    })
-                    .collect(),
-            ),
+        Raw::decode(var.nc_type, &self.raw_bytes(var)?).ok_or_else(|| NcError::NotNumeric {
+            path: self.path.clone(),
+            var: var.name.clone(),
         })
     }
 }
