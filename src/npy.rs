@@ -389,24 +389,11 @@ fn read_array<T: Element, D: ndarray::Dimension>(
 /// # Errors
 /// [`NpyError`] if the file is missing, complex, or not 2-D.
 pub fn read_real_map(path: &Path) -> Result<Array2<f64>, NpyError> {
-    let header = read_header(path)?;
-    let data = |reason: String| NpyError::Data {
-        path: path.to_path_buf(),
-        reason,
-    };
-    if header.shape.len() != 2 {
-        return Err(data(format!(
-            "a map must be 2-D [H, W], this one has shape {:?}",
-            header.shape
-        )));
-    }
-    match header.dtype {
-        Dtype::Float64 => read_array::<f64, ndarray::Ix2>(path, &header),
-        Dtype::Float32 => read_array::<f32, ndarray::Ix2>(path, &header).map(|a| a.mapv(f64::from)),
-        _ => Err(data(
-            "a parameter map must be real (float32 or float64)".into(),
-        )),
-    }
+    read_real(
+        path,
+        "a map must be 2-D [H, W]",
+        "a parameter map must be real (float32 or float64)",
+    )
 }
 
 /// Reads a real 1-D vector (`float32` or `float64`) as f64.
@@ -414,20 +401,34 @@ pub fn read_real_map(path: &Path) -> Result<Array2<f64>, NpyError> {
 /// # Errors
 /// [`NpyError`] if the file is not a readable 1-D real array.
 pub fn read_real_vector(path: &Path) -> Result<ndarray::Array1<f64>, NpyError> {
+    read_real(
+        path,
+        "a vector must be 1-D",
+        "a vector must be real (float32 or float64)",
+    )
+}
+
+/// A real array of `D`'s dimensionality as f64; `shape_rule` and `type_rule` say what a wrong
+/// shape or element type breaks.
+fn read_real<D: ndarray::Dimension>(
+    path: &Path,
+    shape_rule: &str,
+    type_rule: &str,
+) -> Result<ndarray::Array<f64, D>, NpyError> {
     let header = read_header(path)?;
     let data = |reason: String| NpyError::Data {
         path: path.to_path_buf(),
         reason,
     };
-    if header.shape.len() != 1 {
+    if Some(header.shape.len()) != D::NDIM {
         return Err(data(format!(
-            "a vector must be 1-D, this one has shape {:?}",
+            "{shape_rule}, this one has shape {:?}",
             header.shape
         )));
     }
     match header.dtype {
-        Dtype::Float64 => read_array::<f64, ndarray::Ix1>(path, &header),
-        Dtype::Float32 => read_array::<f32, ndarray::Ix1>(path, &header).map(|a| a.mapv(f64::from)),
-        _ => Err(data("a vector must be real (float32 or float64)".into())),
+        Dtype::Float64 => read_array::<f64, D>(path, &header),
+        Dtype::Float32 => read_array::<f32, D>(path, &header).map(|a| a.mapv(f64::from)),
+        _ => Err(data(type_rule.into())),
     }
 }

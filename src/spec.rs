@@ -1225,14 +1225,8 @@ impl DatasetSpec {
                 None => return Err(ctx.err(&at, format!("kind kspace needs `{name}`"))),
                 Some(Vector::List(l)) => l.clone(),
                 Some(Vector::File(f)) => {
+                    // Names the file, and the shape where it is not 1-D.
                     let f = ctx.resolve(f);
-                    let h = npy::read_header(&f).map_err(|e| ctx.err(&at, e.to_string()))?;
-                    if h.shape.len() != 1 {
-                        return Err(ctx.err(
-                            &at,
-                            format!("{} must be 1-D, it has shape {:?}", f.display(), h.shape),
-                        ));
-                    }
                     let m = npy::read_real_vector(&f).map_err(|e| ctx.err(&at, e.to_string()))?;
                     m.iter().copied().collect()
                 }
