@@ -9,7 +9,7 @@ BIN := $(CARGO_TARGET_DIR)/release/isar-clutter
 PYTHON ?= python3
 VENV := .venv
 
-.PHONY: build run-experiment validate test test-deps lint fmt bench bench-deps data
+.PHONY: build run-experiment run-all compare validate test test-deps lint fmt bench bench-deps data
 
 ## build: release build of the isar-clutter binary
 build:
@@ -18,6 +18,18 @@ build:
 ## run-experiment: build and run SPEC (default: the Table 4 spec) into outputs/<name>/
 run-experiment: build
 	$(BIN) run $(SPEC) $(ARGS)
+
+## run-all: every shipped experiment into OUT/<name>/ (tables, maps, models; no report), e.g.
+## before and after a change: make run-all OUT=/tmp/before; ...; make run-all OUT=/tmp/after
+OUT ?= /tmp/isar-clutter-all
+run-all: build data
+	@for s in experiments/*.yaml; do n=$$(basename $$s .yaml); \
+		$(BIN) run $$s --out $(OUT)/$$n --no-report >$(OUT).$$n.log 2>&1 || echo "$$n: exit $$? (see $(OUT).$$n.log)"; \
+	done
+
+## compare: value-for-value comparison of two output folders of run-all (or two runs)
+compare: bench-deps
+	$(VENV)/bin/python bench/compare_outputs.py $(BEFORE) $(AFTER)
 
 ## validate: check SPEC without running it
 validate: build
@@ -50,7 +62,7 @@ fmt:
 ## bench-deps: a virtualenv with numpy for the side-by-side baselines
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
-	$(VENV)/bin/pip install --quiet numpy==2.3.5
+	$(VENV)/bin/pip install --quiet numpy==2.3.5 pyarrow==21.0.0
 bench-deps: $(VENV)/bin/python
 
 ## bench: analysis benchmark (isar-clutter run vs numpy baselines); see BENCHMARKS.md

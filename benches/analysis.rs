@@ -6,7 +6,7 @@
 #[global_allocator]
 static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
 
-use isar_clutter::analysis::analyse;
+use isar_clutter::stats::analysis::analyse;
 use ndarray::Array3;
 use num_complex::Complex;
 use rand::SeedableRng;

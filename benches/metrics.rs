@@ -8,9 +8,9 @@
 static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
 
 use isar_clutter::data::{filter_bank, generate};
-use isar_clutter::metrics::{kl_maps, KlOptions};
-use isar_clutter::similarity::{normalised, usable_pixels};
-use isar_clutter::spec::{FilterParams, FilteredNoise, Map};
+use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
+use isar_clutter::stats::metrics::{kl_maps, KlOptions};
+use isar_clutter::stats::similarity::{normalised, usable_pixels};
 use ndarray::Array3;
 use num_complex::{Complex, Complex64};
 use std::time::Instant;
@@ -49,7 +49,7 @@ fn main() {
         for _ in 0..repeats {
             let t = Instant::now();
             let px = usable_pixels(a.view(), b.view());
-            let terms = isar_clutter::cmd::cmd_terms(&normalised(a.view(), &px), &normalised(b.view(), &px));
+            let terms = isar_clutter::stats::cmd::cmd_terms(&normalised(a.view(), &px), &normalised(b.view(), &px));
             times.push(t.elapsed().as_secs_f64());
             distance = terms.distance();
             form = format!("{:?}/{:?}/{:?}", terms.form1, terms.form2, terms.form_cross);

@@ -7,10 +7,11 @@
 #[global_allocator]
 static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
 
-use isar_clutter::analysis::analyse;
-use isar_clutter::data::{filter_bank, generate, white_seed};
-use isar_clutter::filters::filter_seed;
-use isar_clutter::spec::{FilterParams, FilteredNoise, Map, RampAxis};
+use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{FilterParams, FilteredNoise, Map, RampAxis};
+use isar_clutter::seeds::white_seed;
+use isar_clutter::stats::analysis::analyse;
+use isar_clutter::stats::filters::filter_seed;
 use isar_clutter::synthesis::{fit, FitOptions, Method};
 use num_complex::Complex64;
 use rayon::prelude::*;

@@ -1,39 +1,33 @@
 //! isar-clutter: a declarative batch experiment runner for the multiscale modelling and
 //! simulation of clutter in ISAR imaging (Mitchell, 2020). A YAML spec names datasets and
-//! analysis settings; the plan expands sweeps into seeded jobs; the runner analyses every
-//! job's stack and writes Parquet tables, `.npy` maps and a manifest.
+//! analysis settings; the plan expands sweeps into seeded jobs; the scheduler runs them and the
+//! table assembly writes Parquet tables, `.npy` maps, a manifest and a report.
 //!
-//! Modules follow the data flow: [`spec`] -> [`plan`] -> [`data`] (with [`npy`] and
-//! [`filters`]) -> [`analysis`] -> [`results`], driven by [`runner`]. The numerical kernels
-//! ([`analysis`], [`filters`], [`lowrank`], [`cmd`]) are free of I/O; [`oracle`] holds their
-//! slow references. [`alloc`] is the binary's allocator (large blocks mapped from the kernel).
+//! The folders follow the data flow (`docs/architecture.md` draws it, with the rules of which
+//! module may import which):
+//!
+//! - [`experiment`]: the spec, the YAML a user writes, parsed and validated section by section;
+//! - [`run`]: plan (sweeps, job ids, seeds), the job kinds, the scheduler, table assembly, manifest;
+//! - [`data`]: datasets materialised into stacks (files, filtered noise, simulated plants);
+//! - [`io`]: file formats (`.npy`, NetCDF, model folders) and atomic writes;
+//! - [`physics`]: the ISAR imaging chain, Mie series, calibration, the vegetation stand-in;
+//! - [`stats`]: multiscale analysis, filters, metrics, CMD, similarity, samplers, slow oracles;
+//! - [`synthesis`]: fit a model to a stack, generate new samples;
+//! - [`apps`]: what is built on the statistics: the hypothesis tests (ch. 5.1);
+//! - [`report`]: figures, the HTML report and the comparison tables;
+//! - [`seeds`]: seed derivation and random streams, usable from every layer;
+//! - [`alloc`]: the binary's allocator (large blocks mapped from the kernel).
 
 #![warn(missing_docs)]
 
 pub mod alloc;
-pub mod analysis;
-pub mod calibration;
-pub mod cmd;
+pub mod apps;
 pub mod data;
-pub mod figures;
-pub mod filters;
-pub mod fleishman;
-pub mod hypotheses;
-pub mod isar;
-pub mod lowrank;
-pub mod metrics;
-pub mod mie;
-pub mod model;
-pub mod netcdf;
-pub mod netcdf_stack;
-pub mod npy;
-pub mod oracle;
-pub mod plan;
+pub mod experiment;
+pub mod io;
+pub mod physics;
 pub mod report;
-pub mod results;
-pub mod runner;
-pub mod similarity;
-pub mod spec;
+pub mod run;
+pub mod seeds;
+pub mod stats;
 pub mod synthesis;
-pub mod table;
-pub mod vegetation;

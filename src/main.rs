@@ -7,8 +7,8 @@ static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMa
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use isar_clutter::plan::{self, Plan};
-use isar_clutter::runner::{self, RunOptions};
+use isar_clutter::run::plan::{self, Plan};
+use isar_clutter::run::scheduler::{self, RunOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -59,14 +59,14 @@ enum Command {
         table: Option<String>,
         /// text (aligned columns) or md (Markdown).
         #[arg(long, value_enum, default_value = "text")]
-        format: isar_clutter::table::Format,
+        format: isar_clutter::report::table::Format,
         /// Column spread across the page (default: method; model_order for model_order;
         /// source for summary), e.g. `--pivot dataset`.
         #[arg(long)]
         pivot: Option<String>,
         /// Keep rows whose column has one of the values: `--filter dataset=exp,dyadic`
         /// (repeatable).
-        #[arg(long, value_parser = isar_clutter::table::parse_filter)]
+        #[arg(long, value_parser = isar_clutter::report::table::parse_filter)]
         filter: Vec<(String, Vec<String>)>,
     },
     /// Check a spec (syntax, types, files, sizes) without running it.
@@ -186,14 +186,14 @@ fn real_main() -> Result<ExitCode> {
             chunk,
             jobs,
         } => {
-            let (m, _) = isar_clutter::model::load(&model)?;
+            let (m, _) = isar_clutter::io::model::load(&model)?;
             let bar = indicatif::ProgressBar::new(samples as u64);
             if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
                 bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
             }
             let t = std::time::Instant::now();
             pool(jobs)?.install(|| {
-                isar_clutter::model::generate_to_npy(&m, seed, samples, chunk, &out, |done| {
+                isar_clutter::io::model::generate_to_npy(&m, seed, samples, chunk, &out, |done| {
                     bar.set_position(done as u64)
                 })
             })?;
@@ -220,9 +220,9 @@ fn real_main() -> Result<ExitCode> {
                 return Ok(ExitCode::SUCCESS);
             }
             let out = out.unwrap_or_else(|| PathBuf::from("outputs").join(&plan.spec.name));
-            let mut opts = RunOptions::new(out, jobs.unwrap_or_else(runner::default_threads));
+            let mut opts = RunOptions::new(out, jobs.unwrap_or_else(scheduler::default_threads));
             opts.quiet = quiet;
-            let summary = runner::run(&plan, &opts)?;
+            let summary = scheduler::run(&plan, &opts)?;
             let ok = summary.total - summary.failed.len();
             eprintln!(
                 "{}: {ok}/{} job(s) ok in {:.2} s -> {}",
@@ -260,7 +260,7 @@ fn real_main() -> Result<ExitCode> {
 /// A rayon pool of `jobs` threads (default: all cores).
 fn pool(jobs: Option<usize>) -> Result<rayon::ThreadPool> {
     Ok(rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs.unwrap_or_else(runner::default_threads))
+        .num_threads(jobs.unwrap_or_else(scheduler::default_threads))
         .build()?)
 }
 
@@ -285,7 +285,7 @@ fn fit_command(
         "hwn" => true,
         other => anyhow::bail!("unknown layout {other:?}: nhw or hwn"),
     };
-    let stack = isar_clutter::npy::Stack::load(input)?;
+    let stack = isar_clutter::io::npy::Stack::load(input)?;
     let depth = if method == Method::Method2 { levels } else { 1 };
     let analysis = stack
         .analyse(hwn, depth)
@@ -301,14 +301,14 @@ fn fit_command(
             levels: depth,
         },
     )?;
-    let info = isar_clutter::model::ModelInfo::new(
+    let info = isar_clutter::io::model::ModelInfo::new(
         &model,
         &analysis,
         half_width,
         depth,
         input.display().to_string(),
     );
-    isar_clutter::model::save(&model, &info, out)?;
+    isar_clutter::io::model::save(&model, &info, out)?;
     eprintln!(
         "{} fitted to {} ({} samples of {}x{}) -> {}",
         method.as_str(),
@@ -376,11 +376,11 @@ fn print_jobs(plan: &Plan) {
 fn table_command(
     results: &std::path::Path,
     name: Option<&str>,
-    format: isar_clutter::table::Format,
+    format: isar_clutter::report::table::Format,
     pivot: Option<&str>,
     filters: &[(String, Vec<String>)],
 ) -> Result<()> {
-    use isar_clutter::table::{render, standard};
+    use isar_clutter::report::table::{render, standard};
     if !results.is_dir() {
         anyhow::bail!("{} is not a results folder", results.display());
     }

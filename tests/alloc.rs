@@ -27,10 +27,10 @@ fn vectors_grow_and_shrink_across_the_threshold() {
 fn an_analysis_on_large_buffers_matches_its_oracle() {
     // 300 x 48 x 48 complex128 (11 MB): the stack and its copies are mapped blocks.
     let stack = common::random_stack(21, 300, 48, 48);
-    let a = isar_clutter::analysis::analyse(stack.view(), 2).unwrap();
+    let a = isar_clutter::stats::analysis::analyse(stack.view(), 2).unwrap();
     for lm in &a.levels {
-        let (corr, _) = isar_clutter::oracle::direct_level(&stack, lm.level);
-        for d in isar_clutter::analysis::Direction::ALL {
+        let (corr, _) = isar_clutter::stats::oracle::direct_level(&stack, lm.level);
+        for d in isar_clutter::stats::analysis::Direction::ALL {
             let diff = common::max_diff(lm.correlation(d), &corr[d as usize]);
             assert!(diff < common::REORDER_TOL, "level {} {d}: {diff}", lm.level);
         }

@@ -5,8 +5,8 @@
 mod common;
 
 use common::{max_diff, random_stack, REORDER_TOL};
-use isar_clutter::analysis::{analyse, AnalysisError, Direction};
-use isar_clutter::oracle;
+use isar_clutter::stats::analysis::{analyse, AnalysisError, Direction};
+use isar_clutter::stats::oracle;
 use ndarray::{s, Array3};
 use num_complex::{Complex, Complex64};
 

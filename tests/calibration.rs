@@ -43,22 +43,22 @@ fn bad_calibration_parameters_name_their_path() {
     let tmp = tempfile::tempdir().unwrap();
     let p = tmp.path().join("c.yaml");
     std::fs::write(&p, "name: c\nseed: 1\ncalibration:\n  points: 4\n").unwrap();
-    let e = isar_clutter::plan::load(&p).unwrap_err().to_string();
+    let e = isar_clutter::run::plan::load(&p).unwrap_err().to_string();
     assert!(
         e.contains("calibration.points") && e.contains("at least 16"),
         "{e}"
     );
     std::fs::write(&p, "name: c\nseed: 1\ncalibration:\n  f_stop: 1.0e9\n").unwrap();
-    let e = isar_clutter::plan::load(&p).unwrap_err().to_string();
+    let e = isar_clutter::run::plan::load(&p).unwrap_err().to_string();
     assert!(e.contains("calibration.f_stop"), "{e}");
     std::fs::write(&p, "name: c\nseed: 1\ncalibration:\n  radius: 1\n").unwrap();
-    let e = isar_clutter::plan::load(&p).unwrap_err().to_string();
+    let e = isar_clutter::run::plan::load(&p).unwrap_err().to_string();
     assert!(
         e.contains("calibration") && e.contains("unknown field `radius`"),
         "{e}"
     );
     // Datasets still need an analysis section.
     std::fs::write(&p, "name: c\nseed: 1\ndatasets:\n  - id: d\n    kind: filtered_noise\n    family: exponential\n    alpha_h: 1\n    alpha_v: 1\n    size: [8, 8]\n    samples: 4\n").unwrap();
-    let e = isar_clutter::plan::load(&p).unwrap_err().to_string();
+    let e = isar_clutter::run::plan::load(&p).unwrap_err().to_string();
     assert!(e.contains("analysis") && e.contains("missing field"), "{e}");
 }

@@ -548,9 +548,9 @@ fn synthesis_jobs_write_params_samples_and_generated_analyses() {
     );
     // Saved samples: [M, H, W] complex64.
     let npy = a.join("samples/d.method1.synthesis.samples=300.npy");
-    let header = isar_clutter::npy::read_header(&npy).unwrap();
+    let header = isar_clutter::io::npy::read_header(&npy).unwrap();
     assert_eq!(header.shape, [300, 16, 16]);
-    assert_eq!(header.dtype, isar_clutter::npy::Dtype::Complex64);
+    assert_eq!(header.dtype, isar_clutter::io::npy::Dtype::Complex64);
     // Same tables and samples whatever the thread count.
     for t in [
         "analysis_summary.parquet",
@@ -643,12 +643,12 @@ fn fit_then_generate_streams_the_same_samples_as_the_library() {
             "{method}: chunking and threads do not change the file"
         );
         // The loaded model generates what the freshly fitted one does.
-        let (loaded, info) = isar_clutter::model::load(&model_dir).unwrap();
+        let (loaded, info) = isar_clutter::io::model::load(&model_dir).unwrap();
         assert_eq!(info.samples_fitted, 40);
         let m: Method = serde_json::from_value(serde_json::Value::String(method.into())).unwrap();
         let c128 = stack.mapv(|z| num_complex::Complex64::new(z.re as f64, z.im as f64));
         let levels = if m == Method::Method2 { 2 } else { 1 };
-        let a = isar_clutter::analysis::analyse(c128.view(), levels).unwrap();
+        let a = isar_clutter::stats::analysis::analyse(c128.view(), levels).unwrap();
         let fresh = fit(
             m,
             &a,

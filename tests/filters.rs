@@ -5,10 +5,11 @@
 mod common;
 
 use common::max_diff;
-use isar_clutter::analysis::analyse;
-use isar_clutter::data::{filter_bank, generate, white_seed};
-use isar_clutter::filters::*;
-use isar_clutter::spec::{FilterParams, FilteredNoise, Map, RampAxis};
+use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{FilterParams, FilteredNoise, Map, RampAxis};
+use isar_clutter::seeds::white_seed;
+use isar_clutter::stats::analysis::analyse;
+use isar_clutter::stats::filters::*;
 use ndarray::Array2;
 use num_complex::Complex64;
 
@@ -132,7 +133,10 @@ fn spatially_varying_analysis_recovers_the_exact_maps() {
     let a = analyse(stack.view(), 2).unwrap();
     let exact = expected_maps(&bank, &d.std.grid(16, 16), 2);
     for (lm, e) in a.levels.iter().zip(&exact) {
-        for (i, dir) in isar_clutter::analysis::Direction::ALL.iter().enumerate() {
+        for (i, dir) in isar_clutter::stats::analysis::Direction::ALL
+            .iter()
+            .enumerate()
+        {
             // Per-cell sd of a correlation estimate: (1 - rho^2) / sqrt(2N) <= 0.013; 5 sd.
             let diff = max_diff(lm.correlation(*dir), &e[i]);
             assert!(

@@ -3,9 +3,9 @@
 //! azimuth vectors, must image to exactly the simulator's own images; bad axes are refused.
 
 use isar_clutter::data::materialise;
-use isar_clutter::isar::{ImagingOptions, Measurement};
-use isar_clutter::plan;
-use isar_clutter::vegetation::{try_simulate, SceneParams};
+use isar_clutter::physics::isar::{ImagingOptions, Measurement};
+use isar_clutter::physics::vegetation::{try_simulate, SceneParams};
+use isar_clutter::run::plan;
 use ndarray::Array1;
 use ndarray_npy::WriteNpyExt;
 use std::fs::File;

@@ -5,9 +5,9 @@
 //! the YAML path.
 
 use isar_clutter::data::materialise;
-use isar_clutter::netcdf::NcFile;
-use isar_clutter::netcdf_stack::months;
-use isar_clutter::plan;
+use isar_clutter::io::netcdf::time::months;
+use isar_clutter::io::netcdf::NcFile;
+use isar_clutter::run::plan;
 use ndarray::Ix3;
 use std::path::{Path, PathBuf};
 
@@ -52,7 +52,7 @@ fn the_stack_is_u_plus_i_v() {
         assert_eq!(stack[[t, i, j]].im, v[[t, i, j]]);
     }
     // The analysis runs at 4 levels on the 73 x 144 grid.
-    let a = isar_clutter::analysis::analyse(stack.view(), 4).unwrap();
+    let a = isar_clutter::stats::analysis::analyse(stack.view(), 4).unwrap();
     assert_eq!(a.levels[3].shape(), (4, 9));
 }
 

@@ -161,7 +161,7 @@ fn the_report_references_existing_figures_and_loads_in_a_browser() {
             })
             .count()
     };
-    use isar_clutter::figures::diverging_rgb;
+    use isar_clutter::report::figures::diverging_rgb;
     assert!(
         near(diverging_rgb(0.6, -1.0, 1.0)) > 500,
         "reds of rho = 0.6"

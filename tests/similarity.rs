@@ -3,11 +3,11 @@
 //! Gram identity against the literal P x P formula, eq. 25 on hand-made maps, and K-distributed
 //! texture moments.
 
-use isar_clutter::cmd::{cmd_oracle, cmd_terms};
 use isar_clutter::data::{filter_bank, generate};
-use isar_clutter::metrics::*;
-use isar_clutter::similarity::{normalised, usable_pixels};
-use isar_clutter::spec::{FilterParams, FilteredNoise, Map};
+use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
+use isar_clutter::stats::cmd::{cmd_oracle, cmd_terms};
+use isar_clutter::stats::metrics::*;
+use isar_clutter::stats::similarity::{normalised, usable_pixels};
 use ndarray::{arr2, Array3};
 use num_complex::{Complex, Complex64};
 use proptest::prelude::*;
@@ -183,7 +183,7 @@ fn eq25_on_hand_made_maps() {
     assert_eq!(map_rmse(&x1, &x1), (0.0, 3));
     let rows: Vec<LevelRmse> = (1..=3)
         .flat_map(|level| {
-            isar_clutter::analysis::Direction::ALL.map(|direction| LevelRmse {
+            isar_clutter::stats::analysis::Direction::ALL.map(|direction| LevelRmse {
                 level,
                 direction,
                 rmse: level as f64 * 0.01,
@@ -206,7 +206,7 @@ fn eq25_on_hand_made_maps() {
 /// that pins what "average level 1" and "average levels 1-3" mean.
 #[test]
 fn table6_summaries_are_means_of_table26_rows() {
-    use isar_clutter::analysis::Direction::*;
+    use isar_clutter::stats::analysis::Direction::*;
     let table26 = [
         (1, H, 0.0149),
         (1, V, 0.0151),
@@ -307,7 +307,8 @@ fn k_distributed_texture_has_the_excess_kurtosis_it_promises() {
     d.texture_shape = Some(nu);
     let x = generate(&d, &filter_bank(&d), 77);
     let re: Vec<f64> = x.iter().step_by(4).map(|z| z.re).collect();
-    let (mean, var, _skew, kurt) = isar_clutter::fleishman::sample_moments(re.iter().copied());
+    let (mean, var, _skew, kurt) =
+        isar_clutter::stats::fleishman::sample_moments(re.iter().copied());
     // Component variance 1/2; the kurtosis tolerance (0.2 around the expected 0.75) still
     // separates K-distributed from Gaussian clutter (0).
     assert!(mean.abs() < 0.02, "mean {mean}");

@@ -2,7 +2,7 @@
 //! path (and the line where the parser knows it), the binary exits non-zero and writes
 //! nothing.
 
-use isar_clutter::plan;
+use isar_clutter::run::plan;
 use ndarray::Array3;
 use ndarray_npy::WriteNpyExt;
 use num_complex::Complex;

@@ -4,12 +4,12 @@
 
 mod common;
 
-use isar_clutter::analysis::{analyse, Direction};
 use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{FilterParams, FilteredNoise, Map, RampAxis};
+use isar_clutter::stats::analysis::{analyse, Direction};
 #[allow(unused_imports)]
-use isar_clutter::filters::group_correlation;
-use isar_clutter::filters::{exponential_taps, lag_correlation};
-use isar_clutter::spec::{FilterParams, FilteredNoise, Map, RampAxis};
+use isar_clutter::stats::filters::group_correlation;
+use isar_clutter::stats::filters::{exponential_taps, lag_correlation};
 use isar_clutter::synthesis::*;
 use ndarray::{Array2, Array3};
 use num_complex::Complex64;
@@ -128,8 +128,8 @@ fn method1_recovers_spatially_varying_alpha() {
 
 /// Level maps RMSE between two analyses, per level and direction.
 fn level_rmse(
-    a: &isar_clutter::analysis::Analysis,
-    b: &isar_clutter::analysis::Analysis,
+    a: &isar_clutter::stats::analysis::Analysis,
+    b: &isar_clutter::stats::analysis::Analysis,
     level: usize,
     dir: Direction,
 ) -> f64 {
@@ -339,7 +339,7 @@ fn generation_is_reproducible_and_thread_invariant() {
 
 #[test]
 fn fleishman_coefficients_solve_the_moment_equations() {
-    use isar_clutter::fleishman::{coefficients, moments, sample_moments, transform};
+    use isar_clutter::stats::fleishman::{coefficients, moments, sample_moments, transform};
     assert_eq!(
         coefficients(0.0, 0.0),
         ([0.0, 1.0, 0.0, 0.0], false),
@@ -389,7 +389,7 @@ fn fleishman_coefficients_solve_the_moment_equations() {
 fn fourth_order_model_reproduces_per_pixel_moments() {
     // Non-Gaussian clutter: a squared term skews the real part, a cubed term gives the
     // imaginary part heavy tails (excess kurtosis of a few units, within Fleishman's range).
-    use isar_clutter::fleishman::sample_moments;
+    use isar_clutter::stats::fleishman::sample_moments;
     let base = common::random_stack(6, 2000, 4, 4).mapv(|z| z / 3.0);
     let stack =
         base.mapv(|z| Complex64::new(z.re + 0.3 * z.re * z.re, z.im + 0.1 * z.im * z.im * z.im));

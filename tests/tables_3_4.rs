@@ -2,10 +2,12 @@
 //! Table 4 (multiscale correlations of exponentially filtered noise) with the values pinned
 //! in SPEC-NOTES sections 2-3.
 
-use isar_clutter::analysis::{analyse, Direction};
 use isar_clutter::data::{filter_bank, generate};
-use isar_clutter::filters::{exponential_taps, group_correlation, lag_correlation, FilterBank};
-use isar_clutter::spec::{FilterParams, FilteredNoise, Map};
+use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
+use isar_clutter::stats::analysis::{analyse, Direction};
+use isar_clutter::stats::filters::{
+    exponential_taps, group_correlation, lag_correlation, FilterBank,
+};
 
 /// Table 3: pixel offset, f(d) and correlation for f(d) = exp(-|d|), K = 8 (4 d.p.).
 const TABLE_3: [(usize, f64, f64); 9] = [

@@ -37,13 +37,15 @@ fn simulated_plants_run_reproducibly_and_order_by_motion() {
         );
     }
     // The k-space samples behind the images, with their axes.
-    let k = isar_clutter::npy::read_header(&a.join("kspace/plant_A_light.npy")).unwrap();
+    let k = isar_clutter::io::npy::read_header(&a.join("kspace/plant_A_light.npy")).unwrap();
     assert_eq!(k.shape, [16, 64, 48]);
-    assert_eq!(k.dtype, isar_clutter::npy::Dtype::Complex64);
-    let f = isar_clutter::npy::read_real_vector(&a.join("kspace/plant_A_light.freqs.npy")).unwrap();
+    assert_eq!(k.dtype, isar_clutter::io::npy::Dtype::Complex64);
+    let f =
+        isar_clutter::io::npy::read_real_vector(&a.join("kspace/plant_A_light.freqs.npy")).unwrap();
     assert_eq!((f.len(), f[0], f[63]), (64, 2e9, 18e9));
-    let az = isar_clutter::npy::read_real_vector(&a.join("kspace/plant_A_light.azimuths_deg.npy"))
-        .unwrap();
+    let az =
+        isar_clutter::io::npy::read_real_vector(&a.join("kspace/plant_A_light.azimuths_deg.npy"))
+            .unwrap();
     assert!((az[0] + 25.5).abs() < 1e-9 && (az[47] - 25.5).abs() < 1e-9);
     assert!(!a.join("kspace/plant_C_light.npy").exists());
     let px = read(&a, "pixel_stats.parquet");
@@ -107,7 +109,7 @@ fn hypotheses_table_from_a_small_plant_run() {
 #[test]
 fn calibrated_plant_measurements_match_the_ideal_simulation() {
     use isar_clutter::data::materialise;
-    use isar_clutter::spec::Dataset;
+    use isar_clutter::experiment::Dataset;
     let tmp = tempfile::tempdir().unwrap();
     let spec = tmp.path().join("c.yaml");
     std::fs::write(
@@ -115,7 +117,7 @@ fn calibrated_plant_measurements_match_the_ideal_simulation() {
         "name: c\nseed: 2\ndatasets:\n  - {id: plant_B_light, kind: vegetation_isar, plant: B, wind: light, samples: 6, image_size: 32, measurement: {azimuths: 48}, calibration: {}}\nanalysis:\n  levels: 1\n",
     )
     .unwrap();
-    let p = isar_clutter::plan::load(&spec).unwrap();
+    let p = isar_clutter::run::plan::load(&spec).unwrap();
     let job = &p.jobs[0];
     let Dataset::Vegetation(v) = &job.dataset else {
         panic!("vegetation")
@@ -148,7 +150,7 @@ fn calibrated_plant_measurements_match_the_ideal_simulation() {
         "calibrated images differ from the ideal by {err}"
     );
     let mut clean = v.clone();
-    clean.calibration = Some(isar_clutter::calibration::ChainParams {
+    clean.calibration = Some(isar_clutter::physics::calibration::ChainParams {
         background_residual: 0.0,
         noise: 0.0,
         ..Default::default()

@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""Compares two output folders of isar-clutter runs value for value.
+
+Used to show that a change of code layout (or any refactoring) leaves every result unchanged:
+run every shipped experiment before and after into two folders and compare them.
+
+    .venv/bin/python bench/compare_outputs.py BEFORE_DIR AFTER_DIR
+
+BEFORE_DIR and AFTER_DIR are either two run folders (each with a manifest.json) or two parents
+of run folders (`outputs/`-like: every sub-folder with a manifest.json is compared with the one
+of the same name). For each pair it compares
+
+* every `*.parquet` table: the same columns in the same order with the same types, the same
+  number of rows, and every value equal (NaN equals NaN, null equals null); columns that hold
+  wall times (`elapsed_s`, `*_s`) are left out, as they differ from run to run;
+* every `.npy` file below `maps/`, `samples/`, `models/` and `kspace/` byte for byte, and the
+  files of the models (JSON) with their timing-free keys;
+* the manifest's per-job identities and seeds.
+
+Exit status 0 when everything is identical, 1 with one line per difference otherwise, 2 on
+bad arguments. Needs pyarrow (`make bench-deps` installs it into .venv).
+"""
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+TIMING_SUFFIXES = ("_s",)
+FILE_FOLDERS = ("maps", "samples", "models", "kspace")
+
+
+def is_timing(name: str) -> bool:
+    return name.endswith(TIMING_SUFFIXES)
+
+
+def same_value(a, b) -> bool:
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or a == b
+    return a == b
+
+
+def compare_table(a: Path, b: Path, out: list) -> None:
+    ta, tb = pq.read_table(a), pq.read_table(b)
+    cols_a = [c for c in ta.column_names if not is_timing(c)]
+    cols_b = [c for c in tb.column_names if not is_timing(c)]
+    if cols_a != cols_b:
+        out.append(f"{b}: columns {cols_b} differ from {cols_a}")
+        return
+    if ta.num_rows != tb.num_rows:
+        out.append(f"{b}: {tb.num_rows} rows, before {ta.num_rows}")
+        return
+    for c in cols_a:
+        ca, cb = ta.column(c), tb.column(c)
+        if ca.type != cb.type:
+            out.append(f"{b}: column {c} has type {cb.type}, before {ca.type}")
+            continue
+        va, vb = ca.to_pylist(), cb.to_pylist()
+        bad = [i for i, (x, y) in enumerate(zip(va, vb)) if not same_value(x, y)]
+        if bad:
+            i = bad[0]
+            out.append(
+                f"{b}: column {c} differs in {len(bad)} rows (first: row {i}, {va[i]!r} -> {vb[i]!r})"
+            )
+
+
+def strip_timing(v):
+    if isinstance(v, dict):
+        return {k: strip_timing(x) for k, x in v.items() if not is_timing(k) and k != "timing"}
+    if isinstance(v, list):
+        return [strip_timing(x) for x in v]
+    return v
+
+
+def compare_manifest(a: Path, b: Path, out: list) -> None:
+    ma, mb = json.loads(a.read_text()), json.loads(b.read_text())
+    keys = ("job", "dataset", "method", "identity", "seed", "data_seed", "generation_seed", "status", "error")
+    ja = [{k: j.get(k) for k in keys} for j in ma.get("jobs", [])]
+    jb = [{k: j.get(k) for k in keys} for j in mb.get("jobs", [])]
+    # Jobs of the run as a whole (calibration, hypotheses) may be listed after the dataset jobs.
+    jb = jb[: len(ja)] if len(jb) >= len(ja) else jb
+    if ja != jb:
+        out.append(f"{b}: manifest jobs differ")
+    for k in ("master_seed", "spec_hash_sha256", "calibration_seed"):
+        if ma.get(k) != mb.get(k):
+            out.append(f"{b}: manifest {k} {mb.get(k)!r}, before {ma.get(k)!r}")
+
+
+def files_below(root: Path):
+    return sorted(p.relative_to(root) for p in root.rglob("*") if p.is_file() and not p.name.startswith("."))
+
+
+def compare_run(a: Path, b: Path, out: list) -> int:
+    tables = sorted(p.name for p in a.glob("*.parquet"))
+    after = sorted(p.name for p in b.glob("*.parquet"))
+    if tables != after:
+        out.append(f"{b}: tables {after}, before {tables}")
+    for name in tables:
+        if (b / name).exists():
+            compare_table(a / name, b / name, out)
+    n = len(tables)
+    for folder in FILE_FOLDERS:
+        fa, fb = a / folder, b / folder
+        la = files_below(fa) if fa.is_dir() else []
+        lb = files_below(fb) if fb.is_dir() else []
+        if la != lb:
+            out.append(f"{fb}: files {sorted(set(la) ^ set(lb))[:5]} are in one folder only")
+        for rel in la:
+            if rel not in lb:
+                continue
+            pa, pb = fa / rel, fb / rel
+            if pa.suffix == ".json":
+                if strip_timing(json.loads(pa.read_text())) != strip_timing(json.loads(pb.read_text())):
+                    out.append(f"{pb}: differs")
+            elif pa.read_bytes() != pb.read_bytes():
+                out.append(f"{pb}: differs")
+            n += 1
+    compare_manifest(a / "manifest.json", b / "manifest.json", out)
+    return n
+
+
+def main() -> int:
+    if len(sys.argv) != 3:
+        print(__doc__, file=sys.stderr)
+        return 2
+    a, b = Path(sys.argv[1]), Path(sys.argv[2])
+    if (a / "manifest.json").exists():
+        pairs = [(a, b)]
+    else:
+        runs = sorted(p.name for p in a.iterdir() if (p / "manifest.json").exists())
+        if not runs:
+            print(f"{a}: no run folders (with a manifest.json) found", file=sys.stderr)
+            return 2
+        pairs = [(a / r, b / r) for r in runs]
+    out: list = []
+    for pa, pb in pairs:
+        if not (pb / "manifest.json").exists():
+            out.append(f"{pb}: missing")
+            continue
+        n = compare_run(pa, pb, out)
+        print(f"{pb.name}: {n} tables and files compared")
+    for line in out:
+        print(line)
+    print("identical" if not out else f"{len(out)} differences")
+    return 0 if not out else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,337 @@
+//! The dissertation's hypothesis tests on plant clutter (ch. 5.1, Table 24; SPEC-NOTES section
+//! 8), run over datasets named `plant_<letter>_<wind>`: Table 16 (mean pixel variance), the mean
+//! 2-D correlating function by offset (5.1.3), mean correlation by level (Figs. 52-53) and by
+//! wind (Figs. 54-56), each with a verdict. Definitions and thresholds: `docs/hypotheses.md`.
+
+use crate::stats::analysis::{Analysis, Direction};
+use ndarray::{Array2, ArrayView3};
+use num_complex::Complex64;
+use rayon::prelude::*;
+
+/// Mean 2-D correlating function: for every offset `(dy, dx)` with `|dy|, |dx| <= max_offset`,
+/// the mean over pixel pairs `(p, p + (dy, dx))` inside the image (both finite, both with
+/// non-zero variance) of the real part of their correlation coefficient over the samples,
+/// computed pair by pair without the full covariance matrix. Returns the `(2R+1) x (2R+1)` map
+/// (row `dy + R`, column `dx + R`) and the number of pairs behind each value.
+pub fn correlating_function(
+    x: ArrayView3<Complex64>,
+    max_offset: usize,
+) -> (Array2<f64>, Array2<usize>) {
+    let (n, h, w) = x.dim();
+    let r = max_offset as isize;
+    let mean = Array2::from_shape_fn((h, w), |(i, j)| {
+        (0..n).map(|s| x[[s, i, j]]).sum::<Complex64>() / n as f64
+    });
+    let sd = Array2::from_shape_fn((h, w), |(i, j)| {
+        ((0..n)
+            .map(|s| (x[[s, i, j]] - mean[[i, j]]).norm_sqr())
+            .sum::<f64>()
+            / n as f64)
+            .sqrt()
+    });
+    let size = 2 * max_offset + 1;
+    let cells: Vec<(f64, usize)> = (0..size * size)
+        .into_par_iter()
+        .map(|k| {
+            let (dy, dx) = ((k / size) as isize - r, (k % size) as isize - r);
+            let (mut sum, mut pairs) = (0.0, 0usize);
+            for i in 0..h as isize {
+                for j in 0..w as isize {
+                    let (i2, j2) = (i + dy, j + dx);
+                    if i2 < 0 || j2 < 0 || i2 >= h as isize || j2 >= w as isize {
+                        continue;
+                    }
+                    let (p, q) = ((i as usize, j as usize), (i2 as usize, j2 as usize));
+                    let s = sd[p] * sd[q];
+                    if !(s > 0.0 && s.is_finite()) {
+                        continue;
+                    }
+                    let c: f64 = (0..n)
+                        .map(|t| {
+                            ((x[[t, p.0, p.1]] - mean[p]) * (x[[t, q.0, q.1]] - mean[q]).conj()).re
+                        })
+                        .sum::<f64>()
+                        / n as f64;
+                    sum += c / s;
+                    pairs += 1;
+                }
+            }
+            (
+                if pairs > 0 {
+                    sum / pairs as f64
+                } else {
+                    f64::NAN
+                },
+                pairs,
+            )
+        })
+        .collect();
+    (
+        Array2::from_shape_fn((size, size), |(a, b)| cells[a * size + b].0),
+        Array2::from_shape_fn((size, size), |(a, b)| cells[a * size + b].1),
+    )
+}
+
+/// One dataset's inputs to the tests: the numbers of its analysis that they use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlantStats {
+    /// Dataset id.
+    pub dataset: String,
+    /// Plant letter and wind, parsed from `plant_<letter>_<wind>`.
+    pub plant: String,
+    /// Wind (`none`, `light`, `medium`).
+    pub wind: String,
+    /// Mean over the finite pixels of the pixel variance (Table 16).
+    pub mean_variance: f64,
+    /// Per level `1..=L`, the mean correlation of directions H, V and D.
+    pub level_correlations: Vec<[f64; 3]>,
+    /// The mean 2-D correlating function (row `dy + R`, column `dx + R`).
+    pub correlating: Array2<f64>,
+}
+
+impl PlantStats {
+    /// The statistics of dataset `dataset` (named `plant_<letter>_<wind>`, else `None`) from its
+    /// analysis and correlating function.
+    pub fn new(dataset: &str, analysis: &Analysis, correlating: Array2<f64>) -> Option<Self> {
+        let (plant, wind) = parse_id(dataset)?;
+        Some(PlantStats {
+            dataset: dataset.to_string(),
+            plant,
+            wind,
+            mean_variance: crate::stats::metrics::finite_mean(&analysis.variance).0,
+            level_correlations: analysis
+                .levels
+                .iter()
+                .map(|l| Direction::ALL.map(|d| l.summary(d).mean_correlation))
+                .collect(),
+            correlating,
+        })
+    }
+
+    /// Mean of the level-`l` (0-based) mean correlations over H, V, D.
+    fn level_mean(&self, l: usize) -> f64 {
+        self.level_correlations[l].iter().sum::<f64>() / 3.0
+    }
+}
+
+/// One row of `hypotheses.parquet`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// `table16`, `H1`..`H4`.
+    pub hypothesis: &'static str,
+    /// Dataset (or `plant_<letter>` / `light` for comparisons across datasets).
+    pub dataset: String,
+    /// What `value` is.
+    pub statistic: String,
+    /// The value.
+    pub value: f64,
+    /// `verified` or `not verified`; `None` for plain statistics.
+    pub verdict: Option<&'static str>,
+}
+
+/// Parses `plant_<letter>_<wind>`.
+pub fn parse_id(id: &str) -> Option<(String, String)> {
+    let mut parts = id.split('_');
+    match (parts.next(), parts.next(), parts.next(), parts.next()) {
+        (Some("plant"), Some(p), Some(w), None) => Some((p.to_string(), w.to_string())),
+        _ => None,
+    }
+}
+
+fn verdict(ok: bool) -> Option<&'static str> {
+    Some(if ok { "verified" } else { "not verified" })
+}
+
+/// Spearman rank correlation of two equally long sequences (average ranks for ties).
+pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
+    fn ranks(v: &[f64]) -> Vec<f64> {
+        let mut idx: Vec<usize> = (0..v.len()).collect();
+        idx.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+        let mut r = vec![0.0; v.len()];
+        let mut i = 0;
+        while i < idx.len() {
+            let mut j = i;
+            while j + 1 < idx.len() && v[idx[j + 1]] == v[idx[i]] {
+                j += 1;
+            }
+            for &k in &idx[i..=j] {
+                r[k] = (i + j) as f64 / 2.0;
+            }
+            i = j + 1;
+        }
+        r
+    }
+    let (rx, ry) = (ranks(x), ranks(y));
+    let n = x.len() as f64;
+    let (mx, my) = (rx.iter().sum::<f64>() / n, ry.iter().sum::<f64>() / n);
+    let cov: f64 = rx.iter().zip(&ry).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let vx: f64 = rx.iter().map(|a| (a - mx).powi(2)).sum();
+    let vy: f64 = ry.iter().map(|b| (b - my).powi(2)).sum();
+    cov / (vx * vy).sqrt()
+}
+
+/// The tests over the datasets (see `docs/hypotheses.md`).
+pub fn test(stats: &[PlantStats]) -> Vec<Row> {
+    let mut rows = vec![];
+    let row = |h, d: &str, s: &str, v, verdict| Row {
+        hypothesis: h,
+        dataset: d.to_string(),
+        statistic: s.to_string(),
+        value: v,
+        verdict,
+    };
+    // Table 16: mean pixel variance.
+    for s in stats {
+        rows.push(row(
+            "table16",
+            &s.dataset,
+            "mean_pixel_variance",
+            s.mean_variance,
+            None,
+        ));
+    }
+    let find = |plant: &str, wind: &str| stats.iter().find(|s| s.plant == plant && s.wind == wind);
+    let mut plants: Vec<&str> = stats.iter().map(|s| s.plant.as_str()).collect();
+    plants.sort();
+    plants.dedup();
+    // H1: variance increases with motion (wind) ...
+    for p in &plants {
+        for (lo, hi) in [("none", "light"), ("light", "medium")] {
+            if let (Some(a), Some(b)) = (find(p, lo), find(p, hi)) {
+                let ratio = b.mean_variance / a.mean_variance;
+                rows.push(row(
+                    "H1",
+                    &format!("plant_{p}"),
+                    &format!("variance_ratio_{hi}_over_{lo}"),
+                    ratio,
+                    verdict(ratio > 1.0),
+                ));
+            }
+        }
+    }
+    // ... and with leaf size: light wind, A (very large leaves) > B (medium) > C (small).
+    if let (Some(a), Some(b), Some(c)) =
+        (find("A", "light"), find("B", "light"), find("C", "light"))
+    {
+        let (va, vb, vc) = (a.mean_variance, b.mean_variance, c.mean_variance);
+        rows.push(row(
+            "H1",
+            "light",
+            "variance_ratio_A_over_B",
+            va / vb,
+            verdict(va > vb),
+        ));
+        rows.push(row(
+            "H1",
+            "light",
+            "variance_ratio_B_over_C",
+            vb / vc,
+            verdict(vb > vc),
+        ));
+    }
+    // H2: correlation decreases with pixel separation.
+    for s in stats {
+        let r = (s.correlating.nrows() / 2) as isize;
+        let (mut dist, mut corr) = (vec![], vec![]);
+        for ((a, b), &v) in s.correlating.indexed_iter() {
+            let (dy, dx) = (a as isize - r, b as isize - r);
+            if (dy, dx) != (0, 0) && v.is_finite() {
+                dist.push(((dy * dy + dx * dx) as f64).sqrt());
+                corr.push(v);
+            }
+        }
+        let rho = spearman(&dist, &corr);
+        rows.push(row(
+            "H2",
+            &s.dataset,
+            "spearman_distance_vs_mean_correlation",
+            rho,
+            verdict(rho < 0.0),
+        ));
+    }
+    // H3: correlation decreases as the decomposition level increases.
+    for s in stats {
+        let levels = s.level_correlations.len();
+        let (mut down, mut steps) = (0, 0);
+        for d in Direction::ALL {
+            for l in 1..levels {
+                let (a, b) = (
+                    s.level_correlations[l - 1][d as usize],
+                    s.level_correlations[l][d as usize],
+                );
+                if a.is_finite() && b.is_finite() {
+                    steps += 1;
+                    down += usize::from(b < a);
+                }
+            }
+        }
+        let frac = down as f64 / steps.max(1) as f64;
+        rows.push(row(
+            "H3",
+            &s.dataset,
+            "fraction_of_level_steps_decreasing",
+            frac,
+            verdict(frac >= 0.75),
+        ));
+        for l in 0..levels {
+            rows.push(row(
+                "H3",
+                &s.dataset,
+                &format!("mean_correlation_level{}", l + 1),
+                s.level_mean(l),
+                None,
+            ));
+        }
+    }
+    // H4: correlation decreases with increased motion.
+    for p in &plants {
+        for (lo, hi) in [("none", "light"), ("light", "medium")] {
+            if let (Some(a), Some(b)) = (find(p, lo), find(p, hi)) {
+                let diff = b.level_mean(0) - a.level_mean(0);
+                rows.push(row(
+                    "H4",
+                    &format!("plant_{p}"),
+                    &format!("level1_correlation_{hi}_minus_{lo}"),
+                    diff,
+                    verdict(diff < 0.0),
+                ));
+            }
+        }
+    }
+    rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::Array3;
+
+    #[test]
+    fn spearman_of_monotone_and_reversed_sequences() {
+        assert!((spearman(&[1.0, 2.0, 3.0, 4.0], &[10.0, 20.0, 25.0, 99.0]) - 1.0).abs() < 1e-12);
+        assert!((spearman(&[1.0, 2.0, 3.0], &[3.0, 2.0, 1.0]) + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn correlating_function_matches_a_known_shift_structure() {
+        // x(i, j) = z(i, j) + z(i, j + 1): horizontal lag-1 correlation 1/2, none vertically,
+        // and lag 0 is exactly 1. Deterministic pseudo-random z with many samples.
+        let (n, h, w) = (4000, 6, 7);
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let z = Array3::from_shape_simple_fn((n, h, w + 1), || Complex64::new(next(), next()));
+        let x = Array3::from_shape_fn((n, h, w), |(s, i, j)| z[[s, i, j]] + z[[s, i, j + 1]]);
+        let (c, pairs) = correlating_function(x.view(), 2);
+        assert!((c[[2, 2]] - 1.0).abs() < 1e-12);
+        assert!((c[[2, 3]] - 0.5).abs() < 0.03, "{}", c[[2, 3]]);
+        assert!((c[[2, 1]] - 0.5).abs() < 0.03);
+        assert!(c[[3, 2]].abs() < 0.03 && c[[2, 4]].abs() < 0.03);
+        assert_eq!(pairs[[2, 3]], h * (w - 1));
+        assert_eq!(pairs[[0, 0]], (h - 2) * (w - 2));
+    }
+}

@@ -1,0 +1,158 @@
+//! The `metrics`, `noise_floor` and `hypotheses` sections: similarity metrics by name or with
+//! parameters, validated into [`crate::stats::metrics::Metric`]s, and the noise floor to measure.
+
+use super::*;
+
+/// `hypotheses:` section.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct HypothesesSpec {
+    /// Largest offset (pixels, each axis) of the mean 2-D correlating function (default 4).
+    #[serde(default = "four")]
+    pub max_offset: usize,
+}
+
+pub(super) fn four() -> usize {
+    4
+}
+
+/// The reference comparison that shows which metric differences are real: the same metrics
+/// between two independent stacks of the original data.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseFloor {
+    /// `draws` for synthetic datasets, `halves` for stacks read from files.
+    #[default]
+    Auto,
+    /// The original against an independent draw of `synthesis.samples` samples from the same
+    /// synthetic model (the comparison a perfect method would give).
+    Draws,
+    /// The first half of the original samples against the second half.
+    Halves,
+    /// No noise floor.
+    None,
+}
+
+/// Parameters of one `metrics:` entry, as written (all optional; defaults in
+/// [`crate::stats::metrics`]).
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MetricParams {
+    /// KL: number of bins.
+    pub bins: Option<usize>,
+    /// KL: pseudo-count of empty bins.
+    pub smoothing: Option<f64>,
+    /// KL: symmetric (eq. 23).
+    pub symmetric: Option<bool>,
+    /// KL: statistics in dB.
+    pub db: Option<bool>,
+    /// `kl_area`: block edge in pixels.
+    pub block: Option<usize>,
+}
+
+/// Validates the `metrics:` section into typed metrics.
+///
+/// # Errors
+/// A [`SpecError`] naming `metrics[i]` (and the parameter) for an unknown name, a parameter
+/// the metric does not take, a bad value, a metric listed twice, or metrics without a
+/// `synthesis` section.
+pub fn check_metrics(
+    spec: &RawSpec,
+    ctx: &Ctx,
+) -> Result<Vec<crate::stats::metrics::Metric>, SpecError> {
+    use crate::stats::metrics::{KlOptions, Metric};
+    if !spec.metrics.is_empty() && spec.synthesis.is_none() {
+        return Err(ctx.err(
+            "metrics",
+            "metrics compare generated samples with the original: add a `synthesis` section",
+        ));
+    }
+    let names = "kl_pixel, kl_area, cmd, multiscale_rmse";
+    let mut out: Vec<Metric> = Vec::new();
+    for (i, entry) in spec.metrics.iter().enumerate() {
+        let at = format!("metrics[{i}]");
+        let (name, params) = match entry {
+            serde_yaml_ng::Value::String(s) => (s.clone(), MetricParams::default()),
+            serde_yaml_ng::Value::Mapping(m) if m.len() == 1 => {
+                let (k, v) = m.iter().next().expect("one entry");
+                let name = k.as_str().unwrap_or_default().to_string();
+                let v = if v.is_null() {
+                    serde_yaml_ng::Value::Mapping(Default::default())
+                } else {
+                    v.clone()
+                };
+                let params: MetricParams = serde_yaml_ng::from_value(v)
+                    .map_err(|e| ctx.err(format!("{at}.{name}"), e.to_string()))?;
+                (name, params)
+            }
+            _ => {
+                return Err(ctx.err(
+                    at,
+                    format!("a metric is a name ({names}) or `{{name: {{parameters}}}}`"),
+                ))
+            }
+        };
+        let at = format!("{at}.{name}");
+        let kl = |block_ok: bool| -> Result<KlOptions, SpecError> {
+            if params.block.is_some() && !block_ok {
+                return Err(ctx.err(format!("{at}.block"), "only kl_area takes `block`"));
+            }
+            let d = KlOptions::default();
+            let o = KlOptions {
+                bins: params.bins.unwrap_or(d.bins),
+                smoothing: params.smoothing.unwrap_or(d.smoothing),
+                symmetric: params.symmetric.unwrap_or(d.symmetric),
+                db: params.db.unwrap_or(d.db),
+            };
+            if o.bins == 0 {
+                return Err(ctx.err(format!("{at}.bins"), "bins must be at least 1"));
+            }
+            if !(o.smoothing >= 0.0 && o.smoothing.is_finite()) {
+                return Err(ctx.err(
+                    format!("{at}.smoothing"),
+                    format!("smoothing {} must be finite and >= 0", o.smoothing),
+                ));
+            }
+            Ok(o)
+        };
+        let metric = match name.as_str() {
+            "kl_pixel" => Metric::KlPixel(kl(false)?),
+            "kl_area" => {
+                let block = params.block.unwrap_or(crate::stats::metrics::DEFAULT_BLOCK);
+                if block == 0 {
+                    return Err(ctx.err(format!("{at}.block"), "block must be at least 1"));
+                }
+                Metric::KlArea(kl(true)?, block)
+            }
+            "cmd" | "multiscale_rmse" => {
+                if params != MetricParams::default() {
+                    return Err(ctx.err(&at, format!("{name} takes no parameters")));
+                }
+                if name == "cmd" {
+                    Metric::Cmd
+                } else {
+                    Metric::MultiscaleRmse
+                }
+            }
+            other => {
+                return Err(ctx.err(at, format!("unknown metric {other:?}; known: {names}")));
+            }
+        };
+        if out.iter().any(|m| m.name() == metric.name()) {
+            return Err(ctx.err(at, format!("{name} is listed twice")));
+        }
+        if metric == Metric::MultiscaleRmse
+            && spec
+                .synthesis
+                .as_ref()
+                .is_some_and(|s| !s.analyse_generated)
+        {
+            return Err(ctx.err(
+                at,
+                "multiscale_rmse needs synthesis.analyse_generated: true",
+            ));
+        }
+        out.push(metric);
+    }
+    Ok(out)
+}

@@ -1,0 +1,74 @@
+//! The `synthesis` section: methods, half-width, samples and what to do with them.
+
+use super::*;
+
+/// `synthesis:` section (ch. 4): every dataset is fitted by every method; each fit generates
+/// `samples` new samples, from a seed shared by the methods of one dataset (common random
+/// numbers, so method comparisons are paired).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SynthesisSpec {
+    /// Methods: `method1`, `method2`, `full_covariance`, `uncorrelated`.
+    pub methods: Vec<crate::synthesis::Method>,
+    /// Samples to generate per fit.
+    pub samples: usize,
+    /// Filter half-width `K` of Methods 1 and 2 (default 8).
+    #[serde(default = "default_half_width")]
+    pub half_width: usize,
+    /// Dyadic parameters `L` of Method 2 (default: `analysis.levels`).
+    #[serde(default)]
+    pub levels: Option<usize>,
+    /// Write the generated samples to `samples/<job>.npy` (complex64 `[M, H, W]`).
+    #[serde(default)]
+    pub save_samples: bool,
+    /// Analyse the generated samples too (rows with `source` = the method; default true).
+    #[serde(default = "yes")]
+    pub analyse_generated: bool,
+}
+
+pub(super) fn default_half_width() -> usize {
+    8
+}
+
+impl SynthesisSpec {
+    /// Method 2's `L` given the analysis levels.
+    pub fn dyadic_levels(&self, analysis: &AnalysisSpec) -> usize {
+        self.levels.unwrap_or(analysis.levels)
+    }
+
+    /// Validates the section for a dataset of size `h x w` (`at`: the YAML path).
+    pub fn check(
+        &self,
+        ctx: &Ctx,
+        analysis: &AnalysisSpec,
+        h: usize,
+        w: usize,
+    ) -> Result<(), SpecError> {
+        use crate::synthesis::Method;
+        if self.methods.is_empty() {
+            return Err(ctx.err("synthesis.methods", "name at least one method"));
+        }
+        for (i, m) in self.methods.iter().enumerate() {
+            if self.methods[..i].contains(m) {
+                return Err(ctx.err(
+                    format!("synthesis.methods[{i}]"),
+                    format!("{} is listed twice", m.as_str()),
+                ));
+            }
+        }
+        let min = if self.analyse_generated { 2 } else { 1 };
+        if self.samples < min {
+            return Err(ctx.err("synthesis.samples", format!("{} sample(s) requested; at least {min} (2 when the generated samples are analysed)", self.samples)));
+        }
+        if self.methods.contains(&Method::Method2) {
+            let l = self.dyadic_levels(analysis);
+            let need = crate::stats::filters::dyadic_reach(l);
+            if self.half_width < need {
+                return Err(ctx.err("synthesis.half_width", format!("method2 with {l} level(s) reaches offset {need}; half_width {} would truncate it", self.half_width)));
+            }
+            check_levels(l, h, w)
+                .map_err(|e| ctx.err("synthesis.levels", format!("method2: {e}")))?;
+        }
+        Ok(())
+    }
+}

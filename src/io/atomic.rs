@@ -1,0 +1,177 @@
+//! Writing outputs so that a reader never sees half a file: every file is written to a
+//! temporary name in its folder and renamed into place (swapped in with `RENAME_EXCHANGE` where
+//! the kernel has it); Parquet tables and `.npy` arrays through the same path; and the removal
+//! of stale job folders.
+
+use anyhow::{Context, Result};
+use polars::prelude::*;
+use std::fs::{self, File};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Writes `path` atomically: `write` fills a temporary file in the same folder, which is then
+/// renamed over `path`.
+///
+/// # Errors
+/// If the temporary file cannot be written or renamed; the temporary file is removed.
+pub fn atomic_write(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
+) -> Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        // The folder is made only when it is missing (one failed open, not a mkdir per file).
+        let file = match File::create(&tmp) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                fs::create_dir_all(dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+                File::create(&tmp)
+            }
+            other => other,
+        }
+        .with_context(|| format!("cannot create {}", tmp.display()))?;
+        // One write call for most outputs: each costs about 20 us on the development VM.
+        let mut w = BufWriter::with_capacity(1 << 20, file);
+        write(&mut w)?;
+        w.flush()?;
+        drop(w);
+        replace(&tmp, path)
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing {}", path.display()))
+}
+
+/// Removes the sub-folders of `parent` whose names are not in `keep` (outputs of jobs an
+/// earlier run had and this one has not); nothing if `parent` does not exist.
+///
+/// # Errors
+/// If a folder cannot be removed; the message names it.
+pub fn remove_folders_except(parent: &Path, keep: &[&str]) -> Result<()> {
+    let Ok(entries) = fs::read_dir(parent) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let kept = entry
+            .file_name()
+            .to_str()
+            .is_some_and(|n| keep.contains(&n));
+        if !kept && entry.path().is_dir() {
+            fs::remove_dir_all(entry.path())
+                .with_context(|| format!("removing stale {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Moves the finished file `tmp` to `path`. Where `path` exists (a re-run into the same
+/// folder), Linux (glibc) swaps the two names atomically (`renameat2` with
+/// `RENAME_EXCHANGE`) and the old file is then removed: a plain rename over an existing file makes ext4 start writing the
+/// new file's data back at once (its `auto_da_alloc` safeguard), about 0.2 ms per file on the
+/// development VM, which was a fifth of a short run's time. Readers see the old or the new
+/// file, never a partial one, either way.
+fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        use std::ffi::CString;
+        use std::os::unix::ffi::OsStrExt;
+        let (a, b) = (
+            CString::new(tmp.as_os_str().as_bytes())?,
+            CString::new(path.as_os_str().as_bytes())?,
+        );
+        // SAFETY: both are valid NUL-terminated paths, relative to the working directory.
+        let swapped = unsafe {
+            libc::renameat2(
+                libc::AT_FDCWD,
+                a.as_ptr(),
+                libc::AT_FDCWD,
+                b.as_ptr(),
+                libc::RENAME_EXCHANGE,
+            )
+        } == 0;
+        if swapped {
+            // `tmp` now names the old file; a failure to remove it loses no result.
+            let _ = fs::remove_file(tmp);
+            return Ok(());
+        }
+        // No file at `path` yet (or a file system without RENAME_EXCHANGE): a plain rename.
+    }
+    fs::rename(tmp, path)
+}
+
+/// Reads a Parquet table of a results folder; `Ok(None)` if the file does not exist.
+///
+/// # Errors
+/// If the file exists but cannot be opened or read; the message names it.
+pub fn read_parquet(path: &Path) -> Result<Option<DataFrame>> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let df = anyhow::Context::with_context(ParquetReader::new(file).finish(), || {
+        format!("reading {}", path.display())
+    })?;
+    Ok(Some(df))
+}
+
+/// Writes a DataFrame as Parquet (Snappy-compressed), atomically.
+///
+/// # Errors
+/// If writing fails.
+pub fn write_parquet(path: &Path, df: &mut DataFrame) -> Result<()> {
+    atomic_write(path, |w| {
+        ParquetWriter::new(w)
+            .with_compression(ParquetCompression::Snappy)
+            .set_parallel(false)
+            .finish(df)?;
+        Ok(())
+    })
+}
+
+/// Writes an array as `.npy`, atomically.
+///
+/// # Errors
+/// If writing fails.
+pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
+    path: &Path,
+    a: &ndarray::Array<A, D>,
+) -> Result<()> {
+    use ndarray_npy::WriteNpyExt;
+    atomic_write(path, |w| {
+        a.write_npy(w)?;
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atomic_write_makes_its_folder_and_replaces_an_existing_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a/b/out.bin");
+        atomic_write(&path, |w| Ok(w.write_all(b"first")?)).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"first");
+        // A re-run: the old file is swapped out and removed, the new one is in place whole.
+        atomic_write(&path, |w| Ok(w.write_all(&[7u8; 3 << 20])?)).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), vec![7u8; 3 << 20]);
+        // A failing writer leaves the last good file and no temporary file.
+        let err = atomic_write(&path, |w| {
+            w.write_all(b"partial")?;
+            anyhow::bail!("disk full")
+        })
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("out.bin"), "{err:#}");
+        assert_eq!(fs::read(&path).unwrap().len(), 3 << 20);
+        let names: Vec<_> = fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, ["out.bin"]);
+    }
+}

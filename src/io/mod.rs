@@ -1,0 +1,8 @@
+//! File formats and safe writing: `.npy` stacks (memory-mapped), NetCDF-3 files, model folders,
+//! Parquet tables, and atomic writes (a temporary name in the same folder, then a rename), so a
+//! reader never sees a half-written file.
+
+pub mod atomic;
+pub mod model;
+pub mod netcdf;
+pub mod npy;

@@ -1,0 +1,546 @@
+//! Pure-Rust reader for NetCDF-3 files (the "classic" CDF-1 format and the
+//! "64-bit offset" CDF-2 format), used to load gridded geophysical fields
+//! (winds, sea state, ...) that drive the clutter model without any binding to
+//! the NetCDF C library.
+//!
+//! The whole file is read into memory once; the big-endian header (numrecs,
+//! dimensions, global attributes, variables) is parsed and validated by
+//! [`NcFile::open`], and variables are decoded on demand by
+//! [`NcFile::read_f64`], which applies `scale_factor` / `add_offset` and maps
+//! `_FillValue` / `missing_value` to NaN. Record variables (whose first
+//! dimension is the unlimited one) are de-interleaved record by record.
+//! CDF-5 (64-bit data, "CDF\x05") files are refused with
+//! [`NcError::UnsupportedVersion`]; HDF5-based NetCDF-4 files are refused with
+//! [`NcError::BadMagic`]. Malformed or truncated files give an [`NcError`]
+//! naming the file, never a panic.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use ndarray::{ArrayD, IxDyn};
+use thiserror::Error;
+
+mod header;
+pub mod time;
+
+use header::{parse_header, Raw};
+
+/// Errors from opening or reading a NetCDF-3 file. Every variant names the file.
+#[derive(Debug, Error)]
+pub enum NcError {
+    /// The file could not be read from disk.
+    #[error("{path}: cannot read file: {source}")]
+    Io {
+        /// File concerned.
+        path: PathBuf,
+        /// Underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file does not start with "CDF" followed by a version byte.
+    #[error(
+        "{path}: not a NetCDF-3 file (bad magic bytes {found:02x?}, expected \"CDF\\x01\" or \"CDF\\x02\")"
+    )]
+    BadMagic {
+        /// File concerned.
+        path: PathBuf,
+        /// The first (up to four) bytes found.
+        found: Vec<u8>,
+    },
+    /// A NetCDF magic number with a version this reader does not handle (CDF-5 or unknown).
+    #[error(
+        "{path}: unsupported NetCDF format version {version} (only CDF-1 classic and CDF-2 64-bit offset are supported)"
+    )]
+    UnsupportedVersion {
+        /// File concerned.
+        path: PathBuf,
+        /// The version byte found after "CDF".
+        version: u8,
+    },
+    /// The header ends before a field it announces.
+    #[error(
+        "{path}: truncated header: need {needed} bytes at offset {offset} for {what}, file has {file_len} bytes"
+    )]
+    TruncatedHeader {
+        /// File concerned.
+        path: PathBuf,
+        /// Byte offset where the field starts.
+        offset: u64,
+        /// Bytes needed for the field.
+        needed: u64,
+        /// Total file length.
+        file_len: u64,
+        /// Which field was being read.
+        what: String,
+    },
+    /// The header is structurally invalid (wrong tag, bad dimension id, size overflow, ...).
+    #[error("{path}: malformed header at offset {offset}: {msg}")]
+    BadHeader {
+        /// File concerned.
+        path: PathBuf,
+        /// Byte offset of the problem.
+        offset: u64,
+        /// Description of the problem.
+        msg: String,
+    },
+    /// An `nc_type` code outside NC_BYTE..NC_DOUBLE (1..=6).
+    #[error("{path}: unknown nc_type {code} for {context}")]
+    UnknownType {
+        /// File concerned.
+        path: PathBuf,
+        /// The type code found.
+        code: u32,
+        /// Attribute or variable that carries it.
+        context: String,
+    },
+    /// No variable with the requested name.
+    #[error("{path}: variable {name:?} not found")]
+    VariableNotFound {
+        /// File concerned.
+        path: PathBuf,
+        /// Name asked for.
+        name: String,
+    },
+    /// The variable's data extends past the end of the file.
+    #[error(
+        "{path}: data of variable {var:?} extends to byte {end}, beyond the end of file ({file_len} bytes)"
+    )]
+    DataBeyondEof {
+        /// File concerned.
+        path: PathBuf,
+        /// Variable concerned.
+        var: String,
+        /// One past the last byte the data needs.
+        end: u64,
+        /// Total file length.
+        file_len: u64,
+    },
+    /// The variable is of type NC_CHAR and cannot be read as numbers.
+    #[error("{path}: variable {var:?} is of type NC_CHAR, not numeric")]
+    NotNumeric {
+        /// File concerned.
+        path: PathBuf,
+        /// Variable concerned.
+        var: String,
+    },
+}
+
+/// External data types of NetCDF-3 (`nc_type`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum NcType {
+    /// NC_BYTE (1): signed 8-bit integer.
+    Byte,
+    /// NC_CHAR (2): 8-bit character.
+    Char,
+    /// NC_SHORT (3): signed 16-bit integer.
+    Short,
+    /// NC_INT (4): signed 32-bit integer.
+    Int,
+    /// NC_FLOAT (5): IEEE 754 single precision.
+    Float,
+    /// NC_DOUBLE (6): IEEE 754 double precision.
+    Double,
+}
+
+impl NcType {
+    /// Maps the on-disk code (1..=6) to a type; `None` for anything else
+    /// (including the CDF-5 types 7..=11).
+    pub fn from_code(code: u32) -> Option<NcType> {
+        Some(match code {
+            1 => NcType::Byte,
+            2 => NcType::Char,
+            3 => NcType::Short,
+            4 => NcType::Int,
+            5 => NcType::Float,
+            6 => NcType::Double,
+            _ => return None,
+        })
+    }
+
+    /// The on-disk code of this type.
+    pub fn code(self) -> u32 {
+        match self {
+            NcType::Byte => 1,
+            NcType::Char => 2,
+            NcType::Short => 3,
+            NcType::Int => 4,
+            NcType::Float => 5,
+            NcType::Double => 6,
+        }
+    }
+
+    /// Size in bytes of one value.
+    pub fn size(self) -> usize {
+        match self {
+            NcType::Byte | NcType::Char => 1,
+            NcType::Short => 2,
+            NcType::Int | NcType::Float => 4,
+            NcType::Double => 8,
+        }
+    }
+}
+
+impl fmt::Display for NcType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = match self {
+            NcType::Byte => "NC_BYTE",
+            NcType::Char => "NC_CHAR",
+            NcType::Short => "NC_SHORT",
+            NcType::Int => "NC_INT",
+            NcType::Float => "NC_FLOAT",
+            NcType::Double => "NC_DOUBLE",
+        };
+        f.write_str(s)
+    }
+}
+
+/// A dimension of the file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Dimension {
+    /// Dimension name.
+    pub name: String,
+    /// Length as stored in the header; 0 for the unlimited (record) dimension,
+    /// whose current length is [`NcFile::numrecs`].
+    pub len: usize,
+    /// Whether this is the unlimited (record) dimension.
+    pub unlimited: bool,
+}
+
+/// Value of an attribute, in its stored type.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AttrValue {
+    /// NC_CHAR attribute, decoded as UTF-8 (lossily) with trailing NUL bytes removed.
+    Text(String),
+    /// NC_BYTE values.
+    Bytes(Vec<i8>),
+    /// NC_SHORT values.
+    Shorts(Vec<i16>),
+    /// NC_INT values.
+    Ints(Vec<i32>),
+    /// NC_FLOAT values.
+    Floats(Vec<f32>),
+    /// NC_DOUBLE values.
+    Doubles(Vec<f64>),
+}
+
+impl AttrValue {
+    /// Numeric values as f64 (`None` for text).
+    pub fn as_f64_vec(&self) -> Option<Vec<f64>> {
+        Some(match self {
+            AttrValue::Text(_) => return None,
+            AttrValue::Bytes(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            AttrValue::Shorts(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            AttrValue::Ints(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            AttrValue::Floats(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            AttrValue::Doubles(v) => v.clone(),
+        })
+    }
+
+    /// The text of an NC_CHAR attribute (`None` for numeric ones).
+    pub fn as_text(&self) -> Option<&str> {
+        match self {
+            AttrValue::Text(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// The stored type of this attribute.
+    pub fn nc_type(&self) -> NcType {
+        match self {
+            AttrValue::Text(_) => NcType::Char,
+            AttrValue::Bytes(_) => NcType::Byte,
+            AttrValue::Shorts(_) => NcType::Short,
+            AttrValue::Ints(_) => NcType::Int,
+            AttrValue::Floats(_) => NcType::Float,
+            AttrValue::Doubles(_) => NcType::Double,
+        }
+    }
+}
+
+/// A variable described by the header.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variable {
+    /// Variable name.
+    pub name: String,
+    /// Indices into [`NcFile::dimensions`], slowest-varying first.
+    pub dims: Vec<usize>,
+    /// Variable attributes in file order.
+    pub attrs: Vec<(String, AttrValue)>,
+    /// Stored type.
+    pub nc_type: NcType,
+    /// Byte offset of the data (of the first record for record variables).
+    pub begin: u64,
+    /// `vsize` from the header: bytes of the variable (of one record for a
+    /// record variable), rounded up to 4. Informational: the reader recomputes
+    /// sizes from the dimensions.
+    pub vsize: u64,
+    /// Whether the first dimension is the unlimited one.
+    pub is_record: bool,
+}
+
+impl Variable {
+    /// Looks up one of this variable's attributes.
+    pub fn attr(&self, name: &str) -> Option<&AttrValue> {
+        self.attrs.iter().find(|(n, _)| n == name).map(|(_, v)| v)
+    }
+}
+
+/// An open NetCDF-3 file: parsed header plus the file's bytes.
+#[derive(Debug, Clone)]
+pub struct NcFile {
+    path: PathBuf,
+    version: u8,
+    numrecs: usize,
+    dims: Vec<Dimension>,
+    gattrs: Vec<(String, AttrValue)>,
+    vars: Vec<Variable>,
+    /// Bytes between two consecutive records.
+    recsize: u64,
+    bytes: Vec<u8>,
+}
+
+impl NcFile {
+    /// Reads and parses a NetCDF-3 file (CDF-1 or CDF-2). The whole file is
+    /// kept in memory. Fails on I/O errors, wrong magic, CDF-5, malformed or
+    /// truncated headers, and on variables whose data would lie beyond the end
+    /// of the file.
+    pub fn open(path: &Path) -> Result<NcFile, NcError> {
+        let bytes = std::fs::read(path).map_err(|source| NcError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_bytes(path, bytes)
+    }
+
+    /// Parses a NetCDF-3 file already in memory; `path` is only used in error
+    /// messages and by [`NcFile::path`].
+    pub fn from_bytes(path: &Path, bytes: Vec<u8>) -> Result<NcFile, NcError> {
+        let (version, numrecs, dims, gattrs, vars, recsize) = parse_header(path, &bytes)?;
+        let file = NcFile {
+            path: path.to_path_buf(),
+            version,
+            numrecs,
+            dims,
+            gattrs,
+            vars,
+            recsize,
+            bytes,
+        };
+        for v in &file.vars {
+            file.check_extent(v)?;
+        }
+        Ok(file)
+    }
+
+    /// Path the file was opened from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Format version: 1 (classic) or 2 (64-bit offset).
+    pub fn version(&self) -> u8 {
+        self.version
+    }
+
+    /// Number of records (length of the unlimited dimension). For files
+    /// written in streaming mode (numrecs = 0xFFFFFFFF) it is computed from
+    /// the file size.
+    pub fn numrecs(&self) -> usize {
+        self.numrecs
+    }
+
+    /// All dimensions, in file order (variables refer to them by index).
+    pub fn dimensions(&self) -> &[Dimension] {
+        &self.dims
+    }
+
+    /// All variables, in file order.
+    pub fn variables(&self) -> &[Variable] {
+        &self.vars
+    }
+
+    /// Global attributes, in file order.
+    pub fn global_attrs(&self) -> &[(String, AttrValue)] {
+        &self.gattrs
+    }
+
+    /// The variable with this exact name, if any.
+    pub fn variable(&self, name: &str) -> Option<&Variable> {
+        self.vars.iter().find(|v| v.name == name)
+    }
+
+    /// Shape of a variable, slowest-varying first; the record dimension has
+    /// length [`NcFile::numrecs`]. A scalar variable has an empty shape.
+    pub fn shape(&self, var: &Variable) -> Vec<usize> {
+        var.dims
+            .iter()
+            .map(|&d| {
+                let dim = &self.dims[d];
+                if dim.unlimited {
+                    self.numrecs
+                } else {
+                    dim.len
+                }
+            })
+            .collect()
+    }
+
+    /// Attribute `name` of variable `var`, or a global attribute when `var`
+    /// is `None`. `None` when the variable or attribute does not exist.
+    pub fn attr(&self, var: Option<&str>, name: &str) -> Option<&AttrValue> {
+        let list = match var {
+            Some(v) => &self.variable(v)?.attrs,
+            None => &self.gattrs,
+        };
+        list.iter().find(|(n, _)| n == name).map(|(_, v)| v)
+    }
+
+    /// Whole variable as f64 in C order, with `scale_factor`/`add_offset` applied if present, and values equal to `_FillValue` or `missing_value` (compared in the stored type, before scaling) turned into NaN.
+    ///
+    /// Details: every value of a multi-valued `missing_value` counts as
+    /// missing; fill/missing attributes of another numeric type are converted
+    /// to the variable's type before comparing (values that do not fit are
+    /// ignored). The NetCDF default fill values are *not* treated as missing
+    /// unless declared by one of these attributes; `valid_range`/`_Unsigned`
+    /// are not interpreted. The result is `value * scale_factor + add_offset`
+    /// (each defaulting to 1 and 0). NC_CHAR variables give
+    /// [`NcError::NotNumeric`].
+    pub fn read_f64(&self, name: &str) -> Result<ArrayD<f64>, NcError> {
+        let var = self
+            .variable(name)
+            .ok_or_else(|| NcError::VariableNotFound {
+                path: self.path.clone(),
+                name: name.to_string(),
+            })?;
+        let shape = self.shape(var);
+        let raw = self.read_raw(var)?;
+
+        let missing: Vec<f64> = ["_FillValue", "missing_value"]
+            .iter()
+            .filter_map(|a| var.attr(a))
+            .filter_map(|a| a.as_f64_vec())
+            .flatten()
+            .collect();
+        let scale = var
+            .attr("scale_factor")
+            .and_then(|a| a.as_f64_vec())
+            .and_then(|v| v.first().copied())
+            .unwrap_or(1.0);
+        let offset = var
+            .attr("add_offset")
+            .and_then(|a| a.as_f64_vec())
+            .and_then(|v| v.first().copied())
+            .unwrap_or(0.0);
+        let tr = |x: f64| x * scale + offset;
+
+        // Compare in the stored type: convert each missing value to it.
+        fn int_missing<T: TryFrom<i64> + PartialEq + Copy>(m: &[f64]) -> Vec<T> {
+            m.iter()
+                .filter(|x| x.fract() == 0.0 && x.is_finite())
+                .filter_map(|&x| T::try_from(x as i64).ok())
+                .collect()
+        }
+        // Missing values compared in the stored type, the rest scaled.
+        fn decode<T: Copy + PartialEq + Into<f64>>(
+            v: &[T],
+            missing: &[T],
+            tr: impl Fn(f64) -> f64,
+        ) -> Vec<f64> {
+            v.iter()
+                .map(|x| {
+                    if missing.contains(x) {
+                        f64::NAN
+                    } else {
+                        tr((*x).into())
+                    }
+                })
+                .collect()
+        }
+        let data: Vec<f64> = match raw {
+            Raw::Bytes(v) => decode(&v, &int_missing::<i8>(&missing), tr),
+            Raw::Shorts(v) => decode(&v, &int_missing::<i16>(&missing), tr),
+            Raw::Ints(v) => decode(&v, &int_missing::<i32>(&missing), tr),
+            Raw::Floats(v) => {
+                let m: Vec<f32> = missing.iter().map(|&x| x as f32).collect();
+                decode(&v, &m, tr)
+            }
+            Raw::Doubles(v) => decode(&v, &missing, tr),
+        };
+        ArrayD::from_shape_vec(IxDyn(&shape), data).map_err(|e| NcError::BadHeader {
+            path: self.path.clone(),
+            offset: 0,
+            msg: format!("variable {name:?}: shape {shape:?} inconsistent with data: {e}"),
+        })
+    }
+
+    /// Number of values in one record (record variables) or in the whole
+    /// variable (fixed variables), computed from the dimensions.
+    fn slab_len(&self, var: &Variable) -> Option<u64> {
+        let skip = usize::from(var.is_record);
+        var.dims[skip..]
+            .iter()
+            .try_fold(1u64, |acc, &d| acc.checked_mul(self.dims[d].len as u64))
+    }
+
+    /// Checks that all of the variable's data lies within the file.
+    fn check_extent(&self, var: &Variable) -> Result<(), NcError> {
+        let overflow = || NcError::BadHeader {
+            path: self.path.clone(),
+            offset: 0,
+            msg: format!("size of variable {:?} overflows", var.name),
+        };
+        let slab = self
+            .slab_len(var)
+            .and_then(|n| n.checked_mul(var.nc_type.size() as u64))
+            .ok_or_else(overflow)?;
+        let nrec = if var.is_record {
+            self.numrecs as u64
+        } else {
+            1
+        };
+        if nrec == 0 || slab == 0 {
+            // Nothing to read: `begin` may legitimately point at the end of file.
+            return Ok(());
+        }
+        let end = (nrec - 1)
+            .checked_mul(self.recsize)
+            .and_then(|x| x.checked_add(var.begin))
+            .and_then(|x| x.checked_add(slab))
+            .ok_or_else(overflow)?;
+        if end > self.bytes.len() as u64 {
+            return Err(NcError::DataBeyondEof {
+                path: self.path.clone(),
+                var: var.name.clone(),
+                end,
+                file_len: self.bytes.len() as u64,
+            });
+        }
+        Ok(())
+    }
+
+    /// The raw bytes of the variable, concatenated over records.
+    fn raw_bytes(&self, var: &Variable) -> Result<Vec<u8>, NcError> {
+        self.check_extent(var)?;
+        // check_extent guarantees every slice below is in range and fits usize.
+        let slab = (self.slab_len(var).unwrap_or(0) as usize) * var.nc_type.size();
+        let nrec = if var.is_record { self.numrecs } else { 1 };
+        if slab == 0 {
+            return Ok(Vec::new());
+        }
+        let mut out = Vec::with_capacity(slab * nrec);
+        for r in 0..nrec {
+            let start = (var.begin + r as u64 * self.recsize) as usize;
+            out.extend_from_slice(&self.bytes[start..start + slab]);
+        }
+        Ok(out)
+    }
+
+    fn read_raw(&self, var: &Variable) -> Result<Raw, NcError> {
+        Raw::decode(var.nc_type, &self.raw_bytes(var)?).ok_or_else(|| NcError::NotNumeric {
+            path: self.path.clone(),
+            var: var.name.clone(),
+        })
+    }
+}
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,434 @@
+//! `.npy` input: a header reader that validates files at spec-validation time without loading
+//! them, and loaders for image stacks (complex64, complex128, float32, float64) and real
+//! parameter maps. Stacks stay in their stored element type so that memory is the input's
+//! size; the analysis converts to f64 on the fly.
+
+use crate::stats::analysis::{analyse, Analysis, AnalysisError, Sample};
+use ndarray::{Array2, Array3, ArrayView3};
+use num_complex::Complex;
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::{Path, PathBuf};
+
+/// Problems reading an `.npy` file; every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum NpyError {
+    /// The file cannot be opened or read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The header is not a valid `.npy` header.
+    #[error("{path} is not a valid .npy file: {reason}")]
+    Header {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The element type is not supported.
+    #[error("{path} holds dtype {descr:?}; supported: complex64 (<c8), complex128 (<c16), float32 (<f4), float64 (<f8)")]
+    Dtype {
+        /// The file.
+        path: PathBuf,
+        /// The numpy type descriptor.
+        descr: String,
+    },
+    /// The data could not be decoded.
+    #[error("cannot load {path}: {reason}")]
+    Data {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Element types the tool reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dtype {
+    /// `<c8`.
+    Complex64,
+    /// `<c16`.
+    Complex128,
+    /// `<f4`.
+    Float32,
+    /// `<f8`.
+    Float64,
+}
+
+impl Dtype {
+    /// Bytes per element.
+    pub fn size(self) -> usize {
+        match self {
+            Dtype::Complex64 => 8,
+            Dtype::Complex128 => 16,
+            Dtype::Float32 => 4,
+            Dtype::Float64 => 8,
+        }
+    }
+}
+
+/// The parsed header of an `.npy` file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NpyHeader {
+    /// Byte offset of the data.
+    pub data_offset: usize,
+    /// Element type.
+    pub dtype: Dtype,
+    /// Whether the data is stored in column-major order.
+    pub fortran_order: bool,
+    /// Array shape.
+    pub shape: Vec<usize>,
+}
+
+/// Reads and validates the header of an `.npy` file without loading its data.
+///
+/// # Errors
+/// [`NpyError`] if the file is missing, not `.npy`, or of an unsupported dtype.
+pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
+    let io = |source| NpyError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let bad = |reason: &str| NpyError::Header {
+        path: path.to_path_buf(),
+        reason: reason.to_string(),
+    };
+    let mut f = BufReader::new(File::open(path).map_err(io)?);
+    let mut pre = [0u8; 8];
+    f.read_exact(&mut pre).map_err(|_| bad("file too short"))?;
+    if &pre[..6] != b"\x93NUMPY" {
+        return Err(bad("missing the \\x93NUMPY magic string"));
+    }
+    let (len, prefix) = match pre[6] {
+        1 => {
+            let mut b = [0u8; 2];
+            f.read_exact(&mut b).map_err(|_| bad("truncated header"))?;
+            (u16::from_le_bytes(b) as usize, 10)
+        }
+        2 | 3 => {
+            let mut b = [0u8; 4];
+            f.read_exact(&mut b).map_err(|_| bad("truncated header"))?;
+            (u32::from_le_bytes(b) as usize, 12)
+        }
+        v => return Err(bad(&format!("unknown format version {v}"))),
+    };
+    let mut text = vec![0u8; len];
+    f.read_exact(&mut text)
+        .map_err(|_| bad("truncated header"))?;
+    let text = String::from_utf8_lossy(&text);
+    let descr = dict_value(&text, "descr").ok_or_else(|| bad("no 'descr'"))?;
+    let descr = descr.trim_matches(|c| c == '\'' || c == '"').to_string();
+    let dtype = match descr.as_str() {
+        "<c8" => Dtype::Complex64,
+        "<c16" => Dtype::Complex128,
+        "<f4" => Dtype::Float32,
+        "<f8" => Dtype::Float64,
+        _ => {
+            return Err(NpyError::Dtype {
+                path: path.to_path_buf(),
+                descr,
+            })
+        }
+    };
+    let fortran_order = match dict_value(&text, "fortran_order").as_deref() {
+        Some("True") => true,
+        Some("False") => false,
+        _ => return Err(bad("no 'fortran_order'")),
+    };
+    let shape = dict_value(&text, "shape").ok_or_else(|| bad("no 'shape'"))?;
+    let shape = shape
+        .trim_matches(|c| c == '(' || c == ')')
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.trim_end_matches('L').parse::<usize>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| bad("unreadable 'shape'"))?;
+    Ok(NpyHeader {
+        data_offset: prefix + len,
+        dtype,
+        fortran_order,
+        shape,
+    })
+}
+
+/// The raw text of `key`'s value in a numpy header dict literal.
+fn dict_value(text: &str, key: &str) -> Option<String> {
+    let start = text.find(&format!("'{key}'"))? + key.len() + 2;
+    let rest = text[start..].trim_start().strip_prefix(':')?.trim_start();
+    let end = if rest.starts_with('(') {
+        rest.find(')')? + 1
+    } else {
+        rest.find([',', '}'])?
+    };
+    Some(rest[..end].trim().to_string())
+}
+
+/// A stack, `[N, H, W]` (or `[H, W, N]`), in its stored element type.
+#[derive(Debug)]
+pub enum Stack {
+    /// A generated stack (complex128).
+    Generated(Array3<Complex<f64>>),
+    /// An `.npy` file mapped read-only into memory: no copy and no page-by-page allocation of
+    /// the input (the file must not be modified while a run reads it).
+    Mapped(MappedNpy),
+}
+
+/// A memory-mapped `.npy` file and its header.
+#[derive(Debug)]
+pub struct MappedNpy {
+    /// The file.
+    pub path: PathBuf,
+    /// Its header.
+    pub header: NpyHeader,
+    map: memmap2::Mmap,
+}
+
+/// Whether axes are `[N, H, W]` or `[H, W, N]`.
+fn view<T>(a: ArrayView3<'_, T>, hwn: bool) -> ArrayView3<'_, T> {
+    if hwn {
+        a.permuted_axes([2, 0, 1])
+    } else {
+        a
+    }
+}
+
+impl Stack {
+    /// Maps a stack from `path`, checking its header and size.
+    ///
+    /// # Errors
+    /// [`NpyError`] if the file cannot be read, is truncated, or is not 3-D.
+    pub fn load(path: &Path) -> Result<Stack, NpyError> {
+        let header = read_header(path)?;
+        let data_err = |reason: String| NpyError::Data {
+            path: path.to_path_buf(),
+            reason,
+        };
+        if header.shape.len() != 3 {
+            return Err(data_err(format!(
+                "a stack is 3-D, this array has shape {:?}",
+                header.shape
+            )));
+        }
+        let file = File::open(path).map_err(|source| NpyError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        // SAFETY: the map is read-only and private to this process; it is undefined only if
+        // another process truncates or rewrites the file during the run (documented above).
+        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| NpyError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let need = header.shape.iter().product::<usize>() * header.dtype.size();
+        if map.len() < header.data_offset + need {
+            return Err(data_err(format!(
+                "truncated: the header promises {need} bytes of data, the file holds {}",
+                map.len().saturating_sub(header.data_offset)
+            )));
+        }
+        Ok(Stack::Mapped(MappedNpy {
+            path: path.to_path_buf(),
+            header,
+            map,
+        }))
+    }
+
+    /// Runs the multiscale analysis on the stack (`hwn`: axes stored as `[H, W, N]`).
+    ///
+    /// # Errors
+    /// [`AnalysisError`] as for [`analyse`].
+    pub fn analyse(&self, hwn: bool, levels: usize) -> Result<Analysis, AnalysisError> {
+        match self {
+            Stack::Generated(a) => analyse(view(a.view(), hwn), levels),
+            Stack::Mapped(m) => match m.header.dtype {
+                Dtype::Complex64 => m.analyse::<Complex<f32>>(hwn, levels),
+                Dtype::Complex128 => m.analyse::<Complex<f64>>(hwn, levels),
+                Dtype::Float32 => m.analyse::<f32>(hwn, levels),
+                Dtype::Float64 => m.analyse::<f64>(hwn, levels),
+            },
+        }
+    }
+
+    /// The stack as complex128 `[N, H, W]` (a copy; `hwn`: axes stored as `[H, W, N]`).
+    pub fn to_complex128(&self, hwn: bool) -> Array3<Complex<f64>> {
+        fn widen<T: Element + Sample>(m: &MappedNpy, hwn: bool) -> Array3<Complex<f64>> {
+            use ndarray::ShapeBuilder;
+            let count: usize = m.header.shape.iter().product();
+            let bytes = &m.map[m.header.data_offset..][..count * std::mem::size_of::<T>()];
+            let data: Vec<T> = bytes
+                .chunks_exact(std::mem::size_of::<T>())
+                .map(bytemuck::pod_read_unaligned)
+                .collect();
+            let s = &m.header.shape;
+            let a = ArrayView3::from_shape((s[0], s[1], s[2]).set_f(m.header.fortran_order), &data)
+                .expect("size checked at load");
+            view(a, hwn).mapv(|v| {
+                let [re, im] = T::components(v);
+                Complex::new(re, im)
+            })
+        }
+        match self {
+            Stack::Generated(a) => view(a.view(), hwn).to_owned(),
+            Stack::Mapped(m) => match m.header.dtype {
+                Dtype::Complex64 => widen::<Complex<f32>>(m, hwn),
+                Dtype::Complex128 => widen::<Complex<f64>>(m, hwn),
+                Dtype::Float32 => widen::<f32>(m, hwn),
+                Dtype::Float64 => widen::<f64>(m, hwn),
+            },
+        }
+    }
+
+    /// Bytes of element data.
+    pub fn bytes(&self) -> usize {
+        match self {
+            Stack::Generated(a) => a.len() * 16,
+            Stack::Mapped(m) => m.header.shape.iter().product::<usize>() * m.header.dtype.size(),
+        }
+    }
+}
+
+impl MappedNpy {
+    /// Analyses the mapped data in place; data that is not aligned for `T` (a header whose
+    /// length is not a multiple of the element size) is copied first.
+    fn analyse<T: Element + Sample>(
+        &self,
+        hwn: bool,
+        levels: usize,
+    ) -> Result<Analysis, AnalysisError> {
+        use ndarray::ShapeBuilder;
+        let count: usize = self.header.shape.iter().product();
+        let bytes = &self.map[self.header.data_offset..][..count * std::mem::size_of::<T>()];
+        let s = &self.header.shape;
+        let shape = (s[0], s[1], s[2]).set_f(self.header.fortran_order);
+        match bytemuck::try_cast_slice::<u8, T>(bytes) {
+            Ok(data) => analyse(
+                view(
+                    ArrayView3::from_shape(shape, data).expect("size checked at load"),
+                    hwn,
+                ),
+                levels,
+            ),
+            Err(_) => {
+                let data: Vec<T> = bytes
+                    .chunks_exact(std::mem::size_of::<T>())
+                    .map(bytemuck::pod_read_unaligned)
+                    .collect();
+                analyse(
+                    view(
+                        ArrayView3::from_shape(shape, &data).expect("size checked at load"),
+                        hwn,
+                    ),
+                    levels,
+                )
+            }
+        }
+    }
+}
+
+#[cfg(target_endian = "big")]
+compile_error!(
+    "isar-clutter reads little-endian .npy data in place; big-endian hosts are not supported"
+);
+
+/// An element of an `.npy` file that can be read in place (plain little-endian data).
+pub trait Element: bytemuck::Pod {}
+impl Element for f32 {}
+impl Element for f64 {}
+impl Element for Complex<f32> {}
+impl Element for Complex<f64> {}
+
+/// Reads the data of an `.npy` file into an array of its header's shape and memory order.
+fn read_array<T: Element, D: ndarray::Dimension>(
+    path: &Path,
+    header: &NpyHeader,
+) -> Result<ndarray::Array<T, D>, NpyError> {
+    use ndarray::ShapeBuilder;
+    use std::io::{Seek, SeekFrom};
+    let data_err = |reason: String| NpyError::Data {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let io = |source| NpyError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let count: usize = header.shape.iter().product();
+    let mut f = File::open(path).map_err(io)?;
+    let size = f.metadata().map_err(io)?.len() as usize;
+    if size < header.data_offset + count * std::mem::size_of::<T>() {
+        return Err(data_err(format!(
+            "truncated: the header promises {} bytes of data, the file holds {}",
+            count * std::mem::size_of::<T>(),
+            size.saturating_sub(header.data_offset)
+        )));
+    }
+    f.seek(SeekFrom::Start(header.data_offset as u64))
+        .map_err(io)?;
+    let mut out: Vec<T> = vec![T::zeroed(); count];
+    f.read_exact(bytemuck::cast_slice_mut(&mut out))
+        .map_err(io)?;
+    let dim = D::from_dimension(&ndarray::IxDyn(&header.shape)).ok_or_else(|| {
+        data_err(format!(
+            "expected {} axes, found shape {:?}",
+            D::NDIM.unwrap_or(0),
+            header.shape
+        ))
+    })?;
+    ndarray::Array::from_shape_vec(dim.set_f(header.fortran_order), out)
+        .map_err(|e| data_err(e.to_string()))
+}
+
+/// Loads a real `[H, W]` map (float32 or float64).
+///
+/// # Errors
+/// [`NpyError`] if the file is missing, complex, or not 2-D.
+pub fn read_real_map(path: &Path) -> Result<Array2<f64>, NpyError> {
+    read_real(
+        path,
+        "a map must be 2-D [H, W]",
+        "a parameter map must be real (float32 or float64)",
+    )
+}
+
+/// Reads a real 1-D vector (`float32` or `float64`) as f64.
+///
+/// # Errors
+/// [`NpyError`] if the file is not a readable 1-D real array.
+pub fn read_real_vector(path: &Path) -> Result<ndarray::Array1<f64>, NpyError> {
+    read_real(
+        path,
+        "a vector must be 1-D",
+        "a vector must be real (float32 or float64)",
+    )
+}
+
+/// A real array of `D`'s dimensionality as f64; `shape_rule` and `type_rule` say what a wrong
+/// shape or element type breaks.
+fn read_real<D: ndarray::Dimension>(
+    path: &Path,
+    shape_rule: &str,
+    type_rule: &str,
+) -> Result<ndarray::Array<f64, D>, NpyError> {
+    let header = read_header(path)?;
+    let data = |reason: String| NpyError::Data {
+        path: path.to_path_buf(),
+        reason,
+    };
+    if Some(header.shape.len()) != D::NDIM {
+        return Err(data(format!(
+            "{shape_rule}, this one has shape {:?}",
+            header.shape
+        )));
+    }
+    match header.dtype {
+        Dtype::Float64 => read_array::<f64, D>(path, &header),
+        Dtype::Float32 => read_array::<f32, D>(path, &header).map(|a| a.mapv(f64::from)),
+        _ => Err(data(type_rule.into())),
+    }
+}

@@ -1,0 +1,290 @@
+//! Grids of heat maps (levels x directions, or any panels) that share one colour scale and
+//! one colour bar; NaN cells are grey.
+
+use super::*;
+
+/// Side of a panel's plot square in pixels (divisible by 32, 16 and 8: crisp level maps).
+const PANEL: u32 = 224;
+const PAD_L: u32 = 64;
+const PAD_R: u32 = 14;
+const PAD_T: u32 = 30;
+const PAD_B: u32 = 50;
+const CELL_W: u32 = PAD_L + PANEL + PAD_R;
+const CELL_H: u32 = PAD_T + PANEL + PAD_B;
+/// Height of the figure title band, and width of the colour-bar band on the right.
+const HEAD: u32 = 44;
+const BAR_AREA: u32 = 140;
+const BAR_W: u32 = 18;
+
+/// Pixel size of a heat-map grid with `nrows` x `ncols` panels.
+fn grid_size(nrows: usize, ncols: usize) -> (u32, u32) {
+    (
+        ncols as u32 * CELL_W + BAR_AREA,
+        HEAD + nrows as u32 * CELL_H,
+    )
+}
+
+/// Image size of a `rows` x `cols` map fitted into the panel square, aspect ratio preserved.
+fn fit(rows: usize, cols: usize) -> (u32, u32) {
+    let s = f64::from(PANEL) / rows.max(cols) as f64;
+    let px = |n: usize| ((n as f64 * s).round() as u32).clamp(1, PANEL);
+    (px(cols), px(rows))
+}
+
+/// Where a panel's image goes (centred in its plot square) and which axis labels it carries.
+struct PanelGeo<'p, 'a> {
+    panel: &'p Panel<'a>,
+    x: u32,
+    y: u32,
+    w: u32,
+    h: u32,
+    x_label: bool,
+    y_label: bool,
+}
+
+struct HeatGrid<'p, 'a> {
+    title: &'p str,
+    bar_label: &'p str,
+    geo: Vec<PanelGeo<'p, 'a>>,
+    nrows: usize,
+    ncols: usize,
+    cmap: ColourMap,
+    has_nan: bool,
+}
+
+impl HeatGrid<'_, '_> {
+    /// Colour bar: left, top, height.
+    fn bar(&self) -> (u32, u32, u32) {
+        (
+            self.ncols as u32 * CELL_W + 16,
+            HEAD + PAD_T,
+            self.nrows as u32 * CELL_H - PAD_T - PAD_B,
+        )
+    }
+}
+
+impl Figure for HeatGrid<'_, '_> {
+    fn size(&self) -> (u32, u32) {
+        grid_size(self.nrows, self.ncols)
+    }
+
+    fn rasters(&self) -> Vec<Raster> {
+        let colour = |vals: &mut dyn Iterator<Item = f64>| -> Vec<u8> {
+            vals.flat_map(|v| {
+                let (r, g, b) = self.cmap.rgb(v);
+                [r, g, b]
+            })
+            .collect()
+        };
+        let mut out: Vec<Raster> = self
+            .geo
+            .iter()
+            .map(|g| {
+                let vals = resample(g.panel.map, g.w as usize, g.h as usize);
+                Raster {
+                    x: g.x,
+                    y: g.y,
+                    w: g.w,
+                    h: g.h,
+                    rgb: colour(&mut vals.into_iter()),
+                }
+            })
+            .collect();
+        let (bx, by, bh) = self.bar();
+        let (lo, hi) = (self.cmap.lo, self.cmap.hi);
+        let mut vals = (0..bh).flat_map(|y| {
+            let v = hi - (f64::from(y) + 0.5) / f64::from(bh) * (hi - lo);
+            std::iter::repeat_n(v, BAR_W as usize)
+        });
+        out.push(Raster {
+            x: bx,
+            y: by,
+            w: BAR_W,
+            h: bh,
+            rgb: colour(&mut vals),
+        });
+        out
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        let (fig_w, _) = self.size();
+        root.draw(&Text::new(
+            self.title,
+            (fig_w as i32 / 2, 12),
+            text(24.0, HPos::Center, VPos::Top),
+        ))?;
+        let frame = |x: i32, y: i32, w: i32, h: i32| {
+            Rectangle::new([(x - 1, y - 1), (x + w, y + h)], BLACK)
+        };
+        for g in &self.geo {
+            let (x, y, w, h) = (g.x as i32, g.y as i32, g.w as i32, g.h as i32);
+            root.draw(&Text::new(
+                g.panel.title.as_str(),
+                (x + w / 2, y - 8),
+                text(17.0, HPos::Center, VPos::Bottom),
+            ))?;
+            root.draw(&frame(x, y, w, h))?;
+            let (rows, cols) = g.panel.map.dim();
+            let centre = |i: usize, n: usize, len: i32| {
+                ((i as f64 + 0.5) * f64::from(len) / n as f64) as i32
+            };
+            for i in (0..cols).step_by(nice_step(cols as f64, 6.0).max(1.0) as usize) {
+                let tx = x + centre(i, cols, w);
+                root.draw(&PathElement::new(vec![(tx, y + h), (tx, y + h + 4)], BLACK))?;
+                root.draw(&Text::new(
+                    i.to_string(),
+                    (tx, y + h + 6),
+                    text(14.0, HPos::Center, VPos::Top),
+                ))?;
+            }
+            for i in (0..rows).step_by(nice_step(rows as f64, 6.0).max(1.0) as usize) {
+                let ty = y + centre(i, rows, h);
+                root.draw(&PathElement::new(vec![(x - 5, ty), (x - 1, ty)], BLACK))?;
+                root.draw(&Text::new(
+                    i.to_string(),
+                    (x - 7, ty),
+                    text(14.0, HPos::Right, VPos::Center),
+                ))?;
+            }
+            if g.x_label {
+                root.draw(&Text::new(
+                    "column",
+                    (x + w / 2, y + h + 24),
+                    text(16.0, HPos::Center, VPos::Top),
+                ))?;
+            }
+            if g.y_label {
+                root.draw(&Text::new("row", (x - 46, y + h / 2), vtext(16.0)))?;
+            }
+        }
+        let (bx, by, bh) = self.bar();
+        let (bx, by, bh, bw) = (bx as i32, by as i32, bh as i32, BAR_W as i32);
+        root.draw(&frame(bx, by, bw, bh))?;
+        let (lo, hi) = (self.cmap.lo, self.cmap.hi);
+        let step = nice_step(hi - lo, 5.0);
+        let mut v = (lo / step).ceil() * step;
+        while v <= hi + step * 1e-9 {
+            let ty = by
+                + (((hi - v) / (hi - lo)) * f64::from(bh))
+                    .round()
+                    .clamp(0.0, f64::from(bh - 1)) as i32;
+            root.draw(&PathElement::new(
+                vec![(bx + bw, ty), (bx + bw + 4, ty)],
+                BLACK,
+            ))?;
+            root.draw(&Text::new(
+                fmt_tick(v, step),
+                (bx + bw + 7, ty),
+                text(14.0, HPos::Left, VPos::Center),
+            ))?;
+            v += step;
+        }
+        root.draw(&Text::new(
+            self.bar_label,
+            (bx + bw + 80, by + bh / 2),
+            vtext(16.0),
+        ))?;
+        if self.has_nan {
+            let (r, g, b) = NAN_RGB;
+            let top = by + bh + 14;
+            root.draw(&Rectangle::new(
+                [(bx, top), (bx + bw - 1, top + 13)],
+                RGBColor(r, g, b).filled(),
+            ))?;
+            root.draw(&frame(bx, top, bw, 14))?;
+            root.draw(&Text::new(
+                "NaN",
+                (bx + bw + 7, top + 7),
+                text(14.0, HPos::Left, VPos::Center),
+            ))?;
+        }
+        Ok(())
+    }
+}
+
+/// Draws a grid of heat-map panels (`panels[row][column]`, e.g. rows = levels, columns =
+/// directions H, V, D) sharing one colour `scale` and one colour bar labelled `bar_label`, with
+/// a figure `title`, per-panel titles and axis labels "column" / "row". Each map is scaled to
+/// fill its 224-pixel panel square with its aspect ratio preserved (large maps are averaged
+/// down to the panel's pixels); NaN cells are grey and listed as "NaN" under the colour bar.
+/// Rows may hold different numbers of panels. The size depends only on the grid shape:
+/// `302 * columns + 140` by `44 + 304 * rows` pixels. Writes `<dir>/<stem>.png` and `.svg`.
+pub fn heatmap_grid(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    panels: &[Vec<Panel>],
+    scale: Scale,
+    bar_label: &str,
+) -> Result<[PathBuf; 2], FigureError> {
+    check_stem(dir, stem)?;
+    let (nrows, ncols) = (panels.len(), panels.iter().map(Vec::len).max().unwrap_or(0));
+    if ncols == 0 {
+        return Err(input_err(dir, stem, "no panels"));
+    }
+    if let Some(p) = panels.iter().flatten().find(|p| p.map.is_empty()) {
+        return Err(input_err(
+            dir,
+            stem,
+            format!("panel {:?} has an empty map", p.title),
+        ));
+    }
+    let all = || panels.iter().flatten().flat_map(|p| p.map.iter().copied());
+    let cmap = match scale {
+        Scale::Diverging { lo, hi } if lo.is_finite() && hi.is_finite() && lo < hi => ColourMap {
+            lo,
+            hi,
+            diverging: true,
+        },
+        Scale::Diverging { .. } => {
+            return Err(input_err(
+                dir,
+                stem,
+                "diverging limits must be finite with lo < hi",
+            ))
+        }
+        Scale::Perceptual => {
+            let (lo, hi) = finite_range(all());
+            ColourMap {
+                lo,
+                hi,
+                diverging: false,
+            }
+        }
+    };
+    let mut geo = Vec::new();
+    for (r, row) in panels.iter().enumerate() {
+        for (c, panel) in row.iter().enumerate() {
+            let (w, h) = fit(panel.map.nrows(), panel.map.ncols());
+            let sq = (c as u32 * CELL_W + PAD_L, HEAD + r as u32 * CELL_H + PAD_T);
+            let (x, y) = (sq.0 + (PANEL - w) / 2, sq.1 + (PANEL - h) / 2);
+            let x_label = panels.get(r + 1).is_none_or(|below| below.len() <= c);
+            geo.push(PanelGeo {
+                panel,
+                x,
+                y,
+                w,
+                h,
+                x_label,
+                y_label: c == 0,
+            });
+        }
+    }
+    let has_nan = all().any(f64::is_nan);
+    render(
+        dir,
+        stem,
+        &HeatGrid {
+            title,
+            bar_label,
+            geo,
+            nrows,
+            ncols,
+            cmap,
+            has_nan,
+        },
+    )
+}

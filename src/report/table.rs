@@ -1,0 +1,463 @@
+//! The `table` command: the comparison tables a reader of the dissertation expects, printed
+//! from a results folder's Parquet files alone (no recomputation). Each table filters one
+//! long-format file, groups its rows by key columns and spreads one column (the pivot, by
+//! default the method) across the page, in aligned text for the terminal or in Markdown.
+
+use anyhow::{bail, Context, Result};
+use polars::prelude::{DataFrame, DataType};
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Output format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Aligned columns.
+    Text,
+    /// GitHub-flavoured Markdown.
+    Md,
+    /// An HTML `<table>` with a caption (for the report).
+    Html,
+}
+
+/// A table definition: which file, which rows, how to lay them out.
+#[derive(Debug, Clone)]
+pub struct TableDef {
+    /// Name used by `--table`.
+    pub name: &'static str,
+    /// Title printed above the table.
+    pub title: &'static str,
+    /// Parquet file in the results folder.
+    pub file: &'static str,
+    /// Fixed filters `(column, accepted values)`.
+    pub filters: Vec<(&'static str, Vec<&'static str>)>,
+    /// Row key columns (swept parameter columns are added after them).
+    pub rows: Vec<&'static str>,
+    /// Column spread across the page.
+    pub pivot: &'static str,
+    /// Value columns (one block of pivot columns per value column).
+    pub values: Vec<&'static str>,
+    /// Header label of each value column's block (with several value columns).
+    pub value_labels: Vec<&'static str>,
+    /// Prefix of the pivot values in headers (`order ` for model order).
+    pub pivot_prefix: &'static str,
+    /// Label of a null pivot value.
+    pub null_label: &'static str,
+}
+
+/// Columns the library writes; any other column of a file is a swept parameter (a row key
+/// here, a curve's axis in the report).
+pub const LIBRARY_COLUMNS: &[&str] = &[
+    "dataset",
+    "method",
+    "source",
+    "metric",
+    "component",
+    "statistic",
+    "level",
+    "direction",
+    "model_order",
+    "band",
+    "hypothesis",
+    "verdict",
+    "job",
+    "value",
+    "units",
+    "samples_original",
+    "samples_compared",
+    "noise_floor",
+    "bins",
+    "smoothing",
+    "symmetric",
+    "db",
+    "block",
+    "cmd_form",
+    "kl_mean_db",
+    "kl_worst_db",
+    "pixels",
+    "mean_correlation",
+    "mean_covariance",
+    "nan_cells",
+    "cells",
+    "rows",
+    "cols",
+    "expected_mean_correlation",
+];
+
+/// The standard tables, in print order.
+pub fn standard() -> Vec<TableDef> {
+    vec![
+        TableDef {
+            name: "rmse",
+            title: "Multiscale correlation RMSE, eq. 25 (Tables 6, 26, 28): original vs each method; noise_floor = two independent stacks of the original",
+            file: "similarity.parquet",
+            filters: vec![("metric", vec!["multiscale_rmse"])],
+            rows: vec!["dataset", "statistic", "level", "direction"],
+            pivot: "method",
+            values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
+            null_label: "-",
+        },
+        TableDef {
+            name: "cmd",
+            title: "Correlation matrix distance, eq. 24 (Tables 7, 25, 27)",
+            file: "similarity.parquet",
+            filters: vec![("metric", vec!["cmd"])],
+            rows: vec!["dataset"],
+            pivot: "method",
+            values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
+            null_label: "-",
+        },
+        TableDef {
+            name: "kl",
+            title: "Mean KL divergence by pixel and by image area (Tables 8-10)",
+            file: "similarity.parquet",
+            filters: vec![
+                ("metric", vec!["kl_pixel", "kl_area"]),
+                ("statistic", vec!["mean"]),
+            ],
+            rows: vec!["dataset", "metric", "component"],
+            pivot: "method",
+            values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
+            null_label: "-",
+        },
+        TableDef {
+            name: "model_order",
+            title: "Model order, per-pixel KL in dB (Tables 1-2): mean and worst pixel",
+            file: "model_order.parquet",
+            filters: vec![],
+            rows: vec!["dataset", "component"],
+            pivot: "model_order",
+            values: vec!["kl_mean_db", "kl_worst_db"],
+            value_labels: vec!["mean dB", "worst dB"],
+            pivot_prefix: "order ",
+            null_label: "noise_floor",
+        },
+        TableDef {
+            name: "hypotheses",
+            title: "Hypothesis tests (Table 24; Table 16 = mean pixel variance); definitions in docs/hypotheses.md",
+            file: "hypotheses.parquet",
+            filters: vec![],
+            rows: vec!["hypothesis", "dataset", "statistic"],
+            pivot: "verdict",
+            values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
+            null_label: "value",
+        },
+        TableDef {
+            name: "calibration",
+            title: "Sphere calibration (Figs. 11-14): calibrated vs Mie, dB and degrees; inner = central 90 % of the band",
+            file: "calibration_summary.parquet",
+            filters: vec![],
+            rows: vec!["statistic"],
+            pivot: "band",
+            values: vec!["value"],
+            value_labels: vec![],
+            pivot_prefix: "",
+            null_label: "-",
+        },
+        TableDef {
+            name: "summary",
+            title: "Mean directional correlation by level (Table 4); source = original or the method",
+            file: "analysis_summary.parquet",
+            filters: vec![],
+            rows: vec!["dataset", "level", "direction"],
+            pivot: "source",
+            values: vec!["mean_correlation"],
+            value_labels: vec![],
+            pivot_prefix: "",
+            null_label: "-",
+        },
+    ]
+}
+
+/// A column read as display strings (`None` for null).
+fn strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>> {
+    let col = df
+        .column(name)
+        .with_context(|| format!("no column {name:?}"))?;
+    let s = col.cast(&DataType::String)?;
+    Ok(s.str()?.iter().map(|v| v.map(str::to_string)).collect())
+}
+
+/// A column read as f64.
+fn floats(df: &DataFrame, name: &str) -> Result<Vec<Option<f64>>> {
+    let col = df
+        .column(name)
+        .with_context(|| format!("no column {name:?}"))?;
+    let s = col.cast(&DataType::Float64)?;
+    Ok(s.f64()?.iter().collect())
+}
+
+/// Formats a value with four significant digits (scientific below 1e-3).
+pub fn format_value(v: f64) -> String {
+    if v.is_nan() {
+        "NaN".into()
+    } else if v == 0.0 || (v.abs() >= 1e-3 && v.abs() < 1e5) {
+        let digits = (3 - v.abs().log10().floor().max(-1.0) as i32).clamp(0, 6) as usize;
+        format!("{v:.digits$}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// Renders one table from `dir`, with extra `filters` (`column=value[,value]`) and an optional
+/// pivot override. `Ok(None)` when the file is missing or no row passes the filters, and, unless
+/// `strict`, when a filter or the pivot names a column this table lacks.
+///
+/// # Errors
+/// If the file cannot be read, or (when `strict`) a filter or pivot names a column the file
+/// lacks.
+pub fn render(
+    dir: &Path,
+    def: &TableDef,
+    filters: &[(String, Vec<String>)],
+    pivot: Option<&str>,
+    format: Format,
+    strict: bool,
+) -> Result<Option<String>> {
+    let path = dir.join(def.file);
+    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+        return Ok(None);
+    };
+    let names: Vec<String> = df
+        .get_column_names()
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let mut keep = vec![true; df.height()];
+    let all_filters = def
+        .filters
+        .iter()
+        .map(|(c, v)| (c.to_string(), v.iter().map(|s| s.to_string()).collect()))
+        .chain(filters.iter().cloned());
+    for (col, accepted) in all_filters {
+        if !names.contains(&col) {
+            if !strict {
+                return Ok(None);
+            }
+            bail!(
+                "{}: no column {col:?} to filter on (columns: {})",
+                path.display(),
+                names.join(", ")
+            );
+        }
+        for (k, v) in keep.iter_mut().zip(strings(&df, &col)?) {
+            *k &= v.is_some_and(|v| accepted.contains(&v));
+        }
+    }
+    if !keep.contains(&true) {
+        return Ok(None);
+    }
+    let pivot = pivot.unwrap_or(def.pivot);
+    if !names.iter().any(|n| n == pivot) {
+        if !strict {
+            return Ok(None);
+        }
+        bail!(
+            "{}: no column {pivot:?} to pivot on (columns: {})",
+            path.display(),
+            names.join(", ")
+        );
+    }
+    // Row keys: the definition's, the pivot of the definition when it is overridden, then the
+    // swept parameters; never the pivot itself.
+    let mut keys: Vec<String> = def
+        .rows
+        .iter()
+        .chain(std::iter::once(&def.pivot))
+        .map(|s| s.to_string())
+        .filter(|k| k != pivot && names.contains(k))
+        .collect();
+    for n in &names {
+        if !LIBRARY_COLUMNS.contains(&n.as_str()) && !keys.contains(n) && n != pivot {
+            keys.push(n.clone());
+        }
+    }
+    let key_cols: Vec<Vec<Option<String>>> = keys
+        .iter()
+        .map(|k| strings(&df, k))
+        .collect::<Result<_>>()?;
+    let pivot_col = strings(&df, pivot)?;
+    let value_cols: Vec<Vec<Option<f64>>> = def
+        .values
+        .iter()
+        .map(|v| floats(&df, v))
+        .collect::<Result<_>>()?;
+    let label = |v: &Option<String>| v.clone().unwrap_or_else(|| def.null_label.to_string());
+    let mut row_order: Vec<Vec<String>> = vec![];
+    let mut row_index: HashMap<Vec<String>, usize> = HashMap::new();
+    let mut col_order: Vec<String> = vec![];
+    let mut cells: HashMap<(usize, usize, usize), f64> = HashMap::new();
+    for i in (0..df.height()).filter(|&i| keep[i]) {
+        let key: Vec<String> = key_cols
+            .iter()
+            .map(|c| c[i].clone().unwrap_or_else(|| "-".into()))
+            .collect();
+        let r = *row_index.entry(key.clone()).or_insert_with(|| {
+            row_order.push(key);
+            row_order.len() - 1
+        });
+        let p = label(&pivot_col[i]);
+        let c = match col_order.iter().position(|x| *x == p) {
+            Some(c) => c,
+            None => {
+                col_order.push(p);
+                col_order.len() - 1
+            }
+        };
+        for (v, vals) in value_cols.iter().enumerate() {
+            if let Some(x) = vals[i] {
+                cells.entry((r, c, v)).or_insert(x);
+            }
+        }
+    }
+    // Drop key columns that are constant "-" (e.g. level for CMD rows).
+    let used: Vec<usize> = (0..keys.len())
+        .filter(|&k| row_order.iter().any(|r| r[k] != "-"))
+        .collect();
+    let mut header: Vec<String> = used.iter().map(|&k| keys[k].clone()).collect();
+    for (v, name) in def.values.iter().enumerate() {
+        for c in &col_order {
+            let c = if c == def.null_label {
+                c.clone()
+            } else {
+                format!("{}{c}", def.pivot_prefix)
+            };
+            header.push(match def.value_labels.get(v) {
+                Some(label) if def.values.len() > 1 => format!("{label}, {c}"),
+                None if def.values.len() > 1 => format!("{name}, {c}"),
+                _ => c,
+            });
+        }
+    }
+    let body: Vec<Vec<String>> = row_order
+        .iter()
+        .enumerate()
+        .map(|(r, key)| {
+            let mut line: Vec<String> = used.iter().map(|&k| key[k].clone()).collect();
+            for v in 0..def.values.len() {
+                for c in 0..col_order.len() {
+                    line.push(
+                        cells
+                            .get(&(r, c, v))
+                            .map_or_else(|| "-".into(), |&x| format_value(x)),
+                    );
+                }
+            }
+            line
+        })
+        .collect();
+    Ok(Some(layout(def.title, &header, &body, used.len(), format)))
+}
+
+/// Lays out a header and rows; the first `keys` columns are left-aligned, values right-aligned.
+fn layout(title: &str, header: &[String], body: &[Vec<String>], keys: usize, f: Format) -> String {
+    let mut out = String::new();
+    let widths: Vec<usize> = (0..header.len())
+        .map(|c| {
+            body.iter()
+                .map(|r| r[c].len())
+                .chain(std::iter::once(header[c].len()))
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let cell = |c: usize, s: &str| {
+        if c < keys {
+            format!("{s:<w$}", w = widths[c])
+        } else {
+            format!("{s:>w$}", w = widths[c])
+        }
+    };
+    let line =
+        |r: &[String]| -> Vec<String> { r.iter().enumerate().map(|(c, s)| cell(c, s)).collect() };
+    match f {
+        Format::Text => {
+            let _ = writeln!(out, "{title}\n");
+            let _ = writeln!(out, "{}", line(header).join("  "));
+            let _ = writeln!(
+                out,
+                "{}",
+                widths
+                    .iter()
+                    .map(|w| "-".repeat(*w))
+                    .collect::<Vec<_>>()
+                    .join("  ")
+            );
+            for r in body {
+                let _ = writeln!(out, "{}", line(r).join("  "));
+            }
+        }
+        Format::Html => {
+            let _ = writeln!(out, "<table>\n<caption>{}</caption>", escape(title));
+            let row = |cells: &[String], tag: &str| -> String {
+                cells
+                    .iter()
+                    .enumerate()
+                    .map(|(c, s)| {
+                        let class = if c < keys { "key" } else { "num" };
+                        format!("<{tag} class=\"{class}\">{}</{tag}>", escape(s))
+                    })
+                    .collect()
+            };
+            let _ = writeln!(
+                out,
+                "<thead><tr>{}</tr></thead>\n<tbody>",
+                row(header, "th")
+            );
+            for r in body {
+                let _ = writeln!(out, "<tr>{}</tr>", row(r, "td"));
+            }
+            let _ = writeln!(out, "</tbody>\n</table>");
+        }
+        Format::Md => {
+            let _ = writeln!(out, "**{title}**\n");
+            let _ = writeln!(out, "| {} |", line(header).join(" | "));
+            let rule: Vec<String> = widths
+                .iter()
+                .enumerate()
+                .map(|(c, w)| {
+                    if c < keys {
+                        format!(":{}", "-".repeat(w.saturating_sub(1).max(2)))
+                    } else {
+                        format!("{}:", "-".repeat(w.saturating_sub(1).max(2)))
+                    }
+                })
+                .collect();
+            let _ = writeln!(out, "| {} |", rule.join(" | "));
+            for r in body {
+                let _ = writeln!(out, "| {} |", line(r).join(" | "));
+            }
+        }
+    }
+    out
+}
+
+/// Parses a `--filter` argument `column=value[,value...]`.
+///
+/// # Errors
+/// If there is no `=`.
+pub fn parse_filter(s: &str) -> Result<(String, Vec<String>)> {
+    let (c, v) = s
+        .split_once('=')
+        .with_context(|| format!("filter {s:?}: expected column=value[,value...]"))?;
+    Ok((
+        c.trim().to_string(),
+        v.split(',').map(|x| x.trim().to_string()).collect(),
+    ))
+}
+
+/// Escapes text for HTML.
+pub fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}

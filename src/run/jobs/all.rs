@@ -1,0 +1,46 @@
+//! Every job of a plan behind the one seam, in plan order: the dataset jobs (analysis and
+//! synthesis), then the jobs of the run as a whole made from their spec sections (calibration,
+//! hypotheses). [`super::Inputs::Rows`] indices refer to this order.
+
+use super::calibration::CalibrationJob;
+use super::hypotheses::HypothesesJob;
+use super::JobKind;
+use crate::run::plan::Plan;
+
+/// The jobs of one plan.
+pub struct AllJobs<'a> {
+    plan: &'a Plan,
+    calibration: Option<CalibrationJob>,
+    hypotheses: Option<HypothesesJob>,
+}
+
+impl<'a> AllJobs<'a> {
+    /// The jobs of `plan`.
+    pub fn new(plan: &'a Plan) -> Self {
+        AllJobs {
+            plan,
+            calibration: plan
+                .spec
+                .calibration
+                .clone()
+                .map(|c| CalibrationJob::new(c, plan.spec.seed)),
+            hypotheses: plan
+                .spec
+                .hypotheses
+                .as_ref()
+                .map(|_| HypothesesJob::new(&plan.jobs)),
+        }
+    }
+
+    /// Every job, in plan order.
+    pub fn list(&self) -> Vec<&dyn JobKind> {
+        let mut all: Vec<&dyn JobKind> = self.plan.jobs.iter().map(|j| j as &dyn JobKind).collect();
+        if let Some(c) = &self.calibration {
+            all.push(c);
+        }
+        if let Some(h) = &self.hypotheses {
+            all.push(h);
+        }
+        all
+    }
+}

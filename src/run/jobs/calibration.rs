@@ -1,0 +1,89 @@
+//! The calibration job of a spec's `calibration` section: the simulated sphere measured
+//! through the chain and calibrated (Figs. 11-14), giving `calibration` (one row per
+//! frequency: `freq_ghz, mie_dbsm, raw_db, calibrated_dbsm, error_db, phase_error_deg`) and
+//! `calibration_summary` (`band, statistic, value`).
+
+use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
+use crate::physics::calibration::{calibrate, simulate, summary, CalibrationRow, ChainParams};
+use crate::run::plan::Plan;
+use crate::seeds::derive_seed;
+use anyhow::Result;
+use polars::prelude::*;
+use serde_json::json;
+
+/// The calibration of one chain, seeded from the master seed.
+#[derive(Debug, Clone)]
+pub struct CalibrationJob {
+    /// The chain's parameters.
+    pub chain: ChainParams,
+    /// Seed of the simulated measurements: `derive_seed(master, "calibration", "")`.
+    pub seed: u64,
+}
+
+impl CalibrationJob {
+    /// The job of `chain` under the master seed.
+    pub fn new(chain: ChainParams, master: u64) -> Self {
+        CalibrationJob {
+            chain,
+            seed: derive_seed(master, "calibration", ""),
+        }
+    }
+}
+
+impl JobKind for CalibrationJob {
+    fn id(&self) -> &str {
+        "calibration"
+    }
+
+    fn kind(&self) -> &'static str {
+        "calibration"
+    }
+
+    fn identity(&self) -> &str {
+        ""
+    }
+
+    fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    fn inputs(&self) -> Inputs {
+        Inputs::Nothing
+    }
+
+    fn run(&self, _cx: &JobContext) -> Result<Rows> {
+        let rows = calibrate(&self.chain, &simulate(&self.chain, self.seed));
+        let col = |name: &str, f: &dyn Fn(&CalibrationRow) -> f64| {
+            Column::new(name.into(), rows.iter().map(f).collect::<Vec<f64>>())
+        };
+        let table = DataFrame::new_infer_height(vec![
+            col("freq_ghz", &|r| r.freq / 1e9),
+            col("mie_dbsm", &|r| r.mie_db),
+            col("raw_db", &|r| r.raw_db),
+            col("calibrated_dbsm", &|r| r.calibrated_db),
+            col("error_db", &|r| r.error_db),
+            col("phase_error_deg", &|r| r.phase_error_deg),
+        ])?;
+        let s = summary(&rows);
+        let summary = DataFrame::new_infer_height(vec![
+            Column::new("band".into(), s.iter().map(|x| x.0).collect::<Vec<_>>()),
+            Column::new(
+                "statistic".into(),
+                s.iter().map(|x| x.1).collect::<Vec<_>>(),
+            ),
+            Column::new("value".into(), s.iter().map(|x| x.2).collect::<Vec<_>>()),
+        ])?;
+        Ok(Rows {
+            tables: vec![("calibration", table), ("calibration_summary", summary)],
+            ..Rows::default()
+        })
+    }
+
+    fn status_row(&self, _plan: &Plan, _status: &Status) -> Option<Result<DataFrame>> {
+        None
+    }
+
+    fn manifest(&self) -> serde_json::Value {
+        json!({ "job": "calibration", "kind": "calibration", "identity": "", "seed": self.seed })
+    }
+}

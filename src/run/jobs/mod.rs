@@ -1,0 +1,120 @@
+//! The one seam for job kinds. Every kind of job (a dataset's analysis or synthesis, the
+//! calibration, the hypothesis tests, and next the CNN trainings) implements [`JobKind`]: it
+//! says who it is (id, canonical identity, seed), what it reads ([`Inputs`]), and runs into
+//! [`Rows`]: fragments of the run's tables plus the files it wrote. The scheduler runs jobs
+//! through this trait only, and the table assembly ([`crate::run::tables::assemble`])
+//! concatenates the fragments in plan order, so neither grows a branch per kind. A job's rows
+//! are what a durable job store persists.
+//!
+//! A new kind of job: a file here with a struct that implements [`JobKind`], listed by
+//! [`all::AllJobs`] from its spec section.
+
+pub mod all;
+pub mod calibration;
+pub mod dataset;
+pub mod hypotheses;
+
+use crate::data::Materialised;
+use crate::run::plan::Plan;
+use anyhow::Result;
+use polars::prelude::DataFrame;
+use std::path::{Path, PathBuf};
+
+/// What a job produced: fragments of tables (by table name; names starting with `_` are
+/// intermediate rows for other jobs and are not written as tables) and the files it wrote.
+#[derive(Default)]
+pub struct Rows {
+    /// Table fragments in the order the job made them.
+    pub tables: Vec<(&'static str, DataFrame)>,
+    /// Files (or folders) the job wrote into the output folder.
+    pub files: Vec<PathBuf>,
+    /// The job's timings for the manifest.
+    pub timing: Option<serde_json::Value>,
+}
+
+impl Rows {
+    /// The fragment of table `name`, if the job made one.
+    pub fn table(&self, name: &str) -> Option<&DataFrame> {
+        self.tables
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, df)| df)
+    }
+}
+
+/// What a job reads.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Inputs {
+    /// Nothing but its own parameters and seed.
+    Nothing,
+    /// A dataset: jobs with the same data seed read the same stack and run as one group;
+    /// `shared` says the stack is worth materialising once for the group.
+    Dataset {
+        /// The data seed (group key).
+        data_seed: u64,
+        /// Whether the group's jobs share one materialisation.
+        shared: bool,
+    },
+    /// The rows of other jobs (indices into the plan's job list), available once they ran.
+    Rows(Vec<usize>),
+}
+
+/// Outcome of one job.
+pub struct Outcome {
+    /// The job's rows, or the error's message (with its cause chain).
+    pub rows: Result<Rows, String>,
+    /// Wall time of the job in seconds.
+    pub elapsed_s: f64,
+}
+
+/// What the scheduler hands a running job.
+pub struct Context<'a> {
+    /// The plan the job belongs to.
+    pub plan: &'a Plan,
+    /// The output folder.
+    pub out: &'a Path,
+    /// The group's shared dataset, when the group has one.
+    pub shared: Option<&'a Materialised>,
+    /// The rows of the jobs named in [`Inputs::Rows`] that succeeded, in plan order.
+    pub inputs: Vec<(&'a dyn JobKind, &'a Rows)>,
+}
+
+/// Status of a finished job, as the table assembly records it.
+pub struct Status<'a> {
+    /// `Ok` or the error with its cause chain.
+    pub error: Option<&'a str>,
+    /// Wall time in seconds.
+    pub elapsed_s: f64,
+}
+
+/// Every kind of job.
+pub trait JobKind: Send + Sync {
+    /// Readable, file-name-safe id (`held.alpha_h=0.5`, `calibration`).
+    fn id(&self) -> &str;
+    /// The kind's name (`analysis`, `synthesis`, `calibration`, `hypotheses`).
+    fn kind(&self) -> &'static str;
+    /// Canonical identity from which the seed is derived.
+    fn identity(&self) -> &str;
+    /// The job's seed (derived from the master seed and the identity).
+    fn seed(&self) -> u64;
+    /// What the job reads.
+    fn inputs(&self) -> Inputs;
+    /// Materialises the dataset a group of jobs shares (called once per group with
+    /// [`Inputs::Dataset`] `shared`).
+    ///
+    /// # Errors
+    /// If the data cannot be made.
+    fn materialise(&self) -> Result<Materialised> {
+        anyhow::bail!("job {} reads no dataset", self.id())
+    }
+    /// Runs the job.
+    ///
+    /// # Errors
+    /// Any failure of the job; it is recorded and the other jobs go on.
+    fn run(&self, cx: &Context) -> Result<Rows>;
+    /// The job's row of `jobs.parquet` (status, seeds, shape), or `None` for jobs of the run as
+    /// a whole, which the manifest lists.
+    fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>>;
+    /// The job's entry in `manifest.json` (without its timings).
+    fn manifest(&self) -> serde_json::Value;
+}

@@ -1,0 +1,10 @@
+//! Running an experiment: the plan (sweep expansion, job ids, seeds from identities), the job
+//! kinds behind one seam ([`job`]), the scheduler that fans jobs out over a thread pool, the
+//! table assembly that turns the jobs' result rows into Parquet tables, and the manifest.
+
+pub mod jobs;
+pub mod manifest;
+pub mod plan;
+pub mod result;
+pub mod scheduler;
+pub mod tables;

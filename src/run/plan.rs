@@ -1,0 +1,651 @@
+//! From a spec file to a validated list of jobs: sweep expansion (grid axes in all
+//! combinations, zip axes paired), readable job ids, and seeds derived from the master seed and
+//! each job's canonical identity (never its position), so adding a job does not change the
+//! others' random numbers.
+//!
+//! A sweep axis is a dotted field path: `datasets.<id>.<field>[.<sub>...]` (`<id>` may be `*`
+//! for every dataset; a numeric component indexes a list, e.g. `datasets.d.r_h.0`) or
+//! `analysis.<field>` or `synthesis.<field>`. An axis applies to the jobs of the datasets it
+//! names (synthesis axes to the synthesis jobs only); jobs that the swept values do not touch
+//! are not duplicated.
+//!
+//! With a `synthesis` section every dataset and sweep point gives an analysis job (the
+//! original data, `source = original`) and one job per method (`<dataset>.<method>...`).
+
+use crate::experiment::{
+    self, AnalysisSpec, Ctx, Dataset, DatasetSpec, RawSpec, SpecError, SynthesisSpec,
+};
+use crate::seeds::{derive_seed, sha256_hex};
+use crate::synthesis::Method;
+use serde::Serialize;
+use serde_json::Value as Json;
+use serde_yaml_ng::Value as Yaml;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// Longest job id before a hash suffix replaces the tail.
+const MAX_ID_LEN: usize = 96;
+
+/// One unit of work: a dataset under one sweep point.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// Readable, file-name-safe id (`held.alpha_h=0.5`).
+    pub id: String,
+    /// The dataset's id.
+    pub dataset_id: String,
+    /// Validated dataset after the sweep's overrides.
+    pub dataset: Dataset,
+    /// Validated analysis settings after the sweep's overrides.
+    pub analysis: AnalysisSpec,
+    /// The synthesis method of a synthesis job (`None`: the analysis of the original data).
+    pub method: Option<Method>,
+    /// Validated synthesis settings of a synthesis job.
+    pub synthesis: Option<SynthesisSpec>,
+    /// Seed of the generated samples: hash of the master seed and the dataset identity, the
+    /// same for every method of one dataset (common random numbers).
+    pub generation_seed: u64,
+    /// Swept values that apply to this job, by short key (`alpha_h`, `levels`).
+    pub params: BTreeMap<String, Json>,
+    /// Canonical identity (JSON) from which the seeds are derived.
+    pub identity: String,
+    /// Job seed: hash of the master seed and the job identity.
+    pub seed: u64,
+    /// Data seed: hash of the master seed and the dataset identity (dataset id and the
+    /// dataset's own swept values), shared by jobs that see the same data.
+    pub data_seed: u64,
+    /// The noise floor an analysis job measures when the spec has metrics.
+    pub noise_floor: Option<NoiseFloorPlan>,
+}
+
+/// How an analysis job measures the metrics' noise floor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseFloorPlan {
+    /// The original against an independent draw of `samples` samples from the synthetic model,
+    /// generated from `seed` (hash of the master seed and the job identity).
+    Draws {
+        /// Samples of the independent draw (`synthesis.samples`).
+        samples: usize,
+        /// Data seed of the draw.
+        seed: u64,
+    },
+    /// The first `floor(N/2)` samples against the last `floor(N/2)`.
+    Halves,
+}
+
+impl NoiseFloorPlan {
+    /// `draws` or `halves`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            NoiseFloorPlan::Draws { .. } => "draws",
+            NoiseFloorPlan::Halves => "halves",
+        }
+    }
+}
+
+/// A validated experiment.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The spec file.
+    pub file: PathBuf,
+    /// SHA-256 of the spec file's bytes (hex).
+    pub spec_hash: String,
+    /// The parsed spec.
+    pub spec: RawSpec,
+    /// Dataset jobs in spec order (datasets, then sweep points); every job of the run, these
+    /// and those of the run as a whole, is listed by [`crate::run::jobs::all::AllJobs`].
+    pub jobs: Vec<Job>,
+    /// Short keys of all swept parameters, sorted (the extra table columns).
+    pub param_keys: Vec<String>,
+    /// Validated similarity metrics (empty: none).
+    pub metrics: Vec<crate::stats::metrics::Metric>,
+}
+
+/// A parsed sweep axis.
+#[derive(Debug, Clone)]
+struct Axis {
+    /// The axis as written, e.g. `datasets.held.alpha_h`.
+    key: String,
+    /// YAML path of the axis in the spec (`sweep.grid.<key>`).
+    at: String,
+    /// `Some(id)` for a dataset field (`*` = all), `None` for an analysis or synthesis field.
+    dataset: Option<String>,
+    /// Whether the axis sets a `synthesis` field.
+    synthesis: bool,
+    /// Field path below the dataset or analysis section.
+    field: Vec<String>,
+    /// Values.
+    values: Vec<Yaml>,
+}
+
+impl Axis {
+    /// The parameter's name in tables and job ids: the field path below the dataset or
+    /// analysis section, and `synthesis.<field>` for synthesis fields (which share names with
+    /// dataset fields such as `samples`).
+    fn short(&self) -> String {
+        let field = self.field.join(".");
+        if self.synthesis {
+            format!("synthesis.{field}")
+        } else {
+            field
+        }
+    }
+
+    /// Whether the axis sets a field of `ds`'s job for `method`: analysis axes apply to every
+    /// job, synthesis axes to synthesis jobs, `*` to every dataset whose kind takes the field,
+    /// an id to that dataset.
+    fn applies_to(&self, ds: &DatasetSpec, method: Option<Method>) -> bool {
+        if self.synthesis {
+            return method.is_some();
+        }
+        match self.dataset.as_deref() {
+            None => true,
+            Some("*") => ds.fields().contains(&self.field[0].as_str()),
+            Some(id) => id == ds.id,
+        }
+    }
+}
+
+/// Loads, parses and validates a spec file into a [`Plan`]. Nothing is written.
+///
+/// # Errors
+/// A [`SpecError`] naming the file, the YAML path and (when the parser gives it) the line.
+pub fn load(file: &Path) -> Result<Plan, SpecError> {
+    let bytes = std::fs::read(file)
+        .map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;
+    let text = String::from_utf8(bytes.clone())
+        .map_err(|_| SpecError::at(file, ".", "the spec is not UTF-8 text"))?;
+    let spec = experiment::parse(&text, file)?;
+    let raw: Yaml =
+        serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
+    let ctx = Ctx { file };
+    check_top(&spec, raw.get("analysis").is_some(), &ctx)?;
+    let metrics = experiment::check_metrics(&spec, &ctx)?;
+    let axes = parse_axes(&spec, &ctx)?;
+    let points = sweep_points(&axes, &ctx)?;
+    let mut jobs = Vec::new();
+    let mut seen = HashMap::new();
+    let methods: Vec<Option<Method>> = std::iter::once(None)
+        .chain(
+            spec.synthesis
+                .iter()
+                .flat_map(|s| s.methods.iter().copied().map(Some)),
+        )
+        .collect();
+    for (i, ds) in spec.datasets.iter().enumerate() {
+        for point in &points {
+            for &method in &methods {
+                let applied: Vec<&(usize, usize)> = point
+                    .iter()
+                    .filter(|(a, _)| axes[*a].applies_to(ds, method))
+                    .collect();
+                let mut params = BTreeMap::new();
+                for &&(a, v) in &applied {
+                    let axis = &axes[a];
+                    let value =
+                        serde_json::to_value(&axis.values[v]).expect("YAML values are JSON");
+                    if params.insert(axis.short(), value).is_some() {
+                        return Err(ctx.err(
+                            &axis.at,
+                            format!(
+                                "another sweep axis also sets `{}` of dataset {}",
+                                axis.short(),
+                                ds.id
+                            ),
+                        ));
+                    }
+                }
+                let identity = identity(&ds.id, method, &params);
+                if seen.insert(identity.clone(), ()).is_some() {
+                    continue;
+                }
+                let job = build_job(
+                    &spec,
+                    &raw,
+                    &ctx,
+                    (i, ds, method),
+                    &axes,
+                    &applied,
+                    params,
+                    identity,
+                )?;
+                jobs.push(job);
+            }
+        }
+    }
+    for job in &mut jobs {
+        check_job_metrics(&spec, &metrics, &ctx, job)?;
+    }
+    assign_ids(&mut jobs);
+    let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
+    param_keys.sort();
+    param_keys.dedup();
+    Ok(Plan {
+        file: file.to_path_buf(),
+        spec_hash: sha256_hex(text.as_bytes()),
+        spec,
+        jobs,
+        param_keys,
+        metrics,
+    })
+}
+
+impl Plan {
+    /// Seed of the simulated calibration measurements (hash of the master seed).
+    pub fn calibration_seed(&self) -> u64 {
+        derive_seed(self.spec.seed, "calibration", "")
+    }
+}
+
+/// Checks the metrics against one job's data and sets an analysis job's noise floor.
+fn check_job_metrics(
+    spec: &RawSpec,
+    metrics: &[crate::stats::metrics::Metric],
+    ctx: &Ctx,
+    job: &mut Job,
+) -> Result<(), SpecError> {
+    use crate::experiment::NoiseFloor;
+    let (n, h, w) = job.dataset.shape();
+    for (i, m) in metrics.iter().enumerate() {
+        if let crate::stats::metrics::Metric::KlArea(_, block) = m {
+            if *block > h.min(w) {
+                return Err(ctx.err(
+                    format!("metrics[{i}].kl_area.block"),
+                    format!(
+                        "block {block} is larger than the {h}x{w} images of dataset {}",
+                        job.dataset_id
+                    ),
+                ));
+            }
+        }
+    }
+    let (Some(syn), None, false) = (&spec.synthesis, job.method, metrics.is_empty()) else {
+        return Ok(());
+    };
+    // Datasets that can be drawn again: filtered noise (cheap: the default), simulated plants
+    // (as costly as the dataset itself: only when `draws` is asked for).
+    let drawable = match job.dataset {
+        Dataset::FilteredNoise(_) => Some(true),
+        Dataset::Vegetation(_) => Some(false),
+        _ => None,
+    };
+    let draws = NoiseFloorPlan::Draws {
+        samples: syn.samples,
+        seed: derive_seed(spec.seed, "noise_floor", &job.identity),
+    };
+    job.noise_floor = match (spec.noise_floor, drawable) {
+        (NoiseFloor::None, _) => None,
+        (NoiseFloor::Auto, Some(true)) | (NoiseFloor::Draws, Some(_)) => Some(draws),
+        (NoiseFloor::Draws, None) => {
+            return Err(ctx.err(
+                "noise_floor",
+                format!(
+                    "`draws` needs a synthetic or simulated dataset; {} is read from a file \
+                     (use `halves`)",
+                    job.dataset_id
+                ),
+            ))
+        }
+        (NoiseFloor::Halves | NoiseFloor::Auto, _) => {
+            if n < 4 {
+                return Err(ctx.err(
+                    "noise_floor",
+                    format!(
+                        "`halves` needs at least 4 samples; dataset {} has {n}",
+                        job.dataset_id
+                    ),
+                ));
+            }
+            Some(NoiseFloorPlan::Halves)
+        }
+    };
+    Ok(())
+}
+
+/// Document-level checks: name, unique dataset ids.
+fn check_top(spec: &RawSpec, analysis_given: bool, ctx: &Ctx) -> Result<(), SpecError> {
+    if spec.name.is_empty()
+        || !spec
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c))
+        || spec.name.starts_with('.')
+    {
+        return Err(ctx.err("name", format!("name {:?} must be non-empty ASCII letters, digits, `_`, `-` or `.` (it names the output folder)", spec.name)));
+    }
+    if spec.datasets.is_empty() && spec.calibration.is_none() {
+        return Err(ctx.err("datasets", "at least one dataset is needed"));
+    }
+    let text_has_analysis = spec.datasets.is_empty() || analysis_given;
+    if !text_has_analysis {
+        return Err(ctx.err(
+            "analysis",
+            "missing field `analysis` (levels of the multiscale analysis)",
+        ));
+    }
+    if let Some(c) = &spec.calibration {
+        c.check()
+            .map_err(|(field, msg)| ctx.err(format!("calibration.{field}"), msg))?;
+    }
+    let mut ids = HashMap::new();
+    for (i, d) in spec.datasets.iter().enumerate() {
+        if let Some(j) = ids.insert(d.id.clone(), i) {
+            return Err(ctx.err(
+                format!("datasets[{i}].id"),
+                format!("dataset id {:?} is already used by datasets[{j}]", d.id),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Parses the sweep's axis keys and checks their targets exist.
+fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
+    let mut axes = Vec::new();
+    for (section, map) in [("grid", &spec.sweep.grid), ("zip", &spec.sweep.zip)] {
+        for (key, values) in map {
+            let at = format!("sweep.{section}.{key}");
+            let parts: Vec<String> = key.split('.').map(str::to_string).collect();
+            let (dataset, field) = match parts.first().map(String::as_str) {
+                Some("datasets") if parts.len() >= 3 => {
+                    let id = &parts[1];
+                    if id != "*" && !spec.datasets.iter().any(|d| &d.id == id) {
+                        return Err(ctx.err(at, format!("no dataset with id {id:?}")));
+                    }
+                    (Some(id.clone()), parts[2..].to_vec())
+                }
+                Some("analysis") if parts.len() >= 2 => (None, parts[1..].to_vec()),
+                Some("synthesis") if parts.len() >= 2 && spec.synthesis.is_some() => {
+                    (None, parts[1..].to_vec())
+                }
+                _ => {
+                    return Err(ctx.err(
+                        at,
+                        "a sweep axis is `datasets.<id>.<field>`, `analysis.<field>` or `synthesis.<field>` (with a synthesis section)",
+                    ));
+                }
+            };
+            if dataset.as_deref() == Some("*")
+                && !spec
+                    .datasets
+                    .iter()
+                    .any(|d| d.fields().contains(&field[0].as_str()))
+            {
+                return Err(ctx.err(&at, format!("no dataset takes the field `{}`", field[0])));
+            }
+            if field.first().is_some_and(|f| f == "id" || f == "kind") {
+                return Err(ctx.err(at, "`id` and `kind` cannot be swept"));
+            }
+            if values.is_empty() {
+                return Err(ctx.err(at, "a sweep axis needs at least one value"));
+            }
+            axes.push(Axis {
+                synthesis: key.starts_with("synthesis."),
+                key: key.clone(),
+                at,
+                dataset,
+                field,
+                values: values.clone(),
+            });
+        }
+    }
+    Ok(axes)
+}
+
+/// Sweep points as lists of `(axis index, value index)`.
+fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, SpecError> {
+    let grid: Vec<usize> = (0..axes.len())
+        .filter(|&a| axes[a].at.starts_with("sweep.grid."))
+        .collect();
+    let zip: Vec<usize> = (0..axes.len())
+        .filter(|&a| axes[a].at.starts_with("sweep.zip."))
+        .collect();
+    let mut points: Vec<Vec<(usize, usize)>> = vec![vec![]];
+    for &a in &grid {
+        points = points
+            .into_iter()
+            .flat_map(|p| {
+                (0..axes[a].values.len()).map(move |v| {
+                    let mut q = p.clone();
+                    q.push((a, v));
+                    q
+                })
+            })
+            .collect();
+    }
+    if let Some(&first) = zip.first() {
+        let n = axes[first].values.len();
+        if let Some(&bad) = zip.iter().find(|&&a| axes[a].values.len() != n) {
+            return Err(ctx.err(
+                &axes[bad].at,
+                format!(
+                    "zip axes must have equal lengths: {} has {n} values, {} has {}",
+                    axes[first].key,
+                    axes[bad].key,
+                    axes[bad].values.len()
+                ),
+            ));
+        }
+        points = points
+            .into_iter()
+            .flat_map(|p| {
+                let zip = zip.clone();
+                (0..n).map(move |v| {
+                    let mut q = p.clone();
+                    q.extend(zip.iter().map(|&a| (a, v)));
+                    q
+                })
+            })
+            .collect();
+    }
+    Ok(points)
+}
+
+/// Canonical identity of a dataset under some swept values.
+fn identity(dataset: &str, method: Option<Method>, params: &BTreeMap<String, Json>) -> String {
+    #[derive(Serialize)]
+    struct Id<'a> {
+        dataset: &'a str,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        method: Option<Method>,
+        params: &'a BTreeMap<String, Json>,
+    }
+    serde_json::to_string(&Id {
+        dataset,
+        method,
+        params,
+    })
+    .expect("serialisable")
+}
+
+/// Applies overrides and validates one job.
+#[allow(clippy::too_many_arguments)]
+fn build_job(
+    spec: &RawSpec,
+    raw: &Yaml,
+    ctx: &Ctx,
+    (index, ds, method): (usize, &DatasetSpec, Option<Method>),
+    axes: &[Axis],
+    applied: &[&(usize, usize)],
+    params: BTreeMap<String, Json>,
+    identity: String,
+) -> Result<Job, SpecError> {
+    let mut ds_value = raw["datasets"][index].clone();
+    let mut an_value = raw["analysis"].clone();
+    let mut syn_value = raw["synthesis"].clone();
+    let mut data_params = BTreeMap::new();
+    for &&(a, v) in applied {
+        let axis = &axes[a];
+        let target = if axis.dataset.is_some() {
+            &mut ds_value
+        } else if axis.synthesis {
+            &mut syn_value
+        } else {
+            &mut an_value
+        };
+        set_path(target, &axis.field, axis.values[v].clone()).map_err(|m| ctx.err(&axis.at, m))?;
+        if axis.dataset.is_some() {
+            data_params.insert(axis.short(), params[&axis.short()].clone());
+        }
+    }
+    let swept = || {
+        applied
+            .iter()
+            .map(|&&(a, v)| {
+                format!(
+                    "{} = {}",
+                    axes[a].key,
+                    serde_json::to_string(&axes[a].values[v]).unwrap_or_default()
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let typed = |e: serde_path_to_error::Error<serde_yaml_ng::Error>, section: &str| {
+        let first = applied
+            .first()
+            .map(|&&(a, _)| axes[a].at.clone())
+            .unwrap_or_else(|| section.to_string());
+        ctx.err(
+            first,
+            format!("with {}: {section}.{}: {}", swept(), e.path(), e.inner()),
+        )
+    };
+    let (dataset_spec, analysis, synthesis) = if applied.is_empty() {
+        (ds.clone(), spec.analysis.clone(), spec.synthesis.clone())
+    } else {
+        let d: DatasetSpec = serde_path_to_error::deserialize(ds_value)
+            .map_err(|e| typed(e, &format!("datasets[{index}]")))?;
+        let a: AnalysisSpec =
+            serde_path_to_error::deserialize(an_value).map_err(|e| typed(e, "analysis"))?;
+        let s: Option<SynthesisSpec> =
+            serde_path_to_error::deserialize(syn_value).map_err(|e| typed(e, "synthesis"))?;
+        (d, a, s)
+    };
+    let synthesis = synthesis.filter(|_| method.is_some());
+    let dataset = dataset_spec
+        .check(ctx, &format!("datasets[{index}]"), analysis.levels)
+        .map_err(|mut e| {
+            if !applied.is_empty() {
+                e.message = format!("{} (with {})", e.message, swept());
+            }
+            e
+        })?;
+    if let Some(s) = &synthesis {
+        let (_, h, w) = dataset.shape();
+        s.check(ctx, &analysis, h, w).map_err(|mut e| {
+            if !applied.is_empty() {
+                e.message = format!("{} (with {})", e.message, swept());
+            }
+            e
+        })?;
+    }
+    let data_identity = self::identity(&ds.id, None, &data_params);
+    Ok(Job {
+        method,
+        synthesis,
+        generation_seed: derive_seed(spec.seed, "generate", &data_identity),
+        id: String::new(),
+        dataset_id: ds.id.clone(),
+        dataset,
+        analysis,
+        seed: derive_seed(spec.seed, "job", &identity),
+        data_seed: derive_seed(spec.seed, "data", &data_identity),
+        params,
+        identity,
+        noise_floor: None,
+    })
+}
+
+/// Sets the value at a dotted field path inside a YAML mapping (numeric parts index lists).
+fn set_path(target: &mut Yaml, field: &[String], value: Yaml) -> Result<(), String> {
+    let (last, walk) = field.split_last().ok_or("empty field path")?;
+    let mut cur = target;
+    for part in walk {
+        cur = step(cur, part)?;
+    }
+    match cur {
+        Yaml::Mapping(m) => {
+            m.insert(Yaml::String(last.clone()), value);
+            Ok(())
+        }
+        Yaml::Sequence(s) => {
+            let i: usize = last
+                .parse()
+                .map_err(|_| format!("`{last}` is not a list index"))?;
+            let len = s.len();
+            *s.get_mut(i)
+                .ok_or(format!("index {i} is past the list's {len} entries"))? = value;
+            Ok(())
+        }
+        _ => Err(format!("cannot set `{last}` inside a scalar")),
+    }
+}
+
+fn step<'a>(cur: &'a mut Yaml, part: &str) -> Result<&'a mut Yaml, String> {
+    match cur {
+        Yaml::Mapping(m) => m.get_mut(part).ok_or(format!(
+            "no field `{part}` to descend into (set it in the dataset first)"
+        )),
+        Yaml::Sequence(s) => {
+            let i: usize = part
+                .parse()
+                .map_err(|_| format!("`{part}` is not a list index"))?;
+            s.get_mut(i).ok_or(format!("no list entry {i}"))
+        }
+        _ => Err(format!("cannot descend into `{part}` of a scalar")),
+    }
+}
+
+/// Formats a swept value for a job id.
+fn id_value(v: &Json) -> String {
+    match v {
+        Json::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// Makes a string safe as a file name.
+fn sanitize(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._=+-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Assigns readable ids; a short hash of the identity is appended only where ids collide
+/// after sanitising, or are too long.
+fn assign_ids(jobs: &mut [Job]) {
+    let readable: Vec<String> = jobs
+        .iter()
+        .map(|j| {
+            let mut id = sanitize(&j.dataset_id);
+            if let Some(m) = j.method {
+                id.push('.');
+                id.push_str(m.as_str());
+            }
+            for (k, v) in &j.params {
+                id.push_str(&format!(".{}={}", sanitize(k), sanitize(&id_value(v))));
+            }
+            id
+        })
+        .collect();
+    let mut count: HashMap<&str, usize> = HashMap::new();
+    for id in &readable {
+        *count.entry(id).or_default() += 1;
+    }
+    for (job, id) in jobs.iter_mut().zip(&readable) {
+        job.id = if count[id.as_str()] > 1 || id.len() > MAX_ID_LEN {
+            let hash = &sha256_hex(job.identity.as_bytes())[..8];
+            let keep: String = id.chars().take(MAX_ID_LEN).collect();
+            format!("{keep}~{hash}")
+        } else {
+            id.clone()
+        };
+    }
+}

@@ -1,0 +1,281 @@
+//! Runs a validated plan: every job through the one seam ([`JobKind`]), in parallel on a rayon
+//! pool of the requested size; jobs that read the same dataset run as one group (the stack
+//! materialised once when it is worth sharing); jobs that read other jobs' rows run after
+//! them. A progress bar on a terminal (plain lines otherwise); a failed or panicking job is
+//! recorded without stopping the others. Then the table assembly, the stale-map cleanup and
+//! `manifest.json`, all written atomically into the output folder.
+
+use crate::io::atomic::{remove_folders_except, write_parquet};
+use crate::run::jobs::all::AllJobs;
+use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Rows, Status};
+use crate::run::plan::Plan;
+use crate::run::{manifest, tables};
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use std::io::IsTerminal;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// How to run.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Output folder.
+    pub out: PathBuf,
+    /// Worker threads.
+    pub threads: usize,
+    /// Show a progress bar (otherwise one line per finished job on stderr).
+    pub progress_bar: bool,
+    /// Print progress at all.
+    pub quiet: bool,
+}
+
+impl RunOptions {
+    /// Options with a progress bar when stderr is a terminal.
+    pub fn new(out: PathBuf, threads: usize) -> Self {
+        RunOptions {
+            out,
+            threads,
+            progress_bar: std::io::stderr().is_terminal(),
+            quiet: false,
+        }
+    }
+}
+
+/// What a run did.
+#[derive(Debug, Clone)]
+pub struct RunSummary {
+    /// Jobs run.
+    pub total: usize,
+    /// Jobs that failed.
+    pub failed: Vec<(String, String)>,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Wall time in seconds.
+    pub elapsed_s: f64,
+}
+
+/// Default number of worker threads: the machine's available parallelism.
+pub fn default_threads() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+}
+
+/// Runs every job of `plan` and writes the outputs.
+///
+/// # Errors
+/// Only for failures outside the jobs (output folder, tables, manifest); a failed job is
+/// recorded in `jobs.parquet` (or, for a job of the run as a whole, in the manifest) and in the
+/// returned summary.
+pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
+    let start = Instant::now();
+    std::fs::create_dir_all(&opts.out)
+        .with_context(|| format!("cannot create {}", opts.out.display()))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads.max(1))
+        .build()?;
+    let all = AllJobs::new(plan);
+    let jobs = all.list();
+    let bar = progress(jobs.len(), opts);
+    let mut outcomes: Vec<Option<Outcome>> = (0..jobs.len()).map(|_| None).collect();
+    // Jobs that read other jobs' rows wait for the first wave.
+    let (first, second): (Vec<usize>, Vec<usize>) =
+        (0..jobs.len()).partition(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)));
+    for wave in [first, second] {
+        let done: Vec<(usize, Outcome)> = pool.install(|| {
+            groups(&jobs, &wave)
+                .par_iter()
+                .flat_map_iter(|group| run_group(plan, &jobs, &outcomes, group, opts, &bar))
+                .collect()
+        });
+        for (i, o) in done {
+            outcomes[i] = Some(o);
+        }
+    }
+    let outcomes: Vec<Outcome> = outcomes
+        .into_iter()
+        .map(|o| o.expect("every job ran"))
+        .collect();
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let t_tables = Instant::now();
+    pool.install(|| write_tables(plan, &jobs, &outcomes, opts))?;
+    let tables_s = t_tables.elapsed().as_secs_f64();
+    let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
+    remove_folders_except(&opts.out.join("maps"), &ids)?;
+    let failed: Vec<(String, String)> = jobs
+        .iter()
+        .zip(&outcomes)
+        .filter_map(|(job, o)| {
+            o.rows
+                .as_ref()
+                .err()
+                .map(|e| (job.id().to_string(), e.clone()))
+        })
+        .collect();
+    let elapsed_s = start.elapsed().as_secs_f64();
+    manifest::write(
+        plan,
+        &jobs,
+        &outcomes,
+        opts.threads,
+        &opts.out,
+        (elapsed_s, tables_s),
+    )?;
+    Ok(RunSummary {
+        total: outcomes.len(),
+        failed,
+        out: opts.out.clone(),
+        elapsed_s,
+    })
+}
+
+/// The jobs of `wave` grouped by the dataset they read (its data seed), groups in order of
+/// first appearance, jobs in plan order; every other job is a group of its own.
+fn groups(jobs: &[&dyn JobKind], wave: &[usize]) -> Vec<Vec<usize>> {
+    let mut groups: Vec<(Option<u64>, Vec<usize>)> = vec![];
+    for &i in wave {
+        let key = match jobs[i].inputs() {
+            Inputs::Dataset { data_seed, .. } => Some(data_seed),
+            _ => None,
+        };
+        match groups.iter_mut().find(|(k, _)| key.is_some() && *k == key) {
+            Some((_, g)) => g.push(i),
+            None => groups.push((key, vec![i])),
+        }
+    }
+    groups.into_iter().map(|(_, g)| g).collect()
+}
+
+/// Runs one group of jobs: its shared dataset materialised once (no lock: the group owns it)
+/// when worth it, then its jobs in parallel; each job's panic or error is its own outcome.
+fn run_group(
+    plan: &Plan,
+    jobs: &[&dyn JobKind],
+    earlier: &[Option<Outcome>],
+    group: &[usize],
+    opts: &RunOptions,
+    bar: &Option<ProgressBar>,
+) -> Vec<(usize, Outcome)> {
+    let first = jobs[group[0]];
+    let shared = (group.len() > 1
+        && matches!(first.inputs(), Inputs::Dataset { shared: true, .. }))
+    .then(|| {
+        catch_unwind(AssertUnwindSafe(|| {
+            first.materialise().map_err(|e| format!("{e:#}"))
+        }))
+        .unwrap_or_else(|p| Err(format!("dataset panicked: {}", panic_message(&p))))
+    });
+    group
+        .par_iter()
+        .map(|&index| {
+            let job = jobs[index];
+            let t = Instant::now();
+            let rows = match &shared {
+                Some(Err(e)) => Err(e.clone()),
+                _ => {
+                    let inputs = match job.inputs() {
+                        Inputs::Rows(from) => from
+                            .iter()
+                            .filter_map(|&k| {
+                                let rows = earlier[k].as_ref()?.rows.as_ref().ok()?;
+                                Some((jobs[k], rows))
+                            })
+                            .collect(),
+                        _ => vec![],
+                    };
+                    let cx = JobContext {
+                        plan,
+                        out: &opts.out,
+                        shared: shared.as_ref().and_then(|r| r.as_ref().ok()),
+                        inputs,
+                    };
+                    catch_unwind(AssertUnwindSafe(|| job.run(&cx)))
+                        .unwrap_or_else(|p| {
+                            Err(anyhow::anyhow!("job panicked: {}", panic_message(&p)))
+                        })
+                        .map_err(|e| format!("{e:#}"))
+                }
+            };
+            let outcome = Outcome {
+                rows,
+                elapsed_s: t.elapsed().as_secs_f64(),
+            };
+            report(bar, opts, job, &outcome);
+            (index, outcome)
+        })
+        .collect()
+}
+
+/// Assembles the tables from every job's rows and status row and writes them, in parallel.
+fn write_tables(
+    plan: &Plan,
+    jobs: &[&dyn JobKind],
+    outcomes: &[Outcome],
+    opts: &RunOptions,
+) -> Result<()> {
+    let status: Vec<Option<Rows>> = jobs
+        .iter()
+        .zip(outcomes)
+        .map(|(job, o)| {
+            let s = Status {
+                error: o.rows.as_ref().err().map(String::as_str),
+                elapsed_s: o.elapsed_s,
+            };
+            job.status_row(plan, &s).transpose().map(|row| {
+                row.map(|df| Rows {
+                    tables: vec![("jobs", df)],
+                    ..Rows::default()
+                })
+            })
+        })
+        .collect::<Result<_>>()?;
+    let mut rows: Vec<&[(&'static str, polars::prelude::DataFrame)]> = vec![];
+    for (o, s) in outcomes.iter().zip(&status) {
+        rows.extend(o.rows.as_ref().ok().map(|r| r.tables.as_slice()));
+        rows.extend(s.as_ref().map(|r| r.tables.as_slice()));
+    }
+    let tables = tables::assemble(plan, &rows)?;
+    tables.into_par_iter().try_for_each(|(name, mut df)| {
+        write_parquet(&opts.out.join(format!("{name}.parquet")), &mut df)
+    })
+}
+
+fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
+    (opts.progress_bar && !opts.quiet).then(|| {
+        let bar = ProgressBar::new(n as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} jobs [{elapsed_precise}] {msg}")
+                .expect("valid template"),
+        );
+        bar
+    })
+}
+
+fn report(bar: &Option<ProgressBar>, opts: &RunOptions, job: &dyn JobKind, o: &Outcome) {
+    let status = match &o.rows {
+        Ok(_) => "ok".to_string(),
+        Err(e) => format!("FAILED: {e}"),
+    };
+    match bar {
+        Some(b) => {
+            if o.rows.is_err() {
+                b.println(format!("{}: {status}", job.id()));
+            }
+            b.set_message(job.id().to_string());
+            b.inc(1);
+        }
+        None if !opts.quiet => eprintln!("{} {status} ({:.3} s)", job.id(), o.elapsed_s),
+        None => {}
+    }
+}
+
+fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
