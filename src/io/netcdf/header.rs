@@ -5,17 +5,17 @@
 use super::{AttrValue, Dimension, NcError, NcType, Variable};
 use std::path::Path;
 
-const NC_DIMENSION: u32 = 0x0A;
-const NC_VARIABLE: u32 = 0x0B;
-const NC_ATTRIBUTE: u32 = 0x0C;
-const STREAMING: u32 = 0xFFFF_FFFF;
+pub(super) const NC_DIMENSION: u32 = 0x0A;
+pub(super) const NC_VARIABLE: u32 = 0x0B;
+pub(super) const NC_ATTRIBUTE: u32 = 0x0C;
+pub(super) const STREAMING: u32 = 0xFFFF_FFFF;
 
-fn pad4(n: u64) -> u64 {
+pub(super) fn pad4(n: u64) -> u64 {
     n.div_ceil(4) * 4
 }
 
 /// Cursor over the header bytes that turns every short read into an error.
-struct Header<'a> {
+pub(super) struct Header<'a> {
     path: &'a Path,
     bytes: &'a [u8],
     pos: usize,

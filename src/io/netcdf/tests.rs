@@ -1,8 +1,8 @@
-
 //! Round trips through a minimal NetCDF-3 writer (test-only), error
 //! handling on damaged files, and cross-checks against scipy on NOAA's
 //! `monthly_navy_winds.cdf` (fixtures made by `tests/netcdf_crosscheck.py`).
 
+use super::header::*;
 use super::*;
 use std::path::PathBuf;
 

@@ -4,10 +4,10 @@
 use super::*;
 
 /// Pixel size of histogram and curve figures.
-const CHART_SIZE: (u32, u32) = (800, 520);
+pub(super) const CHART_SIZE: (u32, u32) = (800, 520);
 
 /// Matplotlib's "tab10" palette.
-const PALETTE: [RGBColor; 10] = [
+pub(super) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -21,7 +21,7 @@ const PALETTE: [RGBColor; 10] = [
 ];
 
 /// Chart on the whole figure with title, mesh, axis descriptions and the given ranges.
-fn chart<'a, DB: DrawingBackend>(
+pub(super) fn chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
     title: &str,
     (x, x_label): (Range<f64>, &str),
@@ -52,7 +52,7 @@ where
 }
 
 /// Draws the legend at `position` inside the plot.
-fn legend<'a, DB: DrawingBackend + 'a>(
+pub(super) fn legend<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     position: SeriesLabelPosition,
 ) -> DrawResult
@@ -69,7 +69,7 @@ where
     Ok(())
 }
 
-struct Hist<'s> {
+pub(super) struct Hist<'s> {
     title: &'s str,
     x_label: &'s str,
     names: Vec<String>,
@@ -205,7 +205,11 @@ pub fn histograms(
 }
 
 /// The plot corner (upper right, upper left, lower right, lower left) holding fewest of `pts`.
-fn emptiest_corner(pts: &[(f64, f64)], x: Range<f64>, y: Range<f64>) -> SeriesLabelPosition {
+pub(super) fn emptiest_corner(
+    pts: &[(f64, f64)],
+    x: Range<f64>,
+    y: Range<f64>,
+) -> SeriesLabelPosition {
     let uv = |&(px, py): &(f64, f64)| {
         (
             (px - x.start) / (x.end - x.start),
@@ -231,7 +235,7 @@ fn emptiest_corner(pts: &[(f64, f64)], x: Range<f64>, y: Range<f64>) -> SeriesLa
     .map_or(SeriesLabelPosition::UpperRight, |c| c.0)
 }
 
-struct Curves<'s> {
+pub(super) struct Curves<'s> {
     title: &'s str,
     x_label: &'s str,
     y_label: &'s str,

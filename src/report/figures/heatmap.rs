@@ -4,20 +4,20 @@
 use super::*;
 
 /// Side of a panel's plot square in pixels (divisible by 32, 16 and 8: crisp level maps).
-const PANEL: u32 = 224;
-const PAD_L: u32 = 64;
-const PAD_R: u32 = 14;
-const PAD_T: u32 = 30;
-const PAD_B: u32 = 50;
-const CELL_W: u32 = PAD_L + PANEL + PAD_R;
-const CELL_H: u32 = PAD_T + PANEL + PAD_B;
+pub(super) const PANEL: u32 = 224;
+pub(super) const PAD_L: u32 = 64;
+pub(super) const PAD_R: u32 = 14;
+pub(super) const PAD_T: u32 = 30;
+pub(super) const PAD_B: u32 = 50;
+pub(super) const CELL_W: u32 = PAD_L + PANEL + PAD_R;
+pub(super) const CELL_H: u32 = PAD_T + PANEL + PAD_B;
 /// Height of the figure title band, and width of the colour-bar band on the right.
-const HEAD: u32 = 44;
-const BAR_AREA: u32 = 140;
-const BAR_W: u32 = 18;
+pub(super) const HEAD: u32 = 44;
+pub(super) const BAR_AREA: u32 = 140;
+pub(super) const BAR_W: u32 = 18;
 
 /// Pixel size of a heat-map grid with `nrows` x `ncols` panels.
-fn grid_size(nrows: usize, ncols: usize) -> (u32, u32) {
+pub(super) fn grid_size(nrows: usize, ncols: usize) -> (u32, u32) {
     (
         ncols as u32 * CELL_W + BAR_AREA,
         HEAD + nrows as u32 * CELL_H,
@@ -25,14 +25,14 @@ fn grid_size(nrows: usize, ncols: usize) -> (u32, u32) {
 }
 
 /// Image size of a `rows` x `cols` map fitted into the panel square, aspect ratio preserved.
-fn fit(rows: usize, cols: usize) -> (u32, u32) {
+pub(super) fn fit(rows: usize, cols: usize) -> (u32, u32) {
     let s = f64::from(PANEL) / rows.max(cols) as f64;
     let px = |n: usize| ((n as f64 * s).round() as u32).clamp(1, PANEL);
     (px(cols), px(rows))
 }
 
 /// Where a panel's image goes (centred in its plot square) and which axis labels it carries.
-struct PanelGeo<'p, 'a> {
+pub(super) struct PanelGeo<'p, 'a> {
     panel: &'p Panel<'a>,
     x: u32,
     y: u32,
@@ -42,7 +42,7 @@ struct PanelGeo<'p, 'a> {
     y_label: bool,
 }
 
-struct HeatGrid<'p, 'a> {
+pub(super) struct HeatGrid<'p, 'a> {
     title: &'p str,
     bar_label: &'p str,
     geo: Vec<PanelGeo<'p, 'a>>,

@@ -1,4 +1,3 @@
-
 //! Tests against the f64 oracle (accuracy of each term and of the
 //! distance for every form), identities (d(R, R) = 0, invariance to a
 //! complex scale), the cost model, and bitwise determinism across rayon

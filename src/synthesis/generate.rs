@@ -1,0 +1,173 @@
+//! Generating samples from a fitted model: sample `s` from ChaCha20 stream `s` of the seed
+//! (filter methods: a white seed filtered and scaled; full covariance: the low-rank GEMM
+//! sampler; fourth order: the Fleishman transform), in batches and in parallel.
+
+use super::*;
+
+impl Model {
+    /// Image size `(H, W)`.
+    pub fn shape(&self) -> (usize, usize) {
+        self.mean.dim()
+    }
+
+    /// Writes sample `index` of the generation seeded by `seed` into `out` (`H * W`).
+    pub fn sample_into(&self, seed: u64, index: usize, out: &mut [Complex64]) {
+        let (h, w) = self.shape();
+        let mut rng = ChaCha20Rng::seed_from_u64(seed);
+        rng.set_stream(index as u64);
+        match (&self.filter, &self.deviations) {
+            (Some(f), _) => {
+                let k = f.bank.half_width;
+                let white = crate::seeds::white_seed(seed, index, h + 2 * k, w + 2 * k);
+                filter_seed(&f.bank, white.view(), out);
+                let (mean, std) = (
+                    self.mean.as_slice().expect("standard layout"),
+                    self.std.as_slice().expect("standard layout"),
+                );
+                for (((x, sd), mu), s) in out.iter_mut().zip(f.bank.output_sds()).zip(mean).zip(std)
+                {
+                    *x = mu + *x * (s / sd);
+                }
+            }
+            (None, Some(_)) => self.full_covariance_c128(seed, index, out),
+            (None, None) if self.fourth.is_some() => {
+                let f = self.fourth.as_ref().expect("checked");
+                for (p, x) in out.iter_mut().enumerate() {
+                    let (i, j) = (p / w, p % w);
+                    let part = |comp: usize, z: f64| {
+                        let coef = [0, 1, 2, 3].map(|k| f.coefficients[[comp, k, i, j]]);
+                        f.component_sd[[comp, i, j]] * crate::stats::fleishman::transform(&coef, z)
+                    };
+                    let (zr, zi): (f64, f64) = (
+                        StandardNormal.sample(&mut rng),
+                        StandardNormal.sample(&mut rng),
+                    );
+                    *x = self.mean[[i, j]] + Complex64::new(part(0, zr), part(1, zi));
+                }
+            }
+            (None, None) => {
+                let scale = std::f64::consts::FRAC_1_SQRT_2;
+                for (p, x) in out.iter_mut().enumerate() {
+                    let (re, im): (f64, f64) = (
+                        StandardNormal.sample(&mut rng),
+                        StandardNormal.sample(&mut rng),
+                    );
+                    let s = self.std[[p / w, p % w]] * scale;
+                    *x = self.mean[[p / w, p % w]] + Complex64::new(re * s, im * s);
+                }
+            }
+        }
+    }
+
+    /// Full covariance: the deviation sums `sum_k z_k d_k` of samples `first .. first + count`
+    /// into `acc` (`count x 2P` f32, real and imaginary parts interleaved), `z_k` the sample's
+    /// normals drawn in order from its ChaCha20 stream (see [`crate::stats::lowrank`] for the
+    /// arithmetic, which does not depend on `count`).
+    fn full_covariance_sums(
+        &self,
+        seed: u64,
+        first: usize,
+        count: usize,
+        acc: &mut [f32],
+        finish: impl Fn(usize, &mut [f32]),
+    ) {
+        let dev = self.deviations.as_ref().expect("a full-covariance model");
+        let panels = self
+            .packed
+            .get_or_init(|| crate::stats::lowrank::Panels::new(dev.view()));
+        let n = panels.n();
+        let mut z = vec![0.0f32; count * n];
+        for (c, zc) in z.chunks_exact_mut(n.max(1)).enumerate() {
+            let mut rng = ChaCha20Rng::seed_from_u64(seed);
+            rng.set_stream((first + c) as u64);
+            for v in zc {
+                let x: f64 = StandardNormal.sample(&mut rng);
+                *v = x as f32;
+            }
+        }
+        crate::stats::lowrank::combine_then(panels, &z, count, acc, finish);
+    }
+
+    /// Full covariance: samples `first ..` (as many as `out` holds, `H * W` each) in complex128,
+    /// the mean plus the f32 deviation sums.
+    fn full_covariance_c128(&self, seed: u64, first: usize, out: &mut [Complex64]) {
+        let p = self.mean.len();
+        let mut acc = vec![0.0f32; 2 * out.len()];
+        self.full_covariance_sums(seed, first, out.len() / p, &mut acc, |_, _| {});
+        let mean = self.mean.as_slice().expect("standard layout");
+        for (i, (x, a)) in out.iter_mut().zip(acc.chunks_exact(2)).enumerate() {
+            *x = mean[i % p] + Complex64::new(f64::from(a[0]), f64::from(a[1]));
+        }
+    }
+
+    /// Generates samples `first .. first + count` as complex64 (the format of saved samples),
+    /// in parallel on the caller's rayon pool; each sample is computed in f64 and rounded.
+    pub fn generate_c64(
+        &self,
+        seed: u64,
+        first: usize,
+        count: usize,
+    ) -> Array3<num_complex::Complex<f32>> {
+        let (h, w) = self.shape();
+        let mut out = Array3::from_elem((count, h, w), num_complex::Complex::new(0.0f32, 0.0));
+        if let (None, Some(_)) = (&self.filter, &self.deviations) {
+            let mean: &[f64] = bytemuck::cast_slice(self.mean.as_slice().expect("standard layout"));
+            let flat: &mut [f32] =
+                bytemuck::cast_slice_mut(out.as_slice_mut().expect("standard layout"));
+            flat.par_chunks_mut(FULL_COVARIANCE_BATCH * 2 * h * w)
+                .enumerate()
+                .for_each(|(b, block)| {
+                    let count = block.len() / (2 * h * w);
+                    self.full_covariance_sums(
+                        seed,
+                        first + b * FULL_COVARIANCE_BATCH,
+                        count,
+                        block,
+                        |c0, values| {
+                            for (x, mu) in values.iter_mut().zip(&mean[c0..]) {
+                                *x = (mu + f64::from(*x)) as f32;
+                            }
+                        },
+                    );
+                });
+            return out;
+        }
+        out.as_slice_mut()
+            .expect("standard layout")
+            .par_chunks_mut(h * w)
+            .enumerate()
+            .for_each_init(
+                || vec![Complex64::new(0.0, 0.0); h * w],
+                |buf, (s, plane)| {
+                    self.sample_into(seed, first + s, buf);
+                    for (o, x) in plane.iter_mut().zip(buf.iter()) {
+                        *o = num_complex::Complex::new(x.re as f32, x.im as f32);
+                    }
+                },
+            );
+        out
+    }
+
+    /// Generates samples `first .. first + count` of the generation seeded by `seed`, in
+    /// parallel on the caller's rayon pool.
+    pub fn generate(&self, seed: u64, first: usize, count: usize) -> Array3<Complex64> {
+        let (h, w) = self.shape();
+        let mut out = Array3::zeros((count, h, w));
+        if let (None, Some(_)) = (&self.filter, &self.deviations) {
+            out.as_slice_mut()
+                .expect("standard layout")
+                .par_chunks_mut(FULL_COVARIANCE_BATCH * h * w)
+                .enumerate()
+                .for_each(|(b, block)| {
+                    self.full_covariance_c128(seed, first + b * FULL_COVARIANCE_BATCH, block)
+                });
+            return out;
+        }
+        out.as_slice_mut()
+            .expect("standard layout")
+            .par_chunks_mut(h * w)
+            .enumerate()
+            .for_each(|(s, plane)| self.sample_into(seed, first + s, plane));
+        out
+    }
+}
