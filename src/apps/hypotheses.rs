@@ -89,25 +89,20 @@ pub struct PlantStats {
     pub correlating: Array2<f64>,
 }
 
-impl PlantStats {
-    /// The statistics of dataset `dataset` (named `plant_<letter>_<wind>`, else `None`) from its
-    /// analysis and correlating function.
-    pub fn new(dataset: &str, analysis: &Analysis, correlating: Array2<f64>) -> Option<Self> {
-        let (plant, wind) = parse_id(dataset)?;
-        Some(PlantStats {
-            dataset: dataset.to_string(),
-            plant,
-            wind,
-            mean_variance: crate::stats::metrics::finite_mean(&analysis.variance).0,
-            level_correlations: analysis
-                .levels
-                .iter()
-                .map(|l| Direction::ALL.map(|d| l.summary(d).mean_correlation))
-                .collect(),
-            correlating,
-        })
-    }
+/// The numbers of an analysis that the tests use: the mean over the finite pixels of the pixel
+/// variance, and per level the mean correlation of directions H, V and D.
+pub fn analysis_numbers(analysis: &Analysis) -> (f64, Vec<[f64; 3]>) {
+    (
+        crate::stats::metrics::finite_mean(&analysis.variance).0,
+        analysis
+            .levels
+            .iter()
+            .map(|l| Direction::ALL.map(|d| l.summary(d).mean_correlation))
+            .collect(),
+    )
+}
 
+impl PlantStats {
     /// Mean of the level-`l` (0-based) mean correlations over H, V, D.
     fn level_mean(&self, l: usize) -> f64 {
         self.level_correlations[l].iter().sum::<f64>() / 3.0

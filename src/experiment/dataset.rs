@@ -284,10 +284,10 @@ pub(super) fn f_start() -> f64 {
 pub(super) fn f_stop() -> f64 {
     18e9
 }
-pub(super) fn grid_points() -> usize {
+fn grid_points() -> usize {
     256
 }
-pub(super) fn span() -> f64 {
+fn span() -> f64 {
     51.0
 }
 

@@ -12,7 +12,7 @@ pub struct HypothesesSpec {
     pub max_offset: usize,
 }
 
-pub(super) fn four() -> usize {
+fn four() -> usize {
     4
 }
 

@@ -26,7 +26,7 @@ pub struct SynthesisSpec {
     pub analyse_generated: bool,
 }
 
-pub(super) fn default_half_width() -> usize {
+fn default_half_width() -> usize {
     8
 }
 

@@ -3,7 +3,7 @@
 
 use super::*;
 
-pub(super) const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
+const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:1em 0;font-size:90%}caption{text-align:left;font-weight:bold;padding:.3em 0}
 th,td{border:1px solid #ccc;padding:2px 6px}td.num{text-align:right;font-family:monospace}
 figure{display:inline-block;margin:1em 1em 1em 0;vertical-align:top;max-width:100%}figure img{max-width:100%;border:1px solid #eee}
@@ -12,9 +12,9 @@ nav a{margin-right:1em}";
 
 /// After the page has loaded, records on `<body>` how many images loaded (a browser test
 /// reads it back); no network and no effect on the page otherwise.
-pub(super) const SCRIPT: &str = "window.addEventListener('load',function(){var im=document.images,ok=0;for(var i=0;i<im.length;i++){if(im[i].complete&&im[i].naturalWidth>0)ok++;}document.body.setAttribute('data-images-total',im.length);document.body.setAttribute('data-images-loaded',ok);});";
+const SCRIPT: &str = "window.addEventListener('load',function(){var im=document.images,ok=0;for(var i=0;i<im.length;i++){if(im[i].complete&&im[i].naturalWidth>0)ok++;}document.body.setAttribute('data-images-total',im.length);document.body.setAttribute('data-images-loaded',ok);});";
 
-pub(super) fn link(p: &Path) -> String {
+fn link(p: &Path) -> String {
     let s = p.to_string_lossy();
     format!("<a href=\"{}\">{}</a>", escape(&s), escape(&s))
 }

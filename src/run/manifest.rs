@@ -25,10 +25,11 @@ fn git_state() -> serde_json::Value {
 /// Writes `manifest.json`, last of a run's outputs: the tool, git state, spec, seeds and their
 /// derivation, threads, timings and every job with its seeds, status and error.
 ///
-/// # Errors
-/// If the file cannot be written.
 /// `jobs` and `outcomes` are every job of the run and its outcome, in plan order; `timings`
 /// the run's total and table-writing seconds.
+///
+/// # Errors
+/// If the file cannot be written.
 pub fn write(
     plan: &Plan,
     jobs: &[&dyn JobKind],
@@ -41,7 +42,15 @@ pub fn write(
         .iter()
         .zip(outcomes)
         .map(|(job, o)| {
-            let mut entry = job.manifest();
+            let mut entry = json!({
+                "job": job.id(),
+                "kind": job.kind(),
+                "identity": job.identity(),
+                "seed": job.seed(),
+            });
+            if let serde_json::Value::Object(fields) = job.manifest() {
+                entry.as_object_mut().expect("an object").extend(fields);
+            }
             let timing = o.rows.as_ref().ok().and_then(|r| r.timing.clone());
             entry["status"] = json!(if o.rows.is_ok() { "ok" } else { "failed" });
             entry["error"] = json!(o.rows.as_ref().err());

@@ -5,7 +5,7 @@ use crate::io::atomic::write_npy;
 use crate::stats::analysis::{Analysis, Direction};
 use anyhow::Result;
 use ndarray::Array2;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// What one successful job computed.
 pub struct JobResult {
@@ -32,6 +32,8 @@ pub struct JobResult {
     pub similarity: Option<SimilarityOutcome>,
     /// With `hypotheses`: the mean 2-D correlating function of the original and its pair counts.
     pub correlating: Option<(Array2<f64>, Array2<usize>)>,
+    /// Files and folders the job wrote (k-space samples, model folder, generated samples).
+    pub files: Vec<PathBuf>,
 }
 
 /// The metrics one job computed.

@@ -7,11 +7,12 @@
 
 use crate::io::atomic::{remove_folders_except, write_parquet};
 use crate::run::jobs::all::AllJobs;
-use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Rows, Status};
+use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Status};
 use crate::run::plan::Plan;
 use crate::run::{manifest, tables};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use polars::prelude::DataFrame;
 use rayon::prelude::*;
 use std::io::IsTerminal;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -217,7 +218,7 @@ fn write_tables(
     outcomes: &[Outcome],
     opts: &RunOptions,
 ) -> Result<()> {
-    let status: Vec<Option<Rows>> = jobs
+    let status: Vec<Option<(&'static str, DataFrame)>> = jobs
         .iter()
         .zip(outcomes)
         .map(|(job, o)| {
@@ -225,18 +226,14 @@ fn write_tables(
                 error: o.rows.as_ref().err().map(String::as_str),
                 elapsed_s: o.elapsed_s,
             };
-            job.status_row(plan, &s).transpose().map(|row| {
-                row.map(|df| Rows {
-                    tables: vec![("jobs", df)],
-                    ..Rows::default()
-                })
-            })
+            let row = job.status_row(plan, &s).transpose()?;
+            Ok(row.map(|df| ("jobs", df)))
         })
         .collect::<Result<_>>()?;
-    let mut rows: Vec<&[(&'static str, polars::prelude::DataFrame)]> = vec![];
+    let mut rows: Vec<&[(&'static str, DataFrame)]> = vec![];
     for (o, s) in outcomes.iter().zip(&status) {
         rows.extend(o.rows.as_ref().ok().map(|r| r.tables.as_slice()));
-        rows.extend(s.as_ref().map(|r| r.tables.as_slice()));
+        rows.extend(s.as_ref().map(std::slice::from_ref));
     }
     let tables = tables::assemble(plan, &rows)?;
     tables.into_par_iter().try_for_each(|(name, mut df)| {

@@ -743,18 +743,25 @@ fn concat(parts: &[&DataFrame]) -> Result<DataFrame> {
         .collect();
     let mut out: Option<DataFrame> = None;
     for part in parts {
+        if let Some(c) = part
+            .columns()
+            .iter()
+            .find(|c| widest.column(c.name()).is_err())
+        {
+            anyhow::bail!(
+                "a fragment has column {} that the widest one lacks",
+                c.name()
+            );
+        }
         let aligned = DataFrame::new_infer_height(
             columns
                 .iter()
                 .map(|(name, dtype)| match part.column(name) {
-                    Ok(c) => Ok(c.clone()),
-                    Err(_) => Ok(Column::full_null(name.clone(), part.height(), dtype)),
+                    Ok(c) => c.clone(),
+                    Err(_) => Column::full_null(name.clone(), part.height(), dtype),
                 })
-                .collect::<Result<Vec<Column>>>()?,
+                .collect(),
         )?;
-        if aligned.width() != columns.len() || part.width() > columns.len() {
-            anyhow::bail!("a fragment has columns that the widest one lacks");
-        }
         match &mut out {
             None => out = Some(aligned),
             Some(df) => {

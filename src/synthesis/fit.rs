@@ -128,7 +128,7 @@ pub fn solve_dyadic(targets: &[f64], half_width: usize) -> (Vec<f64>, f64) {
 }
 
 /// Box-bounded Levenberg-Marquardt on a small residual vector.
-pub(super) fn levenberg_marquardt(
+fn levenberg_marquardt(
     mut x: Vec<f64>,
     f: &impl Fn(&[f64]) -> Vec<f64>,
     bound: f64,
@@ -194,7 +194,7 @@ pub(super) fn levenberg_marquardt(
 }
 
 /// Gaussian elimination with partial pivoting for a small dense system.
-pub(super) fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     let n = b.len();
     for col in 0..n {
         let p = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
@@ -222,7 +222,7 @@ pub(super) fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f
 
 /// Fits Fleishman's power method per pixel and component (real, imaginary) to the stack's
 /// mean, variance, skewness and excess kurtosis.
-pub(super) fn fit_fourth_order(stack: ArrayView3<Complex64>) -> FourthOrderModel {
+fn fit_fourth_order(stack: ArrayView3<Complex64>) -> FourthOrderModel {
     let (_, h, w) = stack.dim();
     let mut coefficients = ndarray::Array4::zeros((2, 4, h, w));
     let mut component_sd = Array3::zeros((2, h, w));

@@ -15,7 +15,7 @@ pub(super) fn pad4(n: u64) -> u64 {
 }
 
 /// Cursor over the header bytes that turns every short read into an error.
-pub(super) struct Header<'a> {
+struct Header<'a> {
     path: &'a Path,
     bytes: &'a [u8],
     pos: usize,
@@ -182,7 +182,7 @@ impl Raw {
     }
 }
 
-pub(super) type ParsedHeader = (
+type ParsedHeader = (
     u8,
     usize,
     Vec<Dimension>,

@@ -4,32 +4,32 @@
 
 use super::*;
 
-pub(super) type V3 = [f64; 3];
+type V3 = [f64; 3];
 
-pub(super) fn add(a: V3, b: V3) -> V3 {
+fn add(a: V3, b: V3) -> V3 {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
-pub(super) fn scale(a: V3, s: f64) -> V3 {
+fn scale(a: V3, s: f64) -> V3 {
     [a[0] * s, a[1] * s, a[2] * s]
 }
-pub(super) fn cross(a: V3, b: V3) -> V3 {
+fn cross(a: V3, b: V3) -> V3 {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
 }
-pub(super) fn dot(a: V3, b: V3) -> f64 {
+fn dot(a: V3, b: V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
-pub(super) fn norm(a: V3) -> f64 {
+fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
 }
-pub(super) fn unit(a: V3) -> V3 {
+fn unit(a: V3) -> V3 {
     scale(a, 1.0 / norm(a))
 }
 /// Rodrigues rotation of `v` about the unit axis `k` by `th`.
-pub(super) fn rotate(v: V3, k: V3, th: f64) -> V3 {
+fn rotate(v: V3, k: V3, th: f64) -> V3 {
     let (s, c) = th.sin_cos();
     add(
         add(scale(v, c), scale(cross(k, v), s)),
@@ -39,38 +39,38 @@ pub(super) fn rotate(v: V3, k: V3, th: f64) -> V3 {
 
 /// A structural point scatterer (stem or branch).
 #[derive(Clone, Debug)]
-pub(super) struct StructPoint {
+struct StructPoint {
     pub(super) pos: V3,
-    pub(super) amp: f64,
-    pub(super) stem: usize,
+    amp: f64,
+    stem: usize,
     /// height fraction along the stem of the point (or of the branch root)
     pub(super) s: f64,
     /// branch index and fraction along it, if on a branch
-    pub(super) branch: Option<(usize, f64)>,
+    branch: Option<(usize, f64)>,
 }
 
 #[derive(Clone, Debug)]
 pub(super) struct Leaf {
-    pub(super) centre: V3,
-    pub(super) axis: V3,
-    pub(super) side: V3,
+    centre: V3,
+    axis: V3,
+    side: V3,
     pub(super) normal: V3,
-    pub(super) area: f64,
+    area: f64,
     pub(super) size: f64,
     /// in-plane offsets (along axis, along side) of the cluster points
-    pub(super) offsets: Vec<(f64, f64)>,
-    pub(super) stem: usize,
+    offsets: Vec<(f64, f64)>,
+    stem: usize,
     pub(super) s: f64,
-    pub(super) branch: usize,
+    branch: usize,
     pub(super) t: f64,
     /// nearest structural point for double bounce
-    pub(super) db_partner: Option<usize>,
+    db_partner: Option<usize>,
 }
 
 /// Static plant geometry built from the seed.
 #[derive(Clone, Debug)]
 pub(super) struct Plant {
-    pub(super) points: Vec<StructPoint>,
+    points: Vec<StructPoint>,
     pub(super) leaves: Vec<Leaf>,
     pub(super) n_branches: usize,
     pub(super) background: Vec<(Complex64, V3)>,
@@ -215,13 +215,13 @@ pub(super) fn build_plant(p: &PlantParams, rng: &mut ChaCha8Rng) -> Plant {
 }
 
 /// Dynamic wind state: gusts, stem and branch oscillators, leaf flutter.
-pub(super) struct WindState {
-    pub(super) g_shared: [f64; 2],
-    pub(super) g_stem: Vec<[f64; 2]>,
-    pub(super) stem_x: Vec<[f64; 2]>,
-    pub(super) stem_v: Vec<[f64; 2]>,
-    pub(super) br_x: Vec<[f64; 2]>,
-    pub(super) br_v: Vec<[f64; 2]>,
+struct WindState {
+    g_shared: [f64; 2],
+    g_stem: Vec<[f64; 2]>,
+    stem_x: Vec<[f64; 2]>,
+    stem_v: Vec<[f64; 2]>,
+    br_x: Vec<[f64; 2]>,
+    br_v: Vec<[f64; 2]>,
     /// per leaf: two angles (rad) and a 2-D translation (m)
     pub(super) leaf: Vec<[f64; 4]>,
 }
@@ -236,9 +236,9 @@ pub(super) struct Pose {
 pub(super) struct WindSim<'a> {
     pub(super) p: &'a PlantParams,
     pub(super) w: &'a WindParams,
-    pub(super) st: WindState,
-    pub(super) leaf_sigma: Vec<[f64; 2]>,
-    pub(super) stem_of_branch: Vec<usize>,
+    st: WindState,
+    leaf_sigma: Vec<[f64; 2]>,
+    stem_of_branch: Vec<usize>,
 }
 
 impl<'a> WindSim<'a> {

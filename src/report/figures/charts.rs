@@ -7,7 +7,7 @@ use super::*;
 pub(super) const CHART_SIZE: (u32, u32) = (800, 520);
 
 /// Matplotlib's "tab10" palette.
-pub(super) const PALETTE: [RGBColor; 10] = [
+const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -21,7 +21,7 @@ pub(super) const PALETTE: [RGBColor; 10] = [
 ];
 
 /// Chart on the whole figure with title, mesh, axis descriptions and the given ranges.
-pub(super) fn chart<'a, DB: DrawingBackend>(
+fn chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
     title: &str,
     (x, x_label): (Range<f64>, &str),
@@ -69,7 +69,7 @@ where
     Ok(())
 }
 
-pub(super) struct Hist<'s> {
+struct Hist<'s> {
     title: &'s str,
     x_label: &'s str,
     names: Vec<String>,
@@ -205,11 +205,7 @@ pub fn histograms(
 }
 
 /// The plot corner (upper right, upper left, lower right, lower left) holding fewest of `pts`.
-pub(super) fn emptiest_corner(
-    pts: &[(f64, f64)],
-    x: Range<f64>,
-    y: Range<f64>,
-) -> SeriesLabelPosition {
+fn emptiest_corner(pts: &[(f64, f64)], x: Range<f64>, y: Range<f64>) -> SeriesLabelPosition {
     let uv = |&(px, py): &(f64, f64)| {
         (
             (px - x.start) / (x.end - x.start),
@@ -235,7 +231,7 @@ pub(super) fn emptiest_corner(
     .map_or(SeriesLabelPosition::UpperRight, |c| c.0)
 }
 
-pub(super) struct Curves<'s> {
+struct Curves<'s> {
     title: &'s str,
     x_label: &'s str,
     y_label: &'s str,

@@ -6,15 +6,15 @@ use super::*;
 /// Side of a panel's plot square in pixels (divisible by 32, 16 and 8: crisp level maps).
 pub(super) const PANEL: u32 = 224;
 pub(super) const PAD_L: u32 = 64;
-pub(super) const PAD_R: u32 = 14;
+const PAD_R: u32 = 14;
 pub(super) const PAD_T: u32 = 30;
-pub(super) const PAD_B: u32 = 50;
+const PAD_B: u32 = 50;
 pub(super) const CELL_W: u32 = PAD_L + PANEL + PAD_R;
 pub(super) const CELL_H: u32 = PAD_T + PANEL + PAD_B;
 /// Height of the figure title band, and width of the colour-bar band on the right.
 pub(super) const HEAD: u32 = 44;
-pub(super) const BAR_AREA: u32 = 140;
-pub(super) const BAR_W: u32 = 18;
+const BAR_AREA: u32 = 140;
+const BAR_W: u32 = 18;
 
 /// Pixel size of a heat-map grid with `nrows` x `ncols` panels.
 pub(super) fn grid_size(nrows: usize, ncols: usize) -> (u32, u32) {
@@ -32,7 +32,7 @@ pub(super) fn fit(rows: usize, cols: usize) -> (u32, u32) {
 }
 
 /// Where a panel's image goes (centred in its plot square) and which axis labels it carries.
-pub(super) struct PanelGeo<'p, 'a> {
+struct PanelGeo<'p, 'a> {
     panel: &'p Panel<'a>,
     x: u32,
     y: u32,
@@ -42,7 +42,7 @@ pub(super) struct PanelGeo<'p, 'a> {
     y_label: bool,
 }
 
-pub(super) struct HeatGrid<'p, 'a> {
+struct HeatGrid<'p, 'a> {
     title: &'p str,
     bar_label: &'p str,
     geo: Vec<PanelGeo<'p, 'a>>,

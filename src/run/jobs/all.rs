@@ -19,11 +19,10 @@ impl<'a> AllJobs<'a> {
     pub fn new(plan: &'a Plan) -> Self {
         AllJobs {
             plan,
-            calibration: plan
-                .spec
-                .calibration
-                .clone()
-                .map(|c| CalibrationJob::new(c, plan.spec.seed)),
+            calibration: plan.spec.calibration.clone().map(|chain| CalibrationJob {
+                chain,
+                seed: plan.calibration_seed(),
+            }),
             hypotheses: plan
                 .spec
                 .hypotheses

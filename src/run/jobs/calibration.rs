@@ -6,28 +6,16 @@
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::physics::calibration::{calibrate, simulate, summary, CalibrationRow, ChainParams};
 use crate::run::plan::Plan;
-use crate::seeds::derive_seed;
 use anyhow::Result;
 use polars::prelude::*;
-use serde_json::json;
 
 /// The calibration of one chain, seeded from the master seed.
 #[derive(Debug, Clone)]
 pub struct CalibrationJob {
     /// The chain's parameters.
     pub chain: ChainParams,
-    /// Seed of the simulated measurements: `derive_seed(master, "calibration", "")`.
+    /// Seed of the simulated measurements ([`Plan::calibration_seed`]).
     pub seed: u64,
-}
-
-impl CalibrationJob {
-    /// The job of `chain` under the master seed.
-    pub fn new(chain: ChainParams, master: u64) -> Self {
-        CalibrationJob {
-            chain,
-            seed: derive_seed(master, "calibration", ""),
-        }
-    }
 }
 
 impl JobKind for CalibrationJob {
@@ -43,8 +31,8 @@ impl JobKind for CalibrationJob {
         ""
     }
 
-    fn seed(&self) -> u64 {
-        self.seed
+    fn seed(&self) -> Option<u64> {
+        Some(self.seed)
     }
 
     fn inputs(&self) -> Inputs {
@@ -81,9 +69,5 @@ impl JobKind for CalibrationJob {
 
     fn status_row(&self, _plan: &Plan, _status: &Status) -> Option<Result<DataFrame>> {
         None
-    }
-
-    fn manifest(&self) -> serde_json::Value {
-        json!({ "job": "calibration", "kind": "calibration", "identity": "", "seed": self.seed })
     }
 }

@@ -40,8 +40,8 @@ impl JobKind for Job {
         &self.identity
     }
 
-    fn seed(&self) -> u64 {
-        self.seed
+    fn seed(&self) -> Option<u64> {
+        Some(self.seed)
     }
 
     fn inputs(&self) -> Inputs {
@@ -64,7 +64,7 @@ impl JobKind for Job {
             }
             _ => run_job(plan, self, cx.out, cx.shared)?,
         };
-        let mut files = vec![];
+        let mut files = result.files.clone();
         if plan.spec.outputs.npy_maps {
             let dir = cx.out.join("maps").join(&self.id);
             crate::run::result::write_job_maps(&dir, &result)?;
@@ -92,13 +92,10 @@ impl JobKind for Job {
 
     fn manifest(&self) -> serde_json::Value {
         json!({
-            "job": self.id,
             "dataset": self.dataset_id,
             "method": self.method.map(Method::as_str),
             "generation_seed": self.generation_seed,
             "noise_floor": self.noise_floor,
-            "identity": self.identity,
-            "seed": self.seed,
             "data_seed": self.data_seed,
             "params": self.params,
         })
@@ -195,20 +192,17 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
         ),
         _ => None,
     };
+    let mut files = vec![];
     if let (Some(k), Dataset::Vegetation(v)) = (&data.kspace, &job.dataset) {
         let dir = out.join("kspace");
         let k64 = k.mapv(|z| num_complex::Complex::new(z.re as f32, z.im as f32));
-        write_npy(&dir.join(format!("{}.npy", job.id)), &k64)?;
         let grid = v.measurement.grid()?;
-        write_npy(
-            &dir.join(format!("{}.freqs.npy", job.id)),
-            &ndarray::Array1::from(grid.freqs.clone()),
-        )?;
         let deg: Vec<f64> = grid.azimuths.iter().map(|a| a.to_degrees()).collect();
-        write_npy(
-            &dir.join(format!("{}.azimuths_deg.npy", job.id)),
-            &ndarray::Array1::from(deg),
-        )?;
+        let path = |suffix: &str| dir.join(format!("{}{suffix}.npy", job.id));
+        files = vec![path(""), path(".freqs"), path(".azimuths_deg")];
+        write_npy(&files[0], &k64)?;
+        write_npy(&files[1], &ndarray::Array1::from(grid.freqs.clone()))?;
+        write_npy(&files[2], &ndarray::Array1::from(deg))?;
     }
     let correlating = plan
         .spec
@@ -232,6 +226,7 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
         analysis_s,
         bytes: data.stack.bytes(),
         similarity,
+        files,
     };
     Ok(result)
 }
@@ -353,15 +348,15 @@ fn run_synthesis_job(
     let fit_s = t.elapsed().as_secs_f64();
     let source = format!("job {} (dataset {})", job.id, job.dataset_id);
     let info = crate::io::model::ModelInfo::new(&model, &original, syn.half_width, levels, source);
-    crate::io::model::save(&model, &info, &out.join("models").join(&job.id))?;
+    let mut files = vec![out.join("models").join(&job.id)];
+    crate::io::model::save(&model, &info, &files[0])?;
     let t = Instant::now();
     let generated = model.generate_c64(job.generation_seed, 0, syn.samples);
     let generate_s = t.elapsed().as_secs_f64();
     if syn.save_samples {
-        write_npy(
-            &out.join("samples").join(format!("{}.npy", job.id)),
-            &generated,
-        )?;
+        let path = out.join("samples").join(format!("{}.npy", job.id));
+        write_npy(&path, &generated)?;
+        files.push(path);
     }
     let t = Instant::now();
     let analysis = if syn.analyse_generated {
@@ -409,5 +404,6 @@ fn run_synthesis_job(
         bytes: syn.samples * h * w * 8,
         similarity,
         correlating: None,
+        files,
     })
 }

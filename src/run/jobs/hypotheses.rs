@@ -5,13 +5,12 @@
 //! [`crate::apps::hypotheses`] into `hypotheses`.
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
-use crate::apps::hypotheses::{test, PlantStats};
+use crate::apps::hypotheses::{analysis_numbers, parse_id, test, PlantStats};
 use crate::run::plan::{Job, Plan};
 use crate::run::tables::JobResult;
 use anyhow::{Context, Result};
 use ndarray::Array2;
 use polars::prelude::*;
-use serde_json::json;
 
 /// Name of the intermediate table of a plant's statistics.
 pub const PLANT_STATS: &str = "_plant_stats";
@@ -29,9 +28,7 @@ impl HypothesesJob {
         let inputs = jobs
             .iter()
             .enumerate()
-            .filter(|(_, j)| {
-                j.method.is_none() && crate::apps::hypotheses::parse_id(&j.dataset_id).is_some()
-            })
+            .filter(|(_, j)| j.method.is_none() && parse_id(&j.dataset_id).is_some())
             .map(|(i, _)| i)
             .collect();
         HypothesesJob { inputs }
@@ -45,21 +42,22 @@ impl HypothesesJob {
 /// # Errors
 /// If the table cannot be built.
 pub fn plant_stats(job: &Job, r: &JobResult) -> Result<Option<DataFrame>> {
-    let (Some(a), Some((c, _)), None) = (&r.analysis, &r.correlating, job.method) else {
+    let (Some(a), Some(_), None) = (&r.analysis, &r.correlating, job.method) else {
         return Ok(None);
     };
-    let Some(s) = PlantStats::new(&job.dataset_id, a, c.clone()) else {
+    if parse_id(&job.dataset_id).is_none() {
         return Ok(None);
-    };
-    let n = s.level_correlations.len();
-    let dir = |k: usize| -> Vec<f64> { s.level_correlations.iter().map(|l| l[k]).collect() };
+    }
+    let (mean_variance, level_correlations) = analysis_numbers(a);
+    let n = level_correlations.len();
+    let dir = |k: usize| -> Vec<f64> { level_correlations.iter().map(|l| l[k]).collect() };
     Ok(Some(DataFrame::new_infer_height(vec![
-        Column::new("dataset".into(), vec![s.dataset.as_str(); n]),
+        Column::new("dataset".into(), vec![job.dataset_id.as_str(); n]),
         Column::new("level".into(), (1..=n as i64).collect::<Vec<_>>()),
         Column::new("mean_correlation_h".into(), dir(0)),
         Column::new("mean_correlation_v".into(), dir(1)),
         Column::new("mean_correlation_d".into(), dir(2)),
-        Column::new("mean_pixel_variance".into(), vec![s.mean_variance; n]),
+        Column::new("mean_pixel_variance".into(), vec![mean_variance; n]),
     ])?))
 }
 
@@ -98,7 +96,7 @@ fn read_stats(rows: &Rows) -> Result<Option<PlantStats>> {
     for k in 0..dy.len() {
         correlating[[(dy[k] + r) as usize, (dx[k] + r) as usize]] = nan(mc[k]);
     }
-    let Some((plant, wind)) = crate::apps::hypotheses::parse_id(&dataset) else {
+    let Some((plant, wind)) = parse_id(&dataset) else {
         return Ok(None);
     };
     Ok(Some(PlantStats {
@@ -124,8 +122,8 @@ impl JobKind for HypothesesJob {
         ""
     }
 
-    fn seed(&self) -> u64 {
-        0
+    fn seed(&self) -> Option<u64> {
+        None
     }
 
     fn inputs(&self) -> Inputs {
@@ -172,9 +170,5 @@ impl JobKind for HypothesesJob {
 
     fn status_row(&self, _plan: &Plan, _status: &Status) -> Option<Result<DataFrame>> {
         None
-    }
-
-    fn manifest(&self) -> serde_json::Value {
-        json!({ "job": "hypotheses", "kind": "hypotheses", "identity": "", "seed": null })
     }
 }

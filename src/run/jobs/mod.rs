@@ -95,8 +95,9 @@ pub trait JobKind: Send + Sync {
     fn kind(&self) -> &'static str;
     /// Canonical identity from which the seed is derived.
     fn identity(&self) -> &str;
-    /// The job's seed (derived from the master seed and the identity).
-    fn seed(&self) -> u64;
+    /// The job's seed (derived from the master seed and the identity); `None` for a job that
+    /// draws no random numbers.
+    fn seed(&self) -> Option<u64>;
     /// What the job reads.
     fn inputs(&self) -> Inputs;
     /// Materialises the dataset a group of jobs shares (called once per group with
@@ -115,6 +116,9 @@ pub trait JobKind: Send + Sync {
     /// The job's row of `jobs.parquet` (status, seeds, shape), or `None` for jobs of the run as
     /// a whole, which the manifest lists.
     fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>>;
-    /// The job's entry in `manifest.json` (without its timings).
-    fn manifest(&self) -> serde_json::Value;
+    /// The fields of the job's entry in `manifest.json` beside its id, kind, identity, seed,
+    /// status and timings (which the manifest takes from the trait and the outcome).
+    fn manifest(&self) -> serde_json::Value {
+        serde_json::json!({})
+    }
 }

@@ -46,7 +46,7 @@ pub(super) fn kernel_portable(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) 
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn kernel_avx2(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) {
+unsafe fn kernel_avx2(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) {
     use std::arch::x86_64::*;
     assert!(u.len() >= kc * 2 * MR && v.len() >= kc * 2 * NR && out.len() >= TILE);
     let mut re = [_mm256_setzero_ps(); NR];
@@ -86,7 +86,7 @@ pub(super) unsafe fn kernel_avx2(kc: usize, u: &[f32], v: &[f32], out: &mut [f64
 }
 
 #[cfg(target_arch = "x86_64")]
-pub(super) fn kernel_avx2_checked(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) {
+fn kernel_avx2_checked(kc: usize, u: &[f32], v: &[f32], out: &mut [f64]) {
     // SAFETY: only selected by `select_kernel` after runtime detection.
     unsafe { kernel_avx2(kc, u, v, out) }
 }

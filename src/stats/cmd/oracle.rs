@@ -5,7 +5,7 @@ use super::*;
 
 /// Sample correlation matrix (P x P, row-major) of a row-major N x P stack,
 /// literally: `R[p,q] = (1/N) sum_n conj(x_np - mu_p)(x_nq - mu_q) / (s_p s_q)`.
-pub(super) fn oracle_corr(x: &[Complex<f64>], n: usize, p: usize) -> Vec<Complex<f64>> {
+fn oracle_corr(x: &[Complex<f64>], n: usize, p: usize) -> Vec<Complex<f64>> {
     assert_eq!(x.len(), n * p);
     let nf = n as f64;
     let mu: Vec<Complex<f64>> = (0..p)

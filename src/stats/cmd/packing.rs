@@ -46,25 +46,19 @@ impl Layout {
     }
 
     /// Floats in one micro-panel of one chunk.
-    pub(super) fn panel_len(&self) -> usize {
+    fn panel_len(&self) -> usize {
         self.kc * 2 * self.w
     }
 
     /// Number of micro-panels covering all items.
-    pub(super) fn npanels(&self) -> usize {
+    fn npanels(&self) -> usize {
         self.items.div_ceil(self.w)
     }
 
     /// Writes micro-panels `panels` of chunk `c` of `a` into `dst` (their
     /// consecutive `panel_len()` slices, all of them, padding included, so
     /// `dst` may hold stale data).
-    pub(super) fn pack_group(
-        &self,
-        a: &Normalised,
-        c: usize,
-        panels: Range<usize>,
-        dst: &mut [f32],
-    ) {
+    fn pack_group(&self, a: &Normalised, c: usize, panels: Range<usize>, dst: &mut [f32]) {
         // Monomorphised on the width so that the per-k copies are fixed-size
         // moves rather than calls to memcpy.
         match self.w {
@@ -74,7 +68,7 @@ impl Layout {
         }
     }
 
-    pub(super) fn pack_group_w<const W: usize>(
+    fn pack_group_w<const W: usize>(
         &self,
         a: &Normalised,
         c: usize,
