@@ -29,7 +29,8 @@ enum Command {
         /// Output folder (default: outputs/<name>).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Worker threads (default: all cores). Results do not depend on it.
+        /// Worker threads (default: RAYON_NUM_THREADS, else all cores). Results do not
+        /// depend on it.
         #[arg(long)]
         jobs: Option<usize>,
         /// Print the job table and exit without running anything.
@@ -46,9 +47,13 @@ enum Command {
     Report {
         /// The results folder of a run (outputs/<name>).
         results: PathBuf,
-        /// Worker threads (default: all cores).
+        /// Worker threads (default: RAYON_NUM_THREADS, else all cores).
         #[arg(long)]
         jobs: Option<usize>,
+        /// Read a folder whose run is in progress, was interrupted, or whose files changed
+        /// since its manifest (refused otherwise).
+        #[arg(long)]
+        allow_incomplete: bool,
     },
     /// Print comparison tables (methods side by side) from a results folder's Parquet files.
     Table {
@@ -68,6 +73,10 @@ enum Command {
         /// (repeatable).
         #[arg(long, value_parser = isar_clutter::report::table::parse_filter)]
         filter: Vec<(String, Vec<String>)>,
+        /// Read a folder whose run is in progress, was interrupted, or whose files changed
+        /// since its manifest (refused otherwise).
+        #[arg(long)]
+        allow_incomplete: bool,
     },
     /// Check a spec (syntax, types, files, sizes) without running it.
     Validate {
@@ -94,7 +103,7 @@ enum Command {
         /// Dyadic parameters L of Method 2.
         #[arg(long, default_value_t = 3)]
         levels: usize,
-        /// Worker threads (default: all cores).
+        /// Worker threads (default: RAYON_NUM_THREADS, else all cores).
         #[arg(long)]
         jobs: Option<usize>,
     },
@@ -115,7 +124,8 @@ enum Command {
         /// Samples generated per block (memory: one block).
         #[arg(long, default_value_t = 1024)]
         chunk: usize,
-        /// Worker threads (default: all cores). The file does not depend on it.
+        /// Worker threads (default: RAYON_NUM_THREADS, else all cores). The file does not
+        /// depend on it.
         #[arg(long)]
         jobs: Option<usize>,
     },
@@ -139,7 +149,11 @@ fn real_main() -> Result<ExitCode> {
             format,
             pivot,
             filter,
+            allow_incomplete,
         } => {
+            if !allow_incomplete {
+                isar_clutter::io::outdir::check_complete(&results)?;
+            }
             table_command(
                 &results,
                 table.as_deref(),
@@ -149,9 +163,14 @@ fn real_main() -> Result<ExitCode> {
             )?;
             Ok(ExitCode::SUCCESS)
         }
-        Command::Report { results, jobs } => {
+        Command::Report {
+            results,
+            jobs,
+            allow_incomplete,
+        } => {
             let t = std::time::Instant::now();
-            let report = pool(jobs)?.install(|| isar_clutter::report::build(&results))?;
+            let report =
+                pool(jobs)?.install(|| isar_clutter::report::build(&results, allow_incomplete))?;
             eprintln!(
                 "{} ({} figures, {:.2} s)",
                 report.html.display(),
@@ -186,6 +205,7 @@ fn real_main() -> Result<ExitCode> {
             chunk,
             jobs,
         } => {
+            isar_clutter::io::outdir::check_file_output(&out, "samples .npy", is_samples_npy)?;
             let (m, _) = isar_clutter::io::model::load(&model)?;
             let bar = indicatif::ProgressBar::new(samples as u64);
             if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
@@ -223,6 +243,11 @@ fn real_main() -> Result<ExitCode> {
             let mut opts = RunOptions::new(out, jobs.unwrap_or_else(scheduler::default_threads));
             opts.quiet = quiet;
             let summary = scheduler::run(&plan, &opts)?;
+            if !quiet {
+                for note in &summary.notes {
+                    eprintln!("note: {note}");
+                }
+            }
             let ok = summary.total - summary.failed.len();
             eprintln!(
                 "{}: {ok}/{} job(s) ok in {:.2} s -> {}",
@@ -237,7 +262,7 @@ fn real_main() -> Result<ExitCode> {
             if !no_report {
                 let t = std::time::Instant::now();
                 let report = pool(jobs)?
-                    .install(|| isar_clutter::report::build(&summary.out))
+                    .install(|| isar_clutter::report::build(&summary.out, false))
                     .context("building the report (the results are written; retry with `isar-clutter report`)")?;
                 if !quiet {
                     eprintln!(
@@ -308,7 +333,7 @@ fn fit_command(
         depth,
         input.display().to_string(),
     );
-    isar_clutter::io::model::save(&model, &info, out)?;
+    save_model(&model, &info, out)?;
     eprintln!(
         "{} fitted to {} ({} samples of {}x{}) -> {}",
         method.as_str(),
@@ -319,6 +344,101 @@ fn fit_command(
         out.display()
     );
     Ok(())
+}
+
+/// Whether `path` starts like a `.npy` of complex64 (what `generate` writes), so that
+/// `generate` may replace it.
+fn is_samples_npy(path: &std::path::Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 128];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .unwrap_or(0);
+    let head = &head[..n];
+    head.starts_with(b"\x93NUMPY") && head.windows(5).any(|w| w == b"'<c8'")
+}
+
+/// The files a model folder may hold: what `io::model::save` writes.
+const MODEL_FILES: &[&str] = &[
+    "model.json",
+    "mean.npy",
+    "std.npy",
+    "alpha_h.npy",
+    "alpha_v.npy",
+    "r_h.npy",
+    "r_v.npy",
+    "residual_h.npy",
+    "residual_v.npy",
+    "clamped.npy",
+    "deviations.npy",
+    "fleishman.npy",
+    "component_sd.npy",
+    "infeasible.npy",
+];
+
+/// Saves a model folder at `out`: refused if `out` is a file, or a folder that is neither
+/// empty nor a model folder holding only model files; written into a temporary folder beside
+/// it and swapped in whole, so an earlier model's files never mix with the new one's.
+fn save_model(
+    model: &isar_clutter::synthesis::Model,
+    info: &isar_clutter::io::model::ModelInfo,
+    out: &std::path::Path,
+) -> Result<()> {
+    if let Ok(m) = std::fs::symlink_metadata(out) {
+        if !m.is_dir() {
+            anyhow::bail!(
+                "{} exists and is not a folder: --out names the model folder to write \
+                 (nothing was changed)",
+                out.display()
+            );
+        }
+        let entries: Vec<_> = std::fs::read_dir(out)
+            .with_context(|| format!("cannot read {}", out.display()))?
+            .flatten()
+            .collect();
+        let foreign: Vec<String> = entries
+            .iter()
+            .filter(|e| {
+                let name = e.file_name();
+                !(e.path().is_file() && MODEL_FILES.iter().any(|f| name == **f))
+            })
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        let is_model = out.join("model.json").is_file();
+        if !entries.is_empty() && (!is_model || !foreign.is_empty()) {
+            anyhow::bail!(
+                "{} is not empty and is not a model folder the tool wrote ({}): choose a new \
+                 or empty folder for --out (nothing was changed)",
+                out.display(),
+                if is_model {
+                    format!("it also holds {}", foreign.join(", "))
+                } else {
+                    "no model.json".to_string()
+                }
+            );
+        }
+    }
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "model".into());
+    let tmp = out.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    let saved = isar_clutter::io::model::save(model, info, &tmp)
+        .and_then(|()| isar_clutter::io::atomic::swap_in_dir(&tmp, out));
+    match saved {
+        Ok(true) => {
+            // `tmp` now holds the earlier model (model files only, checked above).
+            std::fs::remove_dir_all(&tmp)
+                .with_context(|| format!("removing the earlier model {}", tmp.display()))?;
+            Ok(())
+        }
+        Ok(false) => Ok(()),
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            Err(e).with_context(|| format!("writing the model folder {}", out.display()))
+        }
+    }
 }
 
 /// Prints the job table of `--dry-run`.

@@ -1,7 +1,8 @@
 //! Writing outputs so that a reader never sees half a file: every file is written to a
 //! temporary name in its folder and renamed into place (swapped in with `RENAME_EXCHANGE` where
-//! the kernel has it); Parquet tables and `.npy` arrays through the same path; and the removal
-//! of stale job folders.
+//! the kernel has it); Parquet tables and `.npy` arrays through the same path; a whole folder
+//! (a model) swapped in the same way. Nothing is ever renamed over a folder or a link that is
+//! not the caller's.
 
 use anyhow::{Context, Result};
 use polars::prelude::*;
@@ -10,10 +11,12 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// Writes `path` atomically: `write` fills a temporary file in the same folder, which is then
-/// renamed over `path`.
+/// renamed over `path`. The path is noted in the journal of a claimed output folder that holds
+/// it ([`crate::io::outdir::note`]) before anything is written.
 ///
 /// # Errors
-/// If the temporary file cannot be written or renamed; the temporary file is removed.
+/// If the temporary file cannot be written or renamed, or `path` exists and is not a regular
+/// file (a folder is never renamed away); the temporary file is removed.
 pub fn atomic_write(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
@@ -21,6 +24,7 @@ pub fn atomic_write(
     let dir = path.parent().unwrap_or(Path::new("."));
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
     let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    crate::io::outdir::note(path);
     let result = (|| {
         // The folder is made only when it is missing (one failed open, not a mkdir per file).
         let file = match File::create(&tmp) {
@@ -46,28 +50,6 @@ pub fn atomic_write(
     result.with_context(|| format!("writing {}", path.display()))
 }
 
-/// Removes the sub-folders of `parent` whose names are not in `keep` (outputs of jobs an
-/// earlier run had and this one has not); nothing if `parent` does not exist.
-///
-/// # Errors
-/// If a folder cannot be removed; the message names it.
-pub fn remove_folders_except(parent: &Path, keep: &[&str]) -> Result<()> {
-    let Ok(entries) = fs::read_dir(parent) else {
-        return Ok(());
-    };
-    for entry in entries.flatten() {
-        let kept = entry
-            .file_name()
-            .to_str()
-            .is_some_and(|n| keep.contains(&n));
-        if !kept && entry.path().is_dir() {
-            fs::remove_dir_all(entry.path())
-                .with_context(|| format!("removing stale {}", entry.path().display()))?;
-        }
-    }
-    Ok(())
-}
-
 /// Moves the finished file `tmp` to `path`. Where `path` exists (a re-run into the same
 /// folder), Linux (glibc) swaps the two names atomically (`renameat2` with
 /// `RENAME_EXCHANGE`) and the old file is then removed: a plain rename over an existing file makes ext4 start writing the
@@ -75,6 +57,11 @@ pub fn remove_folders_except(parent: &Path, keep: &[&str]) -> Result<()> {
 /// development VM, which was a fifth of a short run's time. Readers see the old or the new
 /// file, never a partial one, either way.
 fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
+    if fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
+        return Err(std::io::Error::other(
+            "it exists and is not a regular file (nothing is renamed over a folder or a link)",
+        ));
+    }
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
         use std::ffi::CString;
@@ -101,6 +88,58 @@ fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
         // No file at `path` yet (or a file system without RENAME_EXCHANGE): a plain rename.
     }
     fs::rename(tmp, path)
+}
+
+/// Moves the finished folder `tmp` to `path`: swapped with an existing `path` atomically
+/// (`RENAME_EXCHANGE`) where the kernel has it, after which `tmp` names the old folder and the
+/// caller removes it; renamed otherwise. The caller has checked that an existing `path` is its
+/// own.
+///
+/// # Errors
+/// If `path` exists and is not a folder, or the rename fails.
+pub fn swap_in_dir(tmp: &Path, path: &Path) -> Result<bool> {
+    let exists = match fs::symlink_metadata(path) {
+        Ok(m) if !m.is_dir() => anyhow::bail!(
+            "{} exists and is not a folder; nothing was changed",
+            path.display()
+        ),
+        Ok(_) => true,
+        Err(_) => false,
+    };
+    if !exists {
+        fs::rename(tmp, path)
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
+        return Ok(false);
+    }
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        use std::ffi::CString;
+        use std::os::unix::ffi::OsStrExt;
+        let (a, b) = (
+            CString::new(tmp.as_os_str().as_bytes())?,
+            CString::new(path.as_os_str().as_bytes())?,
+        );
+        // SAFETY: both are valid NUL-terminated paths, relative to the working directory.
+        let swapped = unsafe {
+            libc::renameat2(
+                libc::AT_FDCWD,
+                a.as_ptr(),
+                libc::AT_FDCWD,
+                b.as_ptr(),
+                libc::RENAME_EXCHANGE,
+            )
+        } == 0;
+        if swapped {
+            return Ok(true);
+        }
+    }
+    // No exchange: move the old folder aside first, then the new one in.
+    let aside = tmp.with_extension("old");
+    fs::rename(path, &aside)
+        .and_then(|()| fs::rename(tmp, path))
+        .and_then(|()| fs::rename(&aside, tmp))
+        .with_context(|| format!("cannot replace {}", path.display()))?;
+    Ok(true)
 }
 
 /// Reads a Parquet table of a results folder; `Ok(None)` if the file does not exist.

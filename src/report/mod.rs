@@ -43,12 +43,17 @@ pub struct Report {
     pub figures: Vec<Figure>,
 }
 
-/// Builds `figures/` and `report.html` in the results folder `dir`.
+/// Builds `figures/` and `report.html` in the results folder `dir`, and removes the figures an
+/// earlier report drew that this one does not (only files the tool's records list: see
+/// [`crate::io::outdir`]).
 ///
 /// # Errors
-/// If `manifest.json` is missing or unreadable, a table or map cannot be read, or a file
-/// cannot be written.
-pub fn build(dir: &Path) -> Result<Report> {
+/// If `dir` is not a complete run's folder (in progress, interrupted, or changed since its
+/// manifest; accepted with `allow_incomplete`), is locked by a run, `manifest.json` is
+/// unreadable, a table or map cannot be read, or a file cannot be written.
+pub fn build(dir: &Path, allow_incomplete: bool) -> Result<Report> {
+    use crate::io::outdir::{OutDir, Purpose};
+    let outdir = OutDir::claim(dir, None, Purpose::Report { allow_incomplete })?;
     let manifest: Json =
         serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).with_context(|| {
             format!(
@@ -74,7 +79,6 @@ pub fn build(dir: &Path) -> Result<Report> {
     let mut figures: Vec<Figure> = per_job.into_iter().flatten().collect();
     figures.extend(sweep_figures(dir)?);
     figures.extend(calibration_figures(dir)?);
-    prune_figures(dir, &jobs, &figures)?;
     let html = page(dir, &manifest, &figures)?;
     let path = dir.join("report.html");
     crate::io::atomic::atomic_write(&path, |w| {
@@ -82,42 +86,12 @@ pub fn build(dir: &Path) -> Result<Report> {
         w.write_all(html.as_bytes())?;
         Ok(())
     })?;
+    // Figures of jobs that are gone or failed this time, of parameters no longer swept.
+    outdir.remove_stale(|p| p.starts_with("figures") || p == Path::new("report.html"))?;
     Ok(Report {
         html: path,
         figures,
     })
-}
-
-/// Makes `figures/` hold only what this build drew: the folders of jobs that the manifest
-/// does not list as ok go (left by an earlier run of an edited spec, or by a job that failed
-/// this time), and so does every `.png` and `.svg` not drawn now (a parameter no longer swept,
-/// an output a job no longer has).
-fn prune_figures(dir: &Path, jobs: &[String], figures: &[Figure]) -> Result<()> {
-    let root = dir.join("figures");
-    let ids: Vec<&str> = jobs.iter().map(String::as_str).collect();
-    crate::io::atomic::remove_folders_except(&root, &ids)?;
-    let drawn: std::collections::HashSet<PathBuf> = figures
-        .iter()
-        .flat_map(|f| f.files.iter().map(|p| dir.join(p)))
-        .collect();
-    let mut folders = vec![root.clone()];
-    folders.extend(ids.iter().map(|j| root.join(j)));
-    for folder in folders {
-        let Ok(entries) = std::fs::read_dir(&folder) else {
-            continue;
-        };
-        for path in entries.flatten().map(|e| e.path()) {
-            let figure = matches!(
-                path.extension().and_then(|e| e.to_str()),
-                Some("png" | "svg")
-            );
-            if figure && path.is_file() && !drawn.contains(&path) {
-                std::fs::remove_file(&path)
-                    .with_context(|| format!("removing stale {}", path.display()))?;
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Reads a real 2-D map if the file exists.

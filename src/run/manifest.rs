@@ -26,7 +26,9 @@ fn git_state() -> serde_json::Value {
 /// derivation, threads, timings and every job with its seeds, status and error.
 ///
 /// `jobs` and `outcomes` are every job of the run and its outcome, in plan order; `timings`
-/// the run's total and table-writing seconds.
+/// the run's total and table-writing seconds; `written` the files the run wrote (relative to
+/// `out`), listed with their sizes (and the tables' SHA-256) so that a reader can tell a
+/// folder that was changed afterwards.
 ///
 /// # Errors
 /// If the file cannot be written.
@@ -37,6 +39,7 @@ pub fn write(
     threads: usize,
     out: &Path,
     (total_s, tables_s): (f64, f64),
+    written: &[std::path::PathBuf],
 ) -> Result<()> {
     let jobs: Vec<serde_json::Value> = jobs
         .iter()
@@ -77,6 +80,7 @@ pub fn write(
         "finished_unix_s": unix,
         "timings": { "total_s": total_s, "tables_s": tables_s },
         "jobs": jobs,
+        "files": crate::io::outdir::file_records(out, written)?,
     });
     atomic_write(&out.join("manifest.json"), |w| {
         serde_json::to_writer_pretty(&mut *w, &manifest)?;

@@ -2,15 +2,18 @@
 //! pool of the requested size; jobs that read the same dataset run as one group (the stack
 //! materialised once when it is worth sharing); jobs that read other jobs' rows run after
 //! them. A progress bar on a terminal (plain lines otherwise); a failed or panicking job is
-//! recorded without stopping the others. Then the table assembly, the stale-map cleanup and
-//! `manifest.json`, all written atomically into the output folder.
+//! recorded without stopping the others. Then the table assembly, the removal of the files an
+//! earlier run wrote and this one did not, and `manifest.json` last, all written atomically
+//! into the output folder, which the run claims first ([`OutDir`]: refused unless it is new,
+//! empty or the tool's own; locked; marked in progress until the manifest is written).
 
-use crate::io::atomic::{remove_folders_except, write_parquet};
+use crate::io::atomic::write_parquet;
+use crate::io::outdir::{OutDir, Purpose};
 use crate::run::jobs::all::AllJobs;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Status};
 use crate::run::plan::Plan;
 use crate::run::{manifest, tables};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use polars::prelude::DataFrame;
 use rayon::prelude::*;
@@ -55,25 +58,39 @@ pub struct RunSummary {
     pub out: PathBuf,
     /// Wall time in seconds.
     pub elapsed_s: f64,
+    /// What claiming the folder did besides (a stale lock taken over, temporary files of an
+    /// interrupted run removed) and how many stale files of an earlier run went.
+    pub notes: Vec<String>,
 }
 
-/// Default number of worker threads: the machine's available parallelism.
+/// Default number of worker threads: `RAYON_NUM_THREADS` when it is set to a positive
+/// number (as rayon's own default honours it), otherwise the machine's available parallelism.
 pub fn default_threads() -> usize {
-    std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1)
+    threads_from(std::env::var("RAYON_NUM_THREADS").ok().as_deref())
+}
+
+/// [`default_threads`] given the value of `RAYON_NUM_THREADS`.
+fn threads_from(env: Option<&str>) -> usize {
+    env.and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or_else(|| {
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1)
+        })
 }
 
 /// Runs every job of `plan` and writes the outputs.
 ///
 /// # Errors
-/// Only for failures outside the jobs (output folder, tables, manifest); a failed job is
-/// recorded in `jobs.parquet` (or, for a job of the run as a whole, in the manifest) and in the
-/// returned summary.
+/// Only for failures outside the jobs (an output folder that is not the tool's or is locked,
+/// tables, manifest); a failed job is recorded in `jobs.parquet` (or, for a job of the run as a
+/// whole, in the manifest) and in the returned summary. A run that stops with an error leaves
+/// its folder marked in progress, which `table` and `report` refuse.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let start = Instant::now();
-    std::fs::create_dir_all(&opts.out)
-        .with_context(|| format!("cannot create {}", opts.out.display()))?;
+    let outdir = OutDir::claim(&opts.out, Some(&plan.spec.name), Purpose::Run)?;
+    let mut notes = outdir.notes.clone();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads.max(1))
         .build()?;
@@ -105,8 +122,14 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let t_tables = Instant::now();
     pool.install(|| write_tables(plan, &jobs, &outcomes, opts))?;
     let tables_s = t_tables.elapsed().as_secs_f64();
-    let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
-    remove_folders_except(&opts.out.join("maps"), &ids)?;
+    // Everything an earlier run wrote that this one did not: jobs no longer in the spec, the
+    // old maps of a job that failed now, an old report (rebuilt after the manifest).
+    let stale = outdir.remove_stale(|_| true)?;
+    if stale > 0 {
+        notes.push(format!(
+            "removed {stale} file(s) an earlier run wrote that this run does not have"
+        ));
+    }
     let failed: Vec<(String, String)> = jobs
         .iter()
         .zip(&outcomes)
@@ -125,12 +148,15 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         opts.threads,
         &opts.out,
         (elapsed_s, tables_s),
+        &outdir.written(),
     )?;
+    outdir.complete()?;
     Ok(RunSummary {
         total: outcomes.len(),
         failed,
         out: opts.out.clone(),
         elapsed_s,
+        notes,
     })
 }
 
@@ -267,6 +293,19 @@ fn report(bar: &Option<ProgressBar>, opts: &RunOptions, job: &dyn JobKind, o: &O
         }
         None if !opts.quiet => eprintln!("{} {status} ({:.3} s)", job.id(), o.elapsed_s),
         None => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn rayon_num_threads_sets_the_default() {
+        assert_eq!(super::threads_from(Some("1")), 1);
+        assert_eq!(super::threads_from(Some(" 3 ")), 3);
+        let all = super::threads_from(None);
+        assert!(all >= 1);
+        assert_eq!(super::threads_from(Some("0")), all);
+        assert_eq!(super::threads_from(Some("many")), all);
     }
 }
 

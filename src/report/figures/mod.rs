@@ -454,6 +454,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FigureError> {
     let name = path.file_name().unwrap_or_default().to_string_lossy();
     let seq = SEQ.fetch_add(1, Ordering::Relaxed);
     let tmp = path.with_file_name(format!(".{name}.{}-{seq}.tmp", std::process::id()));
+    crate::io::outdir::note(path);
     let res = (|| -> io::Result<()> {
         let mut f = fs::File::create(&tmp)?;
         f.write_all(bytes)?;

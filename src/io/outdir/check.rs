@@ -1,0 +1,137 @@
+//! Reading an output folder safely: is it a complete run's (not in progress, every file its
+//! manifest lists present and unchanged), the manifest's record of the files a run wrote, and
+//! the check of a single output file's path.
+
+use super::{Holder, STATE};
+use anyhow::{bail, Context, Result};
+use std::collections::BTreeMap;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// Checks that `root` is a complete run's folder: not in progress, a `manifest.json`, and
+/// every file the manifest lists present with its recorded size (and hash for tables).
+///
+/// # Errors
+/// Saying what is in progress, missing or changed, and how to read the folder anyway
+/// (`--allow-incomplete`).
+pub fn check_complete(root: &Path) -> Result<()> {
+    if !root.is_dir() {
+        bail!("{} is not a results folder", root.display());
+    }
+    let hint = "rerun the experiment into it, or pass --allow-incomplete to read what is there";
+    let marker = root.join(STATE).join("in-progress");
+    if let Ok(text) = fs::read_to_string(&marker) {
+        let who = serde_json::from_str::<Holder>(&text)
+            .map(|h| {
+                let state = if h.is_dead() {
+                    "was interrupted"
+                } else {
+                    "is still running (or its state is unknown)"
+                };
+                format!("the {} {state}", h.describe())
+            })
+            .unwrap_or_else(|_| "a run was interrupted".into());
+        bail!(
+            "{} is incomplete: {who} before writing its manifest, so its files may mix two \
+             runs; {hint}",
+            root.display()
+        );
+    }
+    let path = root.join("manifest.json");
+    let text = fs::read_to_string(&path).with_context(|| {
+        format!(
+            "{} has no manifest.json: not a finished run's folder; {hint}",
+            root.display()
+        )
+    })?;
+    let manifest: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+    let Some(files) = manifest["files"].as_object() else {
+        return Ok(()); // written by a version that did not list its files
+    };
+    let mut problems = vec![];
+    for (rel, rec) in files {
+        let file = root.join(rel);
+        match fs::metadata(&file) {
+            Err(_) => problems.push(format!("{rel} is missing")),
+            Ok(m) if Some(m.len()) != rec["bytes"].as_u64() => problems.push(format!(
+                "{rel} has {} bytes, the manifest says {}",
+                m.len(),
+                rec["bytes"]
+            )),
+            Ok(_) => {
+                if let Some(want) = rec["sha256"].as_str() {
+                    let got = fs::read(&file)
+                        .map(|b| crate::seeds::sha256_hex(&b))
+                        .unwrap_or_default();
+                    if got != want {
+                        problems.push(format!("{rel} differs from the file the run wrote"));
+                    }
+                }
+            }
+        }
+    }
+    if !problems.is_empty() {
+        let n = problems.len();
+        problems.truncate(8);
+        bail!(
+            "{} does not hold the files its manifest lists ({n} problem(s): {}{}): it was \
+             changed after the run; {hint}",
+            root.display(),
+            problems.join("; "),
+            if n > 8 { "; ..." } else { "" }
+        );
+    }
+    Ok(())
+}
+
+/// The `files` entry of a manifest: every file a run wrote (relative path -> bytes, plus the
+/// SHA-256 of the Parquet tables, which are small).
+///
+/// # Errors
+/// If a written file cannot be read.
+pub fn file_records(
+    root: &Path,
+    written: &[PathBuf],
+) -> Result<BTreeMap<String, serde_json::Value>> {
+    let mut out = BTreeMap::new();
+    for rel in written {
+        let path = root.join(rel);
+        let Ok(m) = fs::metadata(&path) else { continue };
+        let Some(key) = rel.to_str() else { continue };
+        let mut rec = serde_json::json!({ "bytes": m.len() });
+        if rel.extension().is_some_and(|e| e == "parquet") && rel.components().count() == 1 {
+            let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+            rec["sha256"] = serde_json::Value::String(crate::seeds::sha256_hex(&bytes));
+        }
+        out.insert(key.to_string(), rec);
+    }
+    Ok(out)
+}
+
+/// Refuses an output file path that is a folder (or anything but a regular file), and an
+/// existing file that `ours` does not recognise as a file of the kind the tool writes there.
+///
+/// # Errors
+/// Naming the path and what is there.
+pub fn check_file_output(path: &Path, what: &str, ours: impl Fn(&Path) -> bool) -> Result<()> {
+    match fs::symlink_metadata(path) {
+        Err(_) => Ok(()),
+        Ok(m) if m.is_dir() => bail!(
+            "{} is a folder; --out names the {what} file to write (e.g. {}/samples.npy); \
+             nothing was changed",
+            path.display(),
+            path.display()
+        ),
+        Ok(m) if !m.is_file() => bail!(
+            "{} exists and is not a regular file; nothing was changed",
+            path.display()
+        ),
+        Ok(_) if !ours(path) => bail!(
+            "{} exists and is not a {what} file the tool wrote; remove it or choose another \
+             --out (nothing was changed)",
+            path.display()
+        ),
+        Ok(_) => Ok(()),
+    }
+}

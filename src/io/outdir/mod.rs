@@ -1,0 +1,442 @@
+//! Output folders the tool owns, and nothing else. A run (or a report) claims its folder
+//! before it writes: the folder must be new, empty, or carry the tool's marker of the same
+//! experiment (`.isar-clutter/owner.json`, or the `manifest.json` of an earlier version);
+//! anything else is refused and left untouched. The claim takes a lock (pid, host, boot and
+//! process start time, so a dead holder is recognised as stale), marks the folder in progress
+//! until the run's manifest is written, and keeps a journal of every file the tool writes
+//! there ([`note`], called by every atomic write before it creates its temporary file).
+//! Cleaning removes only what that journal says the tool wrote; the temporary files of dead
+//! writers go too. Readers ([`check_complete`]) refuse a folder that is in progress or whose
+//! files differ from its manifest's list.
+//!
+//! State, all under `.isar-clutter/` in the output folder:
+//! - `owner.json`: `{"tool": "isar-clutter", "name": <experiment>}`, the marker;
+//! - `lock`: the [`Holder`] of the run writing now (removed when it ends);
+//! - `in-progress`: the [`Holder`] of a run that has not written its manifest yet;
+//! - `owned`: the relative paths the tool wrote, one per line, as of the last finished claim;
+//! - `journal`: paths noted since then (appended before each write, so a killed run's files
+//!   are known too);
+//! - `previous-manifest.json`: the manifest of the run before this one (moved aside when a
+//!   run starts, so that a folder has a `manifest.json` only when its run completed).
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use std::collections::BTreeSet;
+use std::fs::{self, File, OpenOptions};
+use std::io::Write;
+use std::path::{Component, Path, PathBuf};
+use std::sync::Mutex;
+
+mod check;
+mod lock;
+
+pub use check::{check_complete, check_file_output, file_records};
+use lock::take_lock;
+pub use lock::Holder;
+
+/// The folder of the tool's own state inside an output folder.
+pub const STATE: &str = ".isar-clutter";
+
+/// A claimed output folder: locked, journaled, and (for a run) marked in progress until
+/// [`OutDir::complete`]. Dropping it releases the lock and stops the journal; a run that did
+/// not complete stays marked in progress.
+#[derive(Debug)]
+pub struct OutDir {
+    root: PathBuf,
+    abs: PathBuf,
+    /// Notes for the caller: stale lock taken over, temporary files removed.
+    pub notes: Vec<String>,
+}
+
+/// What a claim is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Purpose {
+    /// A run: any folder the tool owns for this experiment (or a new or empty one); marked in
+    /// progress until its manifest is written.
+    Run,
+    /// Rebuilding the report of a finished run: the folder must be complete (or the caller
+    /// allows an incomplete one).
+    Report {
+        /// Accept a folder that is in progress or whose files differ from its manifest.
+        allow_incomplete: bool,
+    },
+}
+
+/// Every active journal of this process: the absolute root and its state.
+static ACTIVE: Mutex<Vec<Journal>> = Mutex::new(Vec::new());
+
+#[derive(Debug)]
+struct Journal {
+    abs: PathBuf,
+    file: File,
+    written: BTreeSet<PathBuf>,
+}
+
+/// Records that the tool is about to write `path` if it lies in a claimed folder of this
+/// process (appends it to the folder's journal before the temporary file exists); nothing
+/// otherwise. Called by every atomic write.
+pub fn note(path: &Path) {
+    let Ok(mut active) = ACTIVE.lock() else {
+        return;
+    };
+    if active.is_empty() {
+        return;
+    }
+    let Ok(abs) = std::path::absolute(path) else {
+        return;
+    };
+    for j in active.iter_mut() {
+        if let Ok(rel) = abs.strip_prefix(&j.abs) {
+            if rel.starts_with(STATE) || !safe_relative(rel) {
+                return;
+            }
+            if j.written.insert(rel.to_path_buf()) {
+                if let Some(s) = rel.to_str() {
+                    // One write call per line (O_APPEND): lines of threads never interleave.
+                    let _ = j.file.write_all(format!("{s}\n").as_bytes());
+                }
+            }
+            return;
+        }
+    }
+}
+
+/// A relative path made of plain names only (no `..`, no root): safe to join to the root
+/// and remove.
+fn safe_relative(rel: &Path) -> bool {
+    rel.components().next().is_some() && rel.components().all(|c| matches!(c, Component::Normal(_)))
+}
+
+impl OutDir {
+    /// Claims `root` for the experiment `name`.
+    ///
+    /// Refused (nothing changed) when `root` is not a folder, holds files and no marker of the
+    /// tool, belongs to another experiment, or is locked by a live holder; for
+    /// [`Purpose::Report`] also when it is not a complete run's folder. A lock of a dead holder
+    /// is taken over (said in [`OutDir::notes`]), and the temporary files of dead writers are
+    /// removed. For [`Purpose::Run`] the folder is marked in progress and its manifest moved
+    /// aside.
+    ///
+    /// # Errors
+    /// As above; every message names the folder and says why.
+    pub fn claim(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<OutDir> {
+        match fs::symlink_metadata(root) {
+            Ok(m) if !m.is_dir() => bail!(
+                "{} exists and is not a folder: choose another --out (nothing was changed)",
+                root.display()
+            ),
+            Ok(_) => check_owner(root, name, purpose)?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                fs::create_dir_all(root)
+                    .with_context(|| format!("cannot create {}", root.display()))?;
+            }
+            Err(e) => return Err(e).with_context(|| format!("cannot read {}", root.display())),
+        }
+        if let Purpose::Report { allow_incomplete } = purpose {
+            if !allow_incomplete {
+                check_complete(root)?;
+            }
+        }
+        let state = root.join(STATE);
+        fs::create_dir_all(&state).with_context(|| format!("cannot create {}", state.display()))?;
+        let mut notes = vec![];
+        let me = Holder::me(match purpose {
+            Purpose::Run => "run",
+            Purpose::Report { .. } => "report",
+        });
+        take_lock(root, &me, &mut notes)?;
+        let abs = std::path::absolute(root)
+            .with_context(|| format!("cannot resolve {}", root.display()))?;
+        let dir = OutDir {
+            root: root.to_path_buf(),
+            abs,
+            notes,
+        };
+        // From here on the lock is ours; dropping `dir` releases it on any error.
+        let mut dir = dir;
+        if let Some(name) = name {
+            let owner = serde_json::json!({"tool": env!("CARGO_PKG_NAME"), "name": name});
+            write_json(&state.join("owner.json"), &owner)?;
+        }
+        let removed = dir.remove_dead_temporaries()?;
+        if removed > 0 {
+            dir.notes.push(format!(
+                "removed {removed} temporary file(s) left by an interrupted writer in {}",
+                root.display()
+            ));
+        }
+        if purpose == Purpose::Run {
+            write_json(&state.join("in-progress"), &me)?;
+            let manifest = root.join("manifest.json");
+            if manifest.is_file() {
+                fs::rename(&manifest, state.join("previous-manifest.json"))
+                    .with_context(|| format!("cannot move {} aside", manifest.display()))?;
+            }
+        }
+        let file = OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(state.join("journal"))
+            .with_context(|| format!("cannot open {}/{STATE}/journal", root.display()))?;
+        ACTIVE
+            .lock()
+            .map_err(|_| anyhow::anyhow!("journal lock poisoned"))?
+            .push(Journal {
+                abs: dir.abs.clone(),
+                file,
+                written: BTreeSet::new(),
+            });
+        Ok(dir)
+    }
+
+    /// The folder.
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// The files noted under this claim so far (relative paths, sorted).
+    pub fn written(&self) -> Vec<PathBuf> {
+        self.with_journal(|j| j.written.iter().cloned().collect())
+            .unwrap_or_default()
+    }
+
+    fn with_journal<T>(&self, f: impl FnOnce(&mut Journal) -> T) -> Option<T> {
+        let mut active = ACTIVE.lock().ok()?;
+        active.iter_mut().find(|j| j.abs == self.abs).map(f)
+    }
+
+    /// The relative paths the tool's records say it wrote here (the `owned` list and the
+    /// journal), including this claim's.
+    pub fn owned(&self) -> Result<BTreeSet<PathBuf>> {
+        owned(&self.root)
+    }
+
+    /// Removes the files the tool wrote here earlier that `stale` selects and this claim has not
+    /// written (an earlier run's job that is gone, a failed job's old maps, an old figure), and
+    /// then the folders that removal left empty. Returns how many files went. Files the tool's
+    /// records do not list are never touched.
+    ///
+    /// # Errors
+    /// If a file cannot be removed; the message names it.
+    pub fn remove_stale(&self, stale: impl Fn(&Path) -> bool) -> Result<usize> {
+        let written: BTreeSet<PathBuf> = self.written().into_iter().collect();
+        let mut removed = 0;
+        let mut parents = BTreeSet::new();
+        for rel in self.owned()? {
+            if written.contains(&rel) || !stale(&rel) {
+                continue;
+            }
+            let path = self.root.join(&rel);
+            match fs::symlink_metadata(&path) {
+                Ok(m) if m.is_file() => {
+                    fs::remove_file(&path)
+                        .with_context(|| format!("removing stale {}", path.display()))?;
+                    removed += 1;
+                }
+                _ => {}
+            }
+            parents.extend(rel.ancestors().skip(1).map(Path::to_path_buf));
+        }
+        // Deepest first; only folders the removal emptied (remove_dir fails on any other).
+        let mut parents: Vec<PathBuf> = parents
+            .into_iter()
+            .filter(|p| !p.as_os_str().is_empty())
+            .collect();
+        parents.sort_by_key(|p| std::cmp::Reverse(p.components().count()));
+        for p in parents {
+            let _ = fs::remove_dir(self.root.join(p));
+        }
+        // The records now: what is left of the old list, and this claim's files.
+        let keep: BTreeSet<PathBuf> = self
+            .owned()?
+            .into_iter()
+            .filter(|rel| written.contains(rel) || self.root.join(rel).is_file())
+            .collect();
+        self.rewrite_records(&keep)?;
+        Ok(removed)
+    }
+
+    /// Rewrites `owned` as `keep` and empties the journal of earlier claims (this claim's
+    /// paths stay noted in memory and are re-appended).
+    fn rewrite_records(&self, keep: &BTreeSet<PathBuf>) -> Result<()> {
+        let state = self.root.join(STATE);
+        let mut text = String::new();
+        for p in keep {
+            if let Some(s) = p.to_str() {
+                text.push_str(s);
+                text.push('\n');
+            }
+        }
+        write_small(&state.join("owned"), text.as_bytes())?;
+        fs::write(state.join("journal"), b"")
+            .with_context(|| format!("cannot reset {}/{STATE}/journal", self.root.display()))?;
+        Ok(())
+    }
+
+    /// Marks the run complete: called right after its manifest is written.
+    ///
+    /// # Errors
+    /// If the marker cannot be removed.
+    pub fn complete(&self) -> Result<()> {
+        let marker = self.root.join(STATE).join("in-progress");
+        match fs::remove_file(&marker) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                Err(e).with_context(|| format!("cannot remove {}", marker.display()))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Removes the temporary files (`.NAME.tmp-PID`, `.NAME.PID-SEQ.tmp`) of owned paths
+    /// whose writer is not this process. The lock is ours, so no other writer is alive here.
+    fn remove_dead_temporaries(&self) -> Result<usize> {
+        let me = std::process::id();
+        let mut removed = 0;
+        let owned = self.owned()?;
+        let folders: BTreeSet<PathBuf> = owned
+            .iter()
+            .map(|p| p.parent().map(Path::to_path_buf).unwrap_or_default())
+            .collect();
+        for folder in folders {
+            let Ok(entries) = fs::read_dir(self.root.join(&folder)) else {
+                continue;
+            };
+            for e in entries.flatten() {
+                let name = e.file_name();
+                let Some(name) = name.to_str() else { continue };
+                let Some((base, pid)) = temporary_of(name) else {
+                    continue;
+                };
+                if pid != me && owned.contains(&folder.join(base)) && e.path().is_file() {
+                    fs::remove_file(e.path())
+                        .with_context(|| format!("removing temporary {}", e.path().display()))?;
+                    removed += 1;
+                }
+            }
+        }
+        Ok(removed)
+    }
+}
+
+impl Drop for OutDir {
+    fn drop(&mut self) {
+        if let Ok(mut active) = ACTIVE.lock() {
+            active.retain(|j| j.abs != self.abs);
+        }
+        let _ = fs::remove_file(self.root.join(STATE).join("lock"));
+    }
+}
+
+/// The name a temporary file of the tool's atomic writes stands for, and its writer's pid:
+/// `.a.npy.tmp-12` -> (`a.npy`, 12); `.a.png.12-3.tmp` -> (`a.png`, 12).
+pub fn temporary_of(name: &str) -> Option<(&str, u32)> {
+    let rest = name.strip_prefix('.')?;
+    if let Some((base, pid)) = rest.rsplit_once(".tmp-") {
+        return Some((base, pid.parse().ok()?));
+    }
+    let rest = rest.strip_suffix(".tmp")?;
+    let (base, pid_seq) = rest.rsplit_once('.')?;
+    let (pid, seq) = pid_seq.split_once('-')?;
+    seq.parse::<u64>().ok()?;
+    Some((base, pid.parse().ok()?))
+}
+
+/// The relative paths the tool's records say it wrote in `root`.
+///
+/// # Errors
+/// If a record exists but cannot be read.
+pub fn owned(root: &Path) -> Result<BTreeSet<PathBuf>> {
+    let mut set = BTreeSet::new();
+    for name in ["owned", "journal"] {
+        let path = root.join(STATE).join(name);
+        let text = match fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+        };
+        set.extend(
+            text.lines()
+                .map(PathBuf::from)
+                .filter(|p| safe_relative(p) && !p.starts_with(STATE)),
+        );
+    }
+    Ok(set)
+}
+
+/// Refuses a folder the tool may not write into for the experiment `name` (any experiment
+/// when `None`): one with entries and no marker of the tool, or one that belongs to another
+/// experiment. A report needs the marker (or a manifest) even in an empty folder.
+fn check_owner(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<()> {
+    let marker = root.join(STATE).join("owner.json");
+    let owner = |path: &Path, pointer: &str| -> Result<Option<String>> {
+        let Ok(text) = fs::read_to_string(path) else {
+            return Ok(None);
+        };
+        let v: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not the tool's marker (not JSON)", path.display()))?;
+        if v["tool"].as_str() != Some(env!("CARGO_PKG_NAME"))
+            && v.pointer("/tool/name").and_then(|t| t.as_str()) != Some(env!("CARGO_PKG_NAME"))
+        {
+            return Ok(None);
+        }
+        Ok(v.pointer(pointer)
+            .and_then(|n| n.as_str())
+            .map(str::to_string))
+    };
+    let found = match owner(&marker, "/name")? {
+        Some(n) => Some(n),
+        // An output folder of a version without the marker: its manifest names the experiment.
+        None => owner(&root.join("manifest.json"), "/spec/name")?,
+    };
+    match found {
+        Some(n) if name.is_none_or(|name| n == name) => Ok(()),
+        Some(other) => bail!(
+            "{} holds the outputs of experiment {other:?}, not {:?}: choose another --out \
+             (nothing was changed)",
+            root.display(),
+            name.unwrap_or_default()
+        ),
+        None if matches!(purpose, Purpose::Report { .. }) => bail!(
+            "{} is not a results folder of isar-clutter (no {STATE}/owner.json and no \
+             manifest.json of the tool)",
+            root.display()
+        ),
+        None => {
+            let mut entries: Vec<String> = fs::read_dir(root)
+                .with_context(|| format!("cannot read {}", root.display()))?
+                .flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect();
+            if entries.is_empty() {
+                return Ok(());
+            }
+            entries.sort();
+            let shown: Vec<&str> = entries.iter().take(3).map(String::as_str).collect();
+            bail!(
+                "{} is not empty and was not written by isar-clutter (it holds {} entr{}: {}{}; \
+                 no {STATE}/owner.json): the tool writes only into a new or empty folder or \
+                 its own; choose another --out (nothing was changed)",
+                root.display(),
+                entries.len(),
+                if entries.len() == 1 { "y" } else { "ies" },
+                shown.join(", "),
+                if entries.len() > 3 { ", ..." } else { "" }
+            )
+        }
+    }
+}
+
+fn write_json(path: &Path, v: &impl Serialize) -> Result<()> {
+    write_small(path, &serde_json::to_vec_pretty(v)?)
+}
+
+/// Writes a small state file through a temporary name and a rename (never half a file).
+fn write_small(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
+    fs::write(&tmp, bytes)
+        .and_then(|()| fs::rename(&tmp, path))
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,115 @@
+//! Tests of output folder ownership: claims, locks, journal-based cleaning, completeness.
+
+use super::lock::utc;
+use super::*;
+
+use super::*;
+
+#[test]
+fn temporary_names_of_both_writers_are_recognised() {
+    assert_eq!(temporary_of(".a.npy.tmp-12"), Some(("a.npy", 12)));
+    assert_eq!(temporary_of(".fig.png.34-7.tmp"), Some(("fig.png", 34)));
+    assert_eq!(temporary_of("a.npy"), None);
+    assert_eq!(temporary_of(".a.tmp-x"), None);
+    assert_eq!(temporary_of(".notes.tmp"), None);
+}
+
+#[test]
+fn utc_formats_known_instants() {
+    assert_eq!(utc(0), "1970-01-01 00:00:00 UTC");
+    assert_eq!(utc(1_795_477_880), "2026-11-23 23:51:20 UTC");
+    assert_eq!(utc(951_782_400), "2000-02-29 00:00:00 UTC");
+}
+
+#[test]
+fn this_process_is_alive_and_a_dead_pid_is_not() {
+    let me = Holder::me("run");
+    assert!(!me.is_dead());
+    let mut gone = me.clone();
+    gone.process_start += 1; // a reused pid: another start time
+    assert!(gone.is_dead());
+    let mut other_boot = me.clone();
+    other_boot.boot_id = "another boot".into();
+    assert!(other_boot.is_dead());
+    let mut elsewhere = gone;
+    elsewhere.host = "another-host".into();
+    assert!(
+        !elsewhere.is_dead(),
+        "another host's holder cannot be judged"
+    );
+}
+
+#[test]
+fn a_claim_cleans_only_its_own_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("out");
+    {
+        let d = OutDir::claim(&root, Some("e"), Purpose::Run).unwrap();
+        crate::io::atomic::atomic_write(&root.join("maps/a/x.npy"), |w| Ok(w.write_all(b"1")?))
+            .unwrap();
+        crate::io::atomic::atomic_write(&root.join("maps/b/x.npy"), |w| Ok(w.write_all(b"2")?))
+            .unwrap();
+        assert_eq!(d.remove_stale(|_| true).unwrap(), 0);
+        d.complete().unwrap();
+    }
+    // A user's file beside the tool's, and a temporary file of a dead writer.
+    fs::write(root.join("maps/b/notes.txt"), b"mine").unwrap();
+    fs::write(root.join("maps/b/.x.npy.tmp-999999999"), b"half").unwrap();
+    let d = OutDir::claim(&root, Some("e"), Purpose::Run).unwrap();
+    assert!(!root.join("maps/b/.x.npy.tmp-999999999").exists());
+    assert!(
+        d.notes.iter().any(|n| n.contains("1 temporary")),
+        "{:?}",
+        d.notes
+    );
+    // A second claim while the first holds the lock is refused.
+    let err = OutDir::claim(&root, Some("e"), Purpose::Run).unwrap_err();
+    assert!(format!("{err:#}").contains("locked by a run"), "{err:#}");
+    crate::io::atomic::atomic_write(&root.join("maps/a/x.npy"), |w| Ok(w.write_all(b"3")?))
+        .unwrap();
+    assert_eq!(d.remove_stale(|_| true).unwrap(), 1);
+    assert!(!root.join("maps/b/x.npy").exists());
+    assert_eq!(fs::read(root.join("maps/b/notes.txt")).unwrap(), b"mine");
+    assert_eq!(fs::read(root.join("maps/a/x.npy")).unwrap(), b"3");
+    let owned = d.owned().unwrap();
+    assert_eq!(
+        owned.into_iter().collect::<Vec<_>>(),
+        [PathBuf::from("maps/a/x.npy")]
+    );
+    // Another experiment's name is refused, and so is a foreign folder.
+    drop(d);
+    let err = OutDir::claim(&root, Some("other"), Purpose::Run).unwrap_err();
+    assert!(format!("{err:#}").contains("experiment \"e\""), "{err:#}");
+    let foreign = dir.path().join("thesis");
+    fs::create_dir_all(&foreign).unwrap();
+    fs::write(foreign.join("overview.png"), b"x").unwrap();
+    let err = OutDir::claim(&foreign, Some("e"), Purpose::Run).unwrap_err();
+    assert!(format!("{err:#}").contains("overview.png"), "{err:#}");
+    assert_eq!(fs::read_dir(&foreign).unwrap().count(), 1);
+}
+
+#[test]
+fn an_interrupted_run_is_refused_by_readers() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("out");
+    let d = OutDir::claim(&root, Some("e"), Purpose::Run).unwrap();
+    drop(d); // no complete(): the manifest was never written
+    let err = check_complete(&root).unwrap_err();
+    assert!(format!("{err:#}").contains("incomplete"), "{err:#}");
+    assert!(OutDir::claim(
+        &root,
+        Some("e"),
+        Purpose::Report {
+            allow_incomplete: false
+        }
+    )
+    .is_err());
+    assert!(OutDir::claim(
+        &root,
+        Some("e"),
+        Purpose::Report {
+            allow_incomplete: true
+        }
+    )
+    .is_ok());
+}
