@@ -343,9 +343,12 @@ fn swept_columns_never_shadow_table_columns_and_stale_maps_go() {
     let dir = tempfile::tempdir().unwrap();
     let spec = dir.path().join("s.yaml");
     let text = "name: s\nseed: 3\ndatasets:\n  - id: d\n    kind: filtered_noise\n    family: exponential\n    alpha_h: 1\n    alpha_v: 1\n    size: [8, 8]\n    samples: 20\n    half_width: 3\nanalysis:\n  levels: 1\nsweep:\n  grid:\n    datasets.d.mean_im: [0.5, 2]\n";
-    std::fs::write(&spec, text).unwrap();
     let out = dir.path().join("out");
-    std::fs::create_dir_all(out.join("maps/old.job")).unwrap();
+    // An earlier run of the spec with one more sweep value: that job's maps are stale now.
+    std::fs::write(&spec, text.replace("[0.5, 2]", "[0.5, 2, 3]")).unwrap();
+    assert!(run(&spec, &out, "2").status.success());
+    assert!(out.join("maps/d.mean_im=3/mean.npy").exists());
+    std::fs::write(&spec, text).unwrap();
     assert!(run(&spec, &out, "2").status.success());
     let px = read(&out, "pixel_stats.parquet");
     assert!(names(&px).contains(&"swept_mean_im".to_string()));
@@ -359,8 +362,8 @@ fn swept_columns_never_shadow_table_columns_and_stale_maps_go() {
     let fc = read(&out, "filter_correlation.parquet");
     assert_eq!(fc.column("mean_im").unwrap().dtype(), &DataType::Float64);
     assert!(
-        !out.join("maps/old.job").exists(),
-        "maps of jobs not in the plan are removed"
+        !out.join("maps/d.mean_im=3").exists(),
+        "maps of jobs no longer in the plan are removed"
     );
     assert!(out.join("maps/d.mean_im=0.5").exists());
 }

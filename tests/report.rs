@@ -195,8 +195,9 @@ fn the_report_references_existing_figures_and_loads_in_a_browser() {
     ] {
         assert!(html.contains(needle), "report lacks {needle:?}");
     }
-    // `report` rebuilds the same page from the files alone, and drops the figures of a job
-    // that is no longer in the run (as an edited spec leaves them).
+    // `report` rebuilds the same page from the files alone, and drops the figures an earlier
+    // report drew for a job that is no longer in the run (as an edited spec leaves them): the
+    // tool's records (its journal) list them. A user's own file in figures/ is kept.
     std::fs::remove_file(&html_path).unwrap();
     let stale = out.join("figures").join("removed_job");
     std::fs::create_dir_all(&stale).unwrap();
@@ -205,11 +206,27 @@ fn the_report_references_existing_figures_and_loads_in_a_browser() {
         .join("figures")
         .join("sweep_correlation_removed_axis.svg");
     std::fs::write(&stale_sweep, b"old").unwrap();
+    let mut journal = std::fs::OpenOptions::new()
+        .append(true)
+        .open(out.join(".isar-clutter/journal"))
+        .unwrap();
+    std::io::Write::write_all(
+        &mut journal,
+        b"figures/removed_job/correlation.png\nfigures/sweep_correlation_removed_axis.svg\n",
+    )
+    .unwrap();
+    let users = out.join("figures").join("my_annotated.png");
+    std::fs::write(&users, b"mine").unwrap();
     let o = bin().arg("report").arg(&out).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read_to_string(&html_path).unwrap(), html);
     assert!(!stale.exists(), "stale job figures were kept");
     assert!(!stale_sweep.exists(), "a stale run-wide figure was kept");
+    assert_eq!(
+        std::fs::read(&users).unwrap(),
+        b"mine",
+        "a user's file was removed"
+    );
     // Every figure the page shows is still there (checked above for the first build).
     for r in &local {
         assert!(out.join(r).is_file(), "the rebuilt report lost {r}");

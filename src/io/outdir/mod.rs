@@ -406,6 +406,8 @@ fn check_owner(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<()> 
                 .with_context(|| format!("cannot read {}", root.display()))?
                 .flatten()
                 .map(|e| e.file_name().to_string_lossy().into_owned())
+                // The tool's state alone (a claim that has not written its marker yet).
+                .filter(|n| n != STATE)
                 .collect();
             if entries.is_empty() {
                 return Ok(());
