@@ -296,6 +296,13 @@ fn report(bar: &Option<ProgressBar>, opts: &RunOptions, job: &dyn JobKind, o: &O
     }
 }
 
+fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -307,11 +314,4 @@ mod tests {
         assert_eq!(super::threads_from(Some("0")), all);
         assert_eq!(super::threads_from(Some("many")), all);
     }
-}
-
-fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
-    p.downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| p.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
 }

@@ -3,8 +3,6 @@
 use super::lock::utc;
 use super::*;
 
-use super::*;
-
 #[test]
 fn temporary_names_of_both_writers_are_recognised() {
     assert_eq!(temporary_of(".a.npy.tmp-12"), Some(("a.npy", 12)));
