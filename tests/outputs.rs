@@ -450,3 +450,24 @@ fn rayon_num_threads_is_honoured_and_recorded() {
     let owned = fs::read_to_string(out.join(".isar-clutter/owned")).unwrap();
     assert!(owned.lines().any(|l| l == "maps/noise/mean.npy"), "{owned}");
 }
+
+#[test]
+fn a_write_phase_that_fails_leaves_the_folder_marked_incomplete() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = setup(dir.path());
+    let out = dir.path().join("out");
+    assert!(run(&spec, &out).status.success());
+    // Where the jobs table goes there is now a folder of the user's: the table cannot be
+    // written (as with a full disk), and the folder is not renamed away.
+    fs::remove_file(out.join("jobs.parquet")).unwrap();
+    fs::create_dir(out.join("jobs.parquet")).unwrap();
+    fs::write(out.join("jobs.parquet/keep.txt"), b"x").unwrap();
+    let o = run(&spec, &out);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("jobs.parquet"), "{}", text(&o));
+    assert_eq!(fs::read(out.join("jobs.parquet/keep.txt")).unwrap(), b"x");
+    assert!(!out.join("manifest.json").exists());
+    let o = bin(&["table", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("incomplete"), "{}", text(&o));
+}
