@@ -292,9 +292,12 @@ pub fn fit(
             let n = stack.dim().0;
             let scale = 1.0 / (n as f64).sqrt();
             let mu = &model.mean;
-            model.deviations = Some(Array3::from_shape_fn(stack.dim(), |(s, i, j)| {
-                (stack[[s, i, j]] - mu[[i, j]]) * scale
-            }));
+            let mut dev: Array3<Complex64> =
+                crate::alloc::try_zeros(stack.dim(), "the full-covariance deviations")?;
+            ndarray::Zip::indexed(&mut dev)
+                .and(&stack)
+                .for_each(|(_, i, j), d, &x| *d = (x - mu[[i, j]]) * scale);
+            model.deviations = Some(dev);
         }
         Method::Method1 => {
             let lm = analysis.levels.first().ok_or(FitError::Levels {
