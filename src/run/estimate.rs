@@ -56,9 +56,9 @@ pub struct Estimate {
 
 impl Estimate {
     /// What a job without a dataset needs at most (the calibration, the hypothesis tests, the
-    /// default of [`crate::run::jobs::JobKind::estimate`]): 64 MiB and 10^8 operations.
+    /// default of [`crate::run::jobs::JobKind::estimate`]): 8 MiB and 10^8 operations.
     pub const SMALL: Estimate = Estimate {
-        bytes: 64 << 20,
+        bytes: 8 << 20,
         flops: 1e8,
     };
 
@@ -250,16 +250,19 @@ pub fn check(plan: &Plan, limit: Option<Limit>) -> Result<Largest, SpecError> {
     for job in all.list() {
         let e = job.estimate(plan);
         if let Some(why) = limit.as_ref().and_then(|l| e.exceeds(l)) {
-            let at = plan
+            let dataset = plan
                 .jobs
                 .iter()
                 .find(|j| j.id == job.id())
-                .and_then(|j| plan.spec.datasets.iter().position(|d| d.id == j.dataset_id))
-                .map_or_else(|| job.kind().to_string(), |i| format!("datasets[{i}]"));
+                .and_then(|j| plan.spec.datasets.iter().position(|d| d.id == j.dataset_id));
+            let (at, advice) = match dataset {
+                Some(i) => (format!("datasets[{i}]"), "; make the dataset smaller"),
+                None => (job.kind().to_string(), ""),
+            };
             return Err(SpecError::at(
                 &plan.file,
                 at,
-                format!("job {} {why}; make the dataset smaller", job.id()),
+                format!("job {} {why}{advice}", job.id()),
             ));
         }
         if largest.as_ref().is_none_or(|l| e.bytes > l.estimate.bytes) {
