@@ -75,11 +75,9 @@ where
     let dims = shape.raw_dim().slice().to_vec();
     let error = || AllocError {
         what: what.to_string(),
-        bytes: dims
-            .iter()
-            .fold(std::mem::size_of::<A>() as u128, |b, &d| {
-                b.saturating_mul(d as u128)
-            }),
+        bytes: dims.iter().fold(std::mem::size_of::<A>() as u128, |b, &d| {
+            b.saturating_mul(d as u128)
+        }),
         shape: dims.clone(),
     };
     let len = dims

@@ -125,7 +125,10 @@ fn validate_refuses_a_dataset_no_machine_holds() {
     let o = bin(&["validate", spec.to_str().unwrap()]);
     let (out, err) = text(&o);
     assert_eq!(o.status.code(), Some(2), "{out}{err}");
-    assert!(err.contains("spec.yaml: datasets[1]: job big needs about"), "{err}");
+    assert!(
+        err.contains("spec.yaml: datasets[1]: job big needs about"),
+        "{err}"
+    );
     assert!(err.contains("TiB"), "{err}");
     assert!(t.elapsed() < Duration::from_secs(5));
 }

@@ -78,11 +78,7 @@ fn estimates_bound_the_measured_peaks_within_a_factor_of_two() {
             human_bytes(estimate.bytes),
             human_bytes(measured as u64)
         ));
-        assert!(
-            (0.5..=2.0).contains(&ratio),
-            "{}",
-            report.join("\n")
-        );
+        assert!((0.5..=2.0).contains(&ratio), "{}", report.join("\n"));
     }
     eprintln!("{}", report.join("\n"));
 }

@@ -260,7 +260,8 @@ impl Stack {
     /// # Panics
     /// If the copy does not fit in memory (see [`Stack::try_to_complex128`]).
     pub fn to_complex128(&self, hwn: bool) -> Array3<Complex<f64>> {
-        self.try_to_complex128(hwn).unwrap_or_else(|e| panic!("{e}"))
+        self.try_to_complex128(hwn)
+            .unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// The stack as complex128 `[N, H, W]`, allocated fallibly.
@@ -280,7 +281,10 @@ impl Stack {
             let count: usize = m.header.shape.iter().product();
             let bytes = &m.map[m.header.data_offset..][..count * std::mem::size_of::<T>()];
             let mut data: ndarray::Array1<T> = crate::alloc::try_zeros(count, "the stack read")?;
-            for (d, b) in data.iter_mut().zip(bytes.chunks_exact(std::mem::size_of::<T>())) {
+            for (d, b) in data
+                .iter_mut()
+                .zip(bytes.chunks_exact(std::mem::size_of::<T>()))
+            {
                 *d = bytemuck::pod_read_unaligned(b);
             }
             let s = &m.header.shape;

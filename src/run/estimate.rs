@@ -192,7 +192,9 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
         .map_err(|_| format!("{text:?} is not a size (bytes, or e.g. 512M, 8G)"))?;
     let bytes = value * unit as f64;
     if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
-        return Err(format!("{text:?}: a size is at least 1 byte and below 16 EiB"));
+        return Err(format!(
+            "{text:?}: a size is at least 1 byte and below 16 EiB"
+        ));
     }
     Ok(bytes as u64)
 }
@@ -311,8 +313,8 @@ pub fn dataset_job(plan: &Plan, job: &Job) -> Estimate {
         (Some(method), Some(syn)) => {
             let m = syn.samples as f64;
             let k = syn.half_width as f64;
-            let needs_copy =
-                matches!(method, Method::FullCovariance | Method::FourthOrder) || !plan.metrics.is_empty();
+            let needs_copy = matches!(method, Method::FullCovariance | Method::FourthOrder)
+                || !plan.metrics.is_empty();
             let (model, fit_flops) = model(method, n, p, k);
             let generated = C64 * m * p;
             let (cmp, cmp_flops) = compare(&plan.metrics, n, m, h, w);
@@ -615,7 +617,10 @@ mod tests {
             source: LimitSource::Flag,
         };
         let why = e.exceeds(&limit).expect("too large");
-        assert!(why.contains("16.0 EiB") && why.contains("--max-memory 8.00 GiB"), "{why}");
+        assert!(
+            why.contains("16.0 EiB") && why.contains("--max-memory 8.00 GiB"),
+            "{why}"
+        );
         assert_eq!(Estimate::SMALL.exceeds(&limit), None);
     }
 

@@ -505,7 +505,8 @@ pub fn try_simulate(
     let mut sim = WindSim::new(&p.plant, &p.wind, &plant, &mut wind_rng);
     let mut kdata: Array3<Complex64> =
         crate::alloc::try_zeros((n, nf, np), "the simulated k-space data")?;
-    let mut images: Array3<Complex64> = crate::alloc::try_zeros((n, sz, sz), "the simulated images")?;
+    let mut images: Array3<Complex64> =
+        crate::alloc::try_zeros((n, sz, sz), "the simulated images")?;
     for s in 0..n {
         if s > 0 {
             sim.advance(p.sample_interval_s, &mut wind_rng);
