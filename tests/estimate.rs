@@ -44,7 +44,7 @@ fn write(dir: &Path, text: &str) -> PathBuf {
     p
 }
 
-fn text(o: &Output) -> (String, String) {
+fn text_of(o: &Output) -> (String, String) {
     (
         String::from_utf8_lossy(&o.stdout).into_owned(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
@@ -78,7 +78,7 @@ fn a_sweep_of_12_to_the_8_points_is_refused_at_once() {
     let t = Instant::now();
     let o = bin(&["validate", spec.to_str().unwrap()]);
     let elapsed = t.elapsed();
-    let (_, err) = text(&o);
+    let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.contains("spec.yaml: sweep: sweep gives 429981696 points"),
@@ -100,7 +100,7 @@ fn a_sweep_whose_count_overflows_is_refused() {
         .collect();
     let spec = write(dir.path(), &format!("{GOOD}sweep:\n  grid:\n{axes}"));
     let o = bin(&["validate", spec.to_str().unwrap()]);
-    let (_, err) = text(&o);
+    let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("sweep gives more than"), "{err}");
 }
@@ -110,7 +110,7 @@ fn validate_prints_the_largest_job() {
     let dir = tempfile::tempdir().unwrap();
     let spec = write(dir.path(), GOOD);
     let o = bin(&["validate", spec.to_str().unwrap()]);
-    let (out, err) = text(&o);
+    let (out, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(out.contains("valid, 1 job(s)"), "{out}");
     assert!(out.contains("largest job small:"), "{out}");
@@ -123,7 +123,7 @@ fn validate_refuses_a_dataset_no_machine_holds() {
     let spec = write(dir.path(), &with_big());
     let t = Instant::now();
     let o = bin(&["validate", spec.to_str().unwrap()]);
-    let (out, err) = text(&o);
+    let (out, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{out}{err}");
     assert!(
         err.contains("spec.yaml: datasets[1]: job big needs about"),
@@ -139,14 +139,14 @@ fn max_memory_refuses_and_admits() {
     let spec = write(dir.path(), GOOD);
     let s = spec.to_str().unwrap();
     let o = bin(&["validate", s, "--max-memory", "1K"]);
-    let (_, err) = text(&o);
+    let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("datasets[0]: job small needs about"), "{err}");
     assert!(err.contains("--max-memory 1.00 KiB"), "{err}");
     let o = bin(&["validate", s, "--max-memory", "512M"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o).1);
+    assert_eq!(o.status.code(), Some(0), "{}", text_of(&o).1);
     let o = bin(&["validate", s, "--max-memory", "lots"]);
-    let (_, err) = text(&o);
+    let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("\"lots\" is not a size"), "{err}");
 }
@@ -156,13 +156,41 @@ fn dry_run_prints_the_largest_job_and_refuses_the_big_one() {
     let dir = tempfile::tempdir().unwrap();
     let spec = write(dir.path(), GOOD);
     let o = bin(&["run", spec.to_str().unwrap(), "--dry-run"]);
-    let (out, err) = text(&o);
+    let (out, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(out.contains("largest job small:"), "{out}");
     let spec = write(dir.path(), &with_big());
     let o = bin(&["run", spec.to_str().unwrap(), "--dry-run"]);
-    let (_, err) = text(&o);
+    let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("datasets[1]: job big needs about"), "{err}");
     assert!(!dir.path().join("outputs").exists());
+}
+
+#[test]
+fn a_plan_of_more_than_100000_jobs_is_refused() {
+    // 50001 sweep points (under the point limit) on a field both datasets take: 100002 jobs.
+    let dir = tempfile::tempdir().unwrap();
+    let values: Vec<String> = (0..50001).map(|v| v.to_string()).collect();
+    let second = GOOD
+        .split("datasets:\n")
+        .nth(1)
+        .and_then(|t| t.split("analysis:").next())
+        .unwrap()
+        .replace("id: small", "id: other");
+    let text = GOOD.replace("analysis:", &format!("{second}analysis:"));
+    let spec = write(
+        dir.path(),
+        &format!(
+            "{text}sweep:\n  grid:\n    datasets.*.mean: [{}]\n",
+            values.join(",")
+        ),
+    );
+    let o = bin(&["validate", spec.to_str().unwrap()]);
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("sweep: the sweep gives more than 100000 jobs (up to 100002"),
+        "{err}"
+    );
 }

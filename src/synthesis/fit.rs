@@ -262,7 +262,8 @@ pub(super) fn cell_of(i: usize, j: usize, cells: (usize, usize)) -> (usize, usiz
 /// Fits `method` to a stack from its analysis (`stack` is needed by `full_covariance` only).
 ///
 /// # Errors
-/// [`FitError`] if the analysis lacks levels the method needs.
+/// [`FitError`] if the analysis lacks levels the method needs, or the model's arrays (the
+/// full-covariance deviations) do not fit in memory.
 pub fn fit(
     method: Method,
     analysis: &Analysis,
