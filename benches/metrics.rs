@@ -30,7 +30,7 @@ fn stack(n: usize, seed: u64) -> Array3<Complex64> {
         n,
         8,
     );
-    generate(&d, &filter_bank(&d), seed)
+    generate(&d, &filter_bank(&d), seed).unwrap()
 }
 
 fn main() {

@@ -76,7 +76,7 @@ fn main() {
         // Kernel alone, on a Method 1 bank (taps shared within 2 x 2 cells, as every fitted
         // model has): per pair of rows and column, (2 + 2K) horizontal sums of 2K+1 taps and
         // 2 x (2K+1) vertical terms, each a multiply and an add per component.
-        let stack = generate(&d, &bank, 2);
+        let stack = generate(&d, &bank, 2).unwrap();
         let a1 = analyse(stack.view(), 1).unwrap();
         let m1 = fit(Method::Method1, &a1, None, FitOptions::default()).unwrap();
         let cell_bank = &m1.filter.as_ref().unwrap().bank;
@@ -110,7 +110,7 @@ fn main() {
         for n_fit in [100, 1000] {
             let mut dd = d.clone();
             dd.samples = n_fit;
-            let stack = generate(&dd, &bank, 2);
+            let stack = generate(&dd, &bank, 2).unwrap();
             let a = analyse(stack.view(), 3).unwrap();
             for method in [
                 Method::Method1,

@@ -10,9 +10,97 @@
 //!
 //! Which blocks are mapped depends only on their layout (size at least [`LARGE`], alignment at
 //! most a page), so `dealloc` and `realloc` know how a block was made. `realloc` between two
-//! mapped sizes is `mremap` (no copy).
+//! mapped sizes is `mremap` (no copy). The mapped bytes are counted (two atomic operations per
+//! mapping, next to a system call): [`mapped_bytes`] gives the current and the peak count, which
+//! the tests compare with the jobs' memory estimates.
+//!
+//! The big arrays of a job (a dataset's stack, its complex128 copy, the generated samples, the
+//! full-covariance deviations) are made by [`try_zeros`]: an allocation that fails becomes an
+//! [`AllocError`] naming the array and its size, which fails that job alone instead of aborting
+//! the process.
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Bytes currently mapped by [`LargeMapAlloc`].
+static MAPPED: AtomicUsize = AtomicUsize::new(0);
+/// Most bytes mapped at once since the start or the last [`reset_peak`].
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+/// `(current, peak)` bytes in blocks of [`LARGE`] bytes and more that [`LargeMapAlloc`] has
+/// mapped (zero where it is not the global allocator, or off Linux).
+pub fn mapped_bytes() -> (usize, usize) {
+    (MAPPED.load(Ordering::Relaxed), PEAK.load(Ordering::Relaxed))
+}
+
+/// Restarts the peak of [`mapped_bytes`] from the bytes mapped now.
+pub fn reset_peak() {
+    PEAK.store(MAPPED.load(Ordering::Relaxed), Ordering::Relaxed);
+}
+
+fn count_mapped(add: usize, sub: usize) {
+    if add >= sub {
+        let now = MAPPED.fetch_add(add - sub, Ordering::Relaxed) + (add - sub);
+        PEAK.fetch_max(now, Ordering::Relaxed);
+    } else {
+        MAPPED.fetch_sub(sub - add, Ordering::Relaxed);
+    }
+}
+
+/// An allocation of a big array that the system refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("cannot allocate {what} ({bytes} bytes, {shape:?}): out of memory")]
+pub struct AllocError {
+    /// What the array is (`the generated samples`).
+    pub what: String,
+    /// Its shape.
+    pub shape: Vec<usize>,
+    /// Its bytes (saturated at `u128::MAX`).
+    pub bytes: u128,
+}
+
+/// A zero-filled array of `shape`, or an [`AllocError`] naming `what` when the memory cannot be
+/// had (or the size overflows). The block comes from the global allocator's `alloc_zeroed`, as
+/// for `Array::zeros` of a number type: a fresh mapping is zero without being touched.
+///
+/// # Errors
+/// [`AllocError`] when the allocation fails.
+pub fn try_zeros<A, Sh>(shape: Sh, what: &str) -> Result<ndarray::Array<A, Sh::Dim>, AllocError>
+where
+    A: bytemuck::Zeroable,
+    Sh: ndarray::ShapeBuilder,
+{
+    use ndarray::Dimension;
+    let shape = shape.into_shape_with_order();
+    let dims = shape.raw_dim().slice().to_vec();
+    let error = || AllocError {
+        what: what.to_string(),
+        bytes: dims.iter().fold(std::mem::size_of::<A>() as u128, |b, &d| {
+            b.saturating_mul(d as u128)
+        }),
+        shape: dims.clone(),
+    };
+    let len = dims
+        .iter()
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .ok_or_else(error)?;
+    let layout = Layout::array::<A>(len).map_err(|_| error())?;
+    let data: Vec<A> = if layout.size() == 0 {
+        (0..len).map(|_| A::zeroed()).collect()
+    } else {
+        // SAFETY: the layout has a non-zero size; a non-null block from `alloc_zeroed` of
+        // `Layout::array::<A>(len)` is what `Vec::from_raw_parts` takes for capacity `len`, and
+        // all-zero bytes are a valid `A` (`Zeroable`).
+        unsafe {
+            let p = std::alloc::alloc_zeroed(layout).cast::<A>();
+            if p.is_null() {
+                return Err(error());
+            }
+            Vec::from_raw_parts(p, len, len)
+        }
+    };
+    Ok(ndarray::Array::from_shape_vec(shape, data).expect("the length is the shape's product"))
+}
 
 /// Blocks of this size and more are mapped from the kernel.
 pub const LARGE: usize = 2 << 20;
@@ -93,7 +181,11 @@ unsafe impl GlobalAlloc for LargeMapAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         if mapped(&layout) {
             // SAFETY: size is non-zero (at least LARGE).
-            unsafe { map(layout.size()) }
+            let p = unsafe { map(layout.size()) };
+            if !p.is_null() {
+                count_mapped(layout.size(), 0);
+            }
+            p
         } else {
             // SAFETY: forwarded with the caller's guarantees.
             unsafe { System.alloc(layout) }
@@ -103,7 +195,11 @@ unsafe impl GlobalAlloc for LargeMapAlloc {
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
         if mapped(&layout) {
             // SAFETY: as in `alloc`; a fresh anonymous mapping reads as zero.
-            unsafe { map(layout.size()) }
+            let p = unsafe { map(layout.size()) };
+            if !p.is_null() {
+                count_mapped(layout.size(), 0);
+            }
+            p
         } else {
             // SAFETY: forwarded with the caller's guarantees.
             unsafe { System.alloc_zeroed(layout) }
@@ -112,6 +208,7 @@ unsafe impl GlobalAlloc for LargeMapAlloc {
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         if mapped(&layout) {
+            count_mapped(0, layout.size());
             // SAFETY: a block of this layout was made by `map`.
             unsafe { unmap(ptr, layout.size()) }
         } else {
@@ -126,8 +223,14 @@ unsafe impl GlobalAlloc for LargeMapAlloc {
         match (mapped(&layout), mapped(&new)) {
             // SAFETY: forwarded with the caller's guarantees.
             (false, false) => unsafe { System.realloc(ptr, layout, new_size) },
-            // SAFETY: the block was made by `map` with the old size.
-            (true, true) => unsafe { remap(ptr, layout.size(), new_size) },
+            (true, true) => {
+                // SAFETY: the block was made by `map` with the old size.
+                let q = unsafe { remap(ptr, layout.size(), new_size) };
+                if !q.is_null() {
+                    count_mapped(new_size, layout.size());
+                }
+                q
+            }
             _ => {
                 // SAFETY: `new` is a valid layout; on success the old block is copied
                 // (the smaller of the two sizes) and released with its own layout.
@@ -185,5 +288,33 @@ mod tests {
             assert!((0..8 << 20).step_by(4093).all(|i| *q.add(i) == 0));
             a.dealloc(q, z);
         }
+    }
+}
+
+#[cfg(test)]
+mod try_zeros_tests {
+    use super::*;
+    use num_complex::Complex64;
+
+    #[test]
+    fn zeros_come_back_in_the_shape_asked() {
+        let a: ndarray::Array3<Complex64> = try_zeros((3, 4, 5), "a stack").unwrap();
+        assert_eq!(a.dim(), (3, 4, 5));
+        assert!(a.iter().all(|z| *z == Complex64::new(0.0, 0.0)));
+        let empty: ndarray::Array2<f64> = try_zeros((0, 7), "nothing").unwrap();
+        assert_eq!(empty.dim(), (0, 7));
+    }
+
+    #[test]
+    fn an_impossible_allocation_is_an_error_naming_the_array() {
+        // 2^50 complex values (16 PiB): no machine has them; the allocator says no.
+        let e = try_zeros::<Complex64, _>((1 << 20, 1 << 15, 1 << 15), "the generated samples")
+            .unwrap_err();
+        assert_eq!(e.bytes, 1 << 54);
+        let text = e.to_string();
+        assert!(text.contains("the generated samples") && text.contains("18014398509481984"));
+        // A size past usize overflows before anything is asked of the allocator.
+        let e = try_zeros::<Complex64, _>((1 << 40, 1 << 40, 16), "stack").unwrap_err();
+        assert_eq!(e.shape, vec![1 << 40, 1 << 40, 16]);
     }
 }

@@ -7,6 +7,7 @@ static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMa
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use isar_clutter::run::estimate;
 use isar_clutter::run::plan::{self, Plan};
 use isar_clutter::run::scheduler::{self, RunOptions};
 use std::path::PathBuf;
@@ -42,6 +43,10 @@ enum Command {
         /// Do not build figures/ and report.html at the end.
         #[arg(long)]
         no_report: bool,
+        /// Refuse a job whose estimated peak memory exceeds SIZE (bytes, or e.g. 512M, 8G;
+        /// default: the machine's memory).
+        #[arg(long, value_name = "SIZE", value_parser = isar_clutter::run::estimate::parse_size)]
+        max_memory: Option<u64>,
     },
     /// (Re)build figures/ and report.html of a results folder from its files.
     Report {
@@ -82,6 +87,10 @@ enum Command {
     Validate {
         /// The experiment spec (YAML).
         spec: PathBuf,
+        /// Refuse a job whose estimated peak memory exceeds SIZE (bytes, or e.g. 512M, 8G;
+        /// default: the machine's memory).
+        #[arg(long, value_name = "SIZE", value_parser = isar_clutter::run::estimate::parse_size)]
+        max_memory: Option<u64>,
     },
     /// Fit a synthesis model to a stack and save it as a model folder.
     Fit {
@@ -179,9 +188,11 @@ fn real_main() -> Result<ExitCode> {
             );
             Ok(ExitCode::SUCCESS)
         }
-        Command::Validate { spec } => {
+        Command::Validate { spec, max_memory } => {
             let plan = plan::load(&spec)?;
+            let largest = estimate::check(&plan, estimate::limit(max_memory))?;
             println!("{}: valid, {} job(s)", spec.display(), plan.jobs.len());
+            println!("{largest}");
             Ok(ExitCode::SUCCESS)
         }
         Command::Fit {
@@ -233,10 +244,13 @@ fn real_main() -> Result<ExitCode> {
             dry_run,
             quiet,
             no_report,
+            max_memory,
         } => {
             let plan = plan::load(&spec)?;
             if dry_run {
+                let largest = estimate::check(&plan, estimate::limit(max_memory))?;
                 print_jobs(&plan);
+                println!("{largest}");
                 return Ok(ExitCode::SUCCESS);
             }
             let out = out.unwrap_or_else(|| PathBuf::from("outputs").join(&plan.spec.name));

@@ -72,7 +72,7 @@ fn generated_data_has_the_requested_mean_and_variance() {
     d.mean = Map::LeftRight(1.0, -2.0);
     d.std = Map::TopBottom(0.5, 3.0);
     let bank = filter_bank(&d);
-    let stack = generate(&d, &bank, 3);
+    let stack = generate(&d, &bank, 3).unwrap();
     let a = analyse(stack.view(), 1).unwrap();
     let std = d.std.grid(16, 16);
     let mean = d.mean.grid(16, 16);
@@ -129,7 +129,7 @@ fn spatially_varying_analysis_recovers_the_exact_maps() {
     );
     let bank = filter_bank(&d);
     assert!(!bank.is_uniform());
-    let stack = generate(&d, &bank, 4);
+    let stack = generate(&d, &bank, 4).unwrap();
     let a = analyse(stack.view(), 2).unwrap();
     let exact = expected_maps(&bank, &d.std.grid(16, 16), 2);
     for (lm, e) in a.levels.iter().zip(&exact) {

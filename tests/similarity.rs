@@ -305,7 +305,7 @@ fn k_distributed_texture_has_the_excess_kurtosis_it_promises() {
         2,
     );
     d.texture_shape = Some(nu);
-    let x = generate(&d, &filter_bank(&d), 77);
+    let x = generate(&d, &filter_bank(&d), 77).unwrap();
     let re: Vec<f64> = x.iter().step_by(4).map(|z| z.re).collect();
     let (mean, var, _skew, kurt) =
         isar_clutter::stats::fleishman::sample_moments(re.iter().copied());

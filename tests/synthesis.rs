@@ -19,7 +19,7 @@ fn noise(filter: FilterParams, h: usize, w: usize, n: usize, k: usize) -> Filter
 }
 
 fn stack_of(d: &FilteredNoise, seed: u64) -> Array3<Complex64> {
-    generate(d, &filter_bank(d), seed)
+    generate(d, &filter_bank(d), seed).unwrap()
 }
 
 fn rmse(a: &Array2<f64>, b: &Array2<f64>) -> f64 {

@@ -65,7 +65,7 @@ fn table_4_estimates_within_0_01_of_exact() {
     // 1000 samples of 64x64: the standard error of a mean over >= 64 cells is ~0.003.
     let d = table4_dataset();
     let bank: FilterBank = filter_bank(&d);
-    let stack = generate(&d, &bank, 20200403);
+    let stack = generate(&d, &bank, 20200403).unwrap();
     let a = analyse(stack.view(), 3).unwrap();
     for (lm, (h, v, dg)) in a.levels.iter().zip(TABLE_4_EXACT) {
         for (dir, want) in [(Direction::H, h), (Direction::V, v), (Direction::D, dg)] {

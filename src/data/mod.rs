@@ -7,7 +7,11 @@
 //! ChaCha20 seeded with the data seed on stream `s`, so samples are generated in parallel and
 //! the stack does not depend on the thread count. K-distributed clutter (`texture_shape`)
 //! scales sample `s` by the square root of a gamma texture drawn on stream `2^40 + s`.
+//!
+//! The stacks are allocated fallibly ([`crate::alloc::try_zeros`]): a stack the memory cannot
+//! hold is a [`DataError::Alloc`] that fails its job, not an abort of the process.
 
+use crate::alloc::{try_zeros, AllocError};
 use crate::experiment::{Dataset, FilterParams, FilteredNoise, Layout, Map};
 use crate::io::npy::{NpyError, Stack};
 use crate::seeds::{texture, white_seed};
@@ -17,6 +21,17 @@ use num_complex::Complex64;
 use rayon::prelude::*;
 
 pub mod netcdf_stack;
+
+/// Why a dataset cannot be materialised.
+#[derive(Debug, thiserror::Error)]
+pub enum DataError {
+    /// A file cannot be read or decoded, or the imaging fails on its data.
+    #[error(transparent)]
+    Npy(#[from] NpyError),
+    /// A stack does not fit in memory.
+    #[error(transparent)]
+    Alloc(#[from] AllocError),
+}
 
 /// A dataset ready for analysis.
 pub struct Materialised {
@@ -59,7 +74,14 @@ pub fn filter_bank(d: &FilteredNoise) -> FilterBank {
 }
 
 /// Generates the `[N, H, W]` stack of a `filtered_noise` dataset.
-pub fn generate(d: &FilteredNoise, bank: &FilterBank, data_seed: u64) -> Array3<Complex64> {
+///
+/// # Errors
+/// [`AllocError`] when the stack does not fit in memory.
+pub fn generate(
+    d: &FilteredNoise,
+    bank: &FilterBank,
+    data_seed: u64,
+) -> Result<Array3<Complex64>, AllocError> {
     let (h, w, k) = (d.height, d.width, d.half_width);
     let (mean, mean_im, std) = (d.mean.grid(h, w), d.mean_im.grid(h, w), d.std.grid(h, w));
     let gain: Vec<f64> = (0..h * w)
@@ -70,7 +92,7 @@ pub fn generate(d: &FilteredNoise, bank: &FilterBank, data_seed: u64) -> Array3<
         .zip(mean_im.iter())
         .map(|(&a, &b)| Complex64::new(a, b))
         .collect();
-    let mut out = Array3::zeros((d.samples, h, w));
+    let mut out = try_zeros((d.samples, h, w), "the filtered-noise stack")?;
     let data = out.as_slice_mut().expect("standard layout");
     data.par_chunks_mut(h * w)
         .enumerate()
@@ -84,18 +106,18 @@ pub fn generate(d: &FilteredNoise, bank: &FilterBank, data_seed: u64) -> Array3<
                 *x = m + *x * (*g * t);
             }
         });
-    out
+    Ok(out)
 }
 
 /// Loads or generates the stack of a dataset.
 ///
 /// # Errors
-/// [`NpyError`] if an `.npy` stack cannot be read.
-pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, NpyError> {
+/// [`DataError`] if an `.npy` stack cannot be read or a stack does not fit in memory.
+pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, DataError> {
     Ok(match dataset {
         Dataset::FilteredNoise(d) => {
             let bank = filter_bank(d);
-            let stack = generate(d, &bank, data_seed);
+            let stack = generate(d, &bank, data_seed)?;
             let std = d.std.grid(d.height, d.width);
             Materialised {
                 stack: Stack::Generated(stack),
@@ -121,7 +143,10 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Np
                     .map_err(|e| e.to_string())
                 })
                 .collect();
-            let mut images = Array3::zeros((k.samples, k.image_size, k.image_size));
+            let mut images = try_zeros(
+                (k.samples, k.image_size, k.image_size),
+                "the images of the k-space data",
+            )?;
             for (s, p) in planes.into_iter().enumerate() {
                 let p = p.map_err(|reason| NpyError::Data {
                     path: k.path.clone(),
@@ -190,12 +215,12 @@ fn calibrated(
     grid: &crate::physics::isar::Measurement,
     opts: &crate::physics::isar::ImagingOptions,
     data_seed: u64,
-) -> Result<(Array3<Complex64>, Array3<Complex64>), NpyError> {
+) -> Result<(Array3<Complex64>, Array3<Complex64>), DataError> {
     use crate::physics::calibration::{factor, measure_and_calibrate};
     let seed = crate::seeds::derive_seed(data_seed, "calibration", "");
     let a = factor(chain, seed);
     let (n, nf, nphi) = kspace.dim();
-    let mut out = Array3::zeros((n, nf, nphi));
+    let mut out = try_zeros((n, nf, nphi), "the calibrated k-space data")?;
     out.as_slice_mut()
         .expect("standard layout")
         .par_chunks_mut(nf * nphi)
@@ -211,7 +236,7 @@ fn calibrated(
                 }
             }
         });
-    let mut images = Array3::zeros((n, opts.size, opts.size));
+    let mut images = try_zeros((n, opts.size, opts.size), "the calibrated images")?;
     for s in 0..n {
         let img = crate::physics::isar::try_image(out.index_axis(ndarray::Axis(0), s), grid, opts)
             .map_err(|e| NpyError::Data {

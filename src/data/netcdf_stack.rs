@@ -23,15 +23,18 @@ pub fn load(d: &NetcdfDataset) -> Result<Array3<Complex64>, anyhow::Error> {
             .expect("3-D, checked at validation"))
     };
     let u = read(&d.u)?;
-    let mut x = match &d.v {
-        Some(v) => {
-            let v = read(v)?;
-            ndarray::Zip::from(&u)
-                .and(&v)
-                .map_collect(|&a, &b| Complex64::new(a, b))
-        }
-        None => u.mapv(|a| Complex64::new(a, 0.0)),
-    };
+    let v = d.v.as_deref().map(read).transpose()?;
+    let mut x: Array3<Complex64> = crate::alloc::try_zeros(u.raw_dim(), "the NetCDF stack")?;
+    match &v {
+        Some(v) => ndarray::Zip::from(&mut x)
+            .and(&u)
+            .and(v)
+            .for_each(|x, &a, &b| *x = Complex64::new(a, b)),
+        None => ndarray::Zip::from(&mut x)
+            .and(&u)
+            .for_each(|x, &a| *x = Complex64::new(a, 0.0)),
+    }
+    drop((u, v));
     if d.remove_monthly_mean {
         let months = months(&file, &d.u).map_err(anyhow::Error::msg)?;
         remove_monthly_mean(&mut x, &months);

@@ -256,25 +256,58 @@ impl Stack {
     }
 
     /// The stack as complex128 `[N, H, W]` (a copy; `hwn`: axes stored as `[H, W, N]`).
+    ///
+    /// # Panics
+    /// If the copy does not fit in memory (see [`Stack::try_to_complex128`]).
     pub fn to_complex128(&self, hwn: bool) -> Array3<Complex<f64>> {
-        fn widen<T: Element + Sample>(m: &MappedNpy, hwn: bool) -> Array3<Complex<f64>> {
+        self.try_to_complex128(hwn)
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The stack as complex128 `[N, H, W]`, allocated fallibly.
+    ///
+    /// # Errors
+    /// [`crate::alloc::AllocError`] if the copy (or, for a mapped stack, its aligned read)
+    /// does not fit in memory.
+    pub fn try_to_complex128(
+        &self,
+        hwn: bool,
+    ) -> Result<Array3<Complex<f64>>, crate::alloc::AllocError> {
+        fn widen<T: Element + Sample>(
+            m: &MappedNpy,
+            hwn: bool,
+        ) -> Result<Array3<Complex<f64>>, crate::alloc::AllocError> {
             use ndarray::ShapeBuilder;
             let count: usize = m.header.shape.iter().product();
             let bytes = &m.map[m.header.data_offset..][..count * std::mem::size_of::<T>()];
-            let data: Vec<T> = bytes
-                .chunks_exact(std::mem::size_of::<T>())
-                .map(bytemuck::pod_read_unaligned)
-                .collect();
+            let mut data: ndarray::Array1<T> = crate::alloc::try_zeros(count, "the stack read")?;
+            for (d, b) in data
+                .iter_mut()
+                .zip(bytes.chunks_exact(std::mem::size_of::<T>()))
+            {
+                *d = bytemuck::pod_read_unaligned(b);
+            }
             let s = &m.header.shape;
-            let a = ArrayView3::from_shape((s[0], s[1], s[2]).set_f(m.header.fortran_order), &data)
-                .expect("size checked at load");
-            view(a, hwn).mapv(|v| {
+            let a = ArrayView3::from_shape(
+                (s[0], s[1], s[2]).set_f(m.header.fortran_order),
+                data.as_slice().expect("standard layout"),
+            )
+            .expect("size checked at load");
+            let a = view(a, hwn);
+            let mut out = crate::alloc::try_zeros(a.raw_dim(), "the stack as complex128")?;
+            ndarray::Zip::from(&mut out).and(a).for_each(|o, &v| {
                 let [re, im] = T::components(v);
-                Complex::new(re, im)
-            })
+                *o = Complex::new(re, im);
+            });
+            Ok(out)
         }
         match self {
-            Stack::Generated(a) => view(a.view(), hwn).to_owned(),
+            Stack::Generated(a) => {
+                let a = view(a.view(), hwn);
+                let mut out = crate::alloc::try_zeros(a.raw_dim(), "the stack as complex128")?;
+                out.assign(&a);
+                Ok(out)
+            }
             Stack::Mapped(m) => match m.header.dtype {
                 Dtype::Complex64 => widen::<Complex<f32>>(m, hwn),
                 Dtype::Complex128 => widen::<Complex<f64>>(m, hwn),

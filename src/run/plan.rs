@@ -26,6 +26,16 @@ use std::path::{Path, PathBuf};
 /// Longest job id before a hash suffix replaces the tail.
 const MAX_ID_LEN: usize = 96;
 
+/// Most sweep points a spec may ask for: the product of the grid axes' lengths times the zip
+/// axes' common length, counted (with checked multiplication) before anything is expanded, so a
+/// sweep of `12^8` points is refused at once instead of exhausting memory. A larger study is
+/// split into several specs.
+pub const MAX_SWEEP_POINTS: usize = 100_000;
+
+/// Most jobs a plan may hold (datasets x sweep points x (1 + synthesis methods), less the jobs
+/// that sweep axes do not touch and are not duplicated).
+pub const MAX_JOBS: usize = 100_000;
+
 /// One unit of work: a dataset under one sweep point.
 #[derive(Debug, Clone)]
 pub struct Job {
@@ -163,7 +173,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     let metrics = experiment::check_metrics(&spec, &ctx)?;
     let axes = parse_axes(&spec, &ctx)?;
     let points = sweep_points(&axes, &ctx)?;
-    let mut jobs = Vec::new();
+    let mut jobs: Vec<Job> = Vec::new();
     let mut seen = HashMap::new();
     let methods: Vec<Option<Method>> = std::iter::once(None)
         .chain(
@@ -198,6 +208,9 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
                 let identity = identity(&ds.id, method, &params);
                 if seen.insert(identity.clone(), ()).is_some() {
                     continue;
+                }
+                if jobs.len() == MAX_JOBS {
+                    return Err(too_many_jobs(&spec, points.len(), methods.len(), &ctx));
                 }
                 let job = build_job(
                     &spec,
@@ -392,7 +405,33 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
     Ok(axes)
 }
 
-/// Sweep points as lists of `(axis index, value index)`.
+/// The error of a plan past [`MAX_JOBS`], with the upper bound of its job count.
+fn too_many_jobs(spec: &RawSpec, points: usize, methods: usize, ctx: &Ctx) -> SpecError {
+    let bound = spec
+        .datasets
+        .len()
+        .saturating_mul(points)
+        .saturating_mul(methods);
+    ctx.err(
+        "sweep",
+        format!(
+            "the sweep gives more than {MAX_JOBS} jobs (up to {bound}: {} dataset(s) x {points} \
+             point(s) x {methods} job(s) per point); at most {MAX_JOBS} (split the spec)",
+            spec.datasets.len()
+        ),
+    )
+}
+
+/// Number of sweep points: the product of the grid axes' lengths times the zip axes' common
+/// length (1 without axes), `None` when it overflows `usize`. Nothing is expanded.
+fn count_points(axes: &[Axis], grid: &[usize], zip: &[usize]) -> Option<usize> {
+    let zip_len = zip.first().map_or(1, |&a| axes[a].values.len());
+    grid.iter()
+        .try_fold(zip_len, |n, &a| n.checked_mul(axes[a].values.len()))
+}
+
+/// Sweep points as lists of `(axis index, value index)`; refused above [`MAX_SWEEP_POINTS`]
+/// (counted before they are expanded).
 fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, SpecError> {
     let grid: Vec<usize> = (0..axes.len())
         .filter(|&a| axes[a].at.starts_with("sweep.grid."))
@@ -400,6 +439,21 @@ fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, Sp
     let zip: Vec<usize> = (0..axes.len())
         .filter(|&a| axes[a].at.starts_with("sweep.zip."))
         .collect();
+    if let Some(&first) = zip.first() {
+        let n = axes[first].values.len();
+        if let Some(&bad) = zip.iter().find(|&&a| axes[a].values.len() != n) {
+            return Err(ctx.err(
+                &axes[bad].at,
+                format!(
+                    "zip axes must have equal lengths: {} has {n} values, {} has {}",
+                    axes[first].key,
+                    axes[bad].key,
+                    axes[bad].values.len()
+                ),
+            ));
+        }
+    }
+    check_point_count(axes, &grid, &zip, ctx)?;
     let mut points: Vec<Vec<(usize, usize)>> = vec![vec![]];
     for &a in &grid {
         points = points
@@ -415,17 +469,6 @@ fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, Sp
     }
     if let Some(&first) = zip.first() {
         let n = axes[first].values.len();
-        if let Some(&bad) = zip.iter().find(|&&a| axes[a].values.len() != n) {
-            return Err(ctx.err(
-                &axes[bad].at,
-                format!(
-                    "zip axes must have equal lengths: {} has {n} values, {} has {}",
-                    axes[first].key,
-                    axes[bad].key,
-                    axes[bad].values.len()
-                ),
-            ));
-        }
         points = points
             .into_iter()
             .flat_map(|p| {
@@ -439,6 +482,33 @@ fn sweep_points(axes: &[Axis], ctx: &Ctx) -> Result<Vec<Vec<(usize, usize)>>, Sp
             .collect();
     }
     Ok(points)
+}
+
+/// Refuses a sweep of more than [`MAX_SWEEP_POINTS`] points, naming the count and the axes'
+/// lengths (grid axes, then the zip axes' common length).
+fn check_point_count(
+    axes: &[Axis],
+    grid: &[usize],
+    zip: &[usize],
+    ctx: &Ctx,
+) -> Result<(), SpecError> {
+    let count = count_points(axes, grid, zip);
+    if count.is_some_and(|n| n <= MAX_SWEEP_POINTS) {
+        return Ok(());
+    }
+    let lens: Vec<String> = grid
+        .iter()
+        .chain(zip.first())
+        .map(|&a| axes[a].values.len().to_string())
+        .collect();
+    let count = count.map_or_else(|| format!("more than {}", usize::MAX), |n| n.to_string());
+    Err(ctx.err(
+        "sweep",
+        format!(
+            "sweep gives {count} points ({}); at most {MAX_SWEEP_POINTS} (split the spec)",
+            lens.join(" x ")
+        ),
+    ))
 }
 
 /// Canonical identity of a dataset under some swept values.

@@ -262,7 +262,8 @@ pub(super) fn cell_of(i: usize, j: usize, cells: (usize, usize)) -> (usize, usiz
 /// Fits `method` to a stack from its analysis (`stack` is needed by `full_covariance` only).
 ///
 /// # Errors
-/// [`FitError`] if the analysis lacks levels the method needs.
+/// [`FitError`] if the analysis lacks levels the method needs, or the model's arrays (the
+/// full-covariance deviations) do not fit in memory.
 pub fn fit(
     method: Method,
     analysis: &Analysis,
@@ -292,9 +293,12 @@ pub fn fit(
             let n = stack.dim().0;
             let scale = 1.0 / (n as f64).sqrt();
             let mu = &model.mean;
-            model.deviations = Some(Array3::from_shape_fn(stack.dim(), |(s, i, j)| {
-                (stack[[s, i, j]] - mu[[i, j]]) * scale
-            }));
+            let mut dev: Array3<Complex64> =
+                crate::alloc::try_zeros(stack.dim(), "the full-covariance deviations")?;
+            ndarray::Zip::indexed(&mut dev)
+                .and(&stack)
+                .for_each(|(_, i, j), d, &x| *d = (x - mu[[i, j]]) * scale);
+            model.deviations = Some(dev);
         }
         Method::Method1 => {
             let lm = analysis.levels.first().ok_or(FitError::Levels {

@@ -3,6 +3,7 @@
 //! sampler; fourth order: the Fleishman transform), in batches and in parallel.
 
 use super::*;
+use crate::alloc::{try_zeros, AllocError};
 
 impl Model {
     /// Image size `(H, W)`.
@@ -102,14 +103,31 @@ impl Model {
 
     /// Generates samples `first .. first + count` as complex64 (the format of saved samples),
     /// in parallel on the caller's rayon pool; each sample is computed in f64 and rounded.
+    ///
+    /// # Panics
+    /// If the samples do not fit in memory (see [`Model::try_generate_c64`]).
     pub fn generate_c64(
         &self,
         seed: u64,
         first: usize,
         count: usize,
     ) -> Array3<num_complex::Complex<f32>> {
+        self.try_generate_c64(seed, first, count)
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// [`Model::generate_c64`] with the output allocated fallibly.
+    ///
+    /// # Errors
+    /// [`AllocError`] if the `count x H x W` complex64 samples do not fit in memory.
+    pub fn try_generate_c64(
+        &self,
+        seed: u64,
+        first: usize,
+        count: usize,
+    ) -> Result<Array3<num_complex::Complex<f32>>, AllocError> {
         let (h, w) = self.shape();
-        let mut out = Array3::from_elem((count, h, w), num_complex::Complex::new(0.0f32, 0.0));
+        let mut out = try_zeros((count, h, w), "the generated samples")?;
         if let (None, Some(_)) = (&self.filter, &self.deviations) {
             let mean: &[f64] = bytemuck::cast_slice(self.mean.as_slice().expect("standard layout"));
             let flat: &mut [f32] =
@@ -130,7 +148,7 @@ impl Model {
                         },
                     );
                 });
-            return out;
+            return Ok(out);
         }
         out.as_slice_mut()
             .expect("standard layout")
@@ -145,7 +163,7 @@ impl Model {
                     }
                 },
             );
-        out
+        Ok(out)
     }
 
     /// Generates samples `first .. first + count` of the generation seeded by `seed`, in

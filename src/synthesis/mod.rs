@@ -217,6 +217,9 @@ pub enum FitError {
         /// Levels present.
         have: usize,
     },
+    /// A model's arrays do not fit in memory.
+    #[error(transparent)]
+    Alloc(#[from] crate::alloc::AllocError),
     /// The half-width truncates the dyadic filter.
     #[error("half_width {half_width} truncates a {levels}-level dyadic filter (needs {need})")]
     HalfWidth {

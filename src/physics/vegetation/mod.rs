@@ -66,6 +66,9 @@ pub enum VegError {
     /// Error from the imaging chain.
     #[error(transparent)]
     Isar(#[from] IsarError),
+    /// The k-space data or the images do not fit in memory.
+    #[error(transparent)]
+    Alloc(#[from] crate::alloc::AllocError),
 }
 
 fn bad(name: &'static str, reason: &str) -> VegError {
@@ -500,8 +503,10 @@ pub fn try_simulate(
     // wind process: sequential, one stream
     let mut wind_rng = rng_stream(seed, 1);
     let mut sim = WindSim::new(&p.plant, &p.wind, &plant, &mut wind_rng);
-    let mut kdata = Array3::<Complex64>::zeros((n, nf, np));
-    let mut images = Array3::<Complex64>::zeros((n, sz, sz));
+    let mut kdata: Array3<Complex64> =
+        crate::alloc::try_zeros((n, nf, np), "the simulated k-space data")?;
+    let mut images: Array3<Complex64> =
+        crate::alloc::try_zeros((n, sz, sz), "the simulated images")?;
     for s in 0..n {
         if s > 0 {
             sim.advance(p.sample_interval_s, &mut wind_rng);

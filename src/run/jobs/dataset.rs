@@ -51,6 +51,10 @@ impl JobKind for Job {
         }
     }
 
+    fn estimate(&self, plan: &Plan) -> crate::run::estimate::Estimate {
+        crate::run::estimate::dataset_job(plan, self)
+    }
+
     fn materialise(&self) -> Result<Materialised> {
         materialise(&self.dataset, self.data_seed)
             .with_context(|| format!("dataset {}", self.dataset_id))
@@ -184,7 +188,8 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
     }
     // The complex128 copy of the stack, made once for the noise floor and the hypotheses.
     let original = (job.noise_floor.is_some() || plan.spec.hypotheses.is_some())
-        .then(|| data.stack.to_complex128(data.hwn));
+        .then(|| data.stack.try_to_complex128(data.hwn))
+        .transpose()?;
     let similarity = match (job.noise_floor, &original) {
         (Some(nf), Some(original)) => Some(
             noise_floor(plan, job, nf, data, original, &analysis)
@@ -258,7 +263,7 @@ fn noise_floor(
                 (Dataset::FilteredNoise(f), Some((bank, _))) => {
                     let mut spec = (**f).clone();
                     spec.samples = samples;
-                    crate::data::generate(&spec, bank, seed)
+                    crate::data::generate(&spec, bank, seed)?
                 }
                 (Dataset::Vegetation(v), _) => {
                     // An independent simulation of the same scene: new seed, no k-space kept.
@@ -267,7 +272,7 @@ fn noise_floor(
                     spec.save_kspace = false;
                     crate::data::materialise(&Dataset::Vegetation(Box::new(spec)), seed)?
                         .stack
-                        .to_complex128(false)
+                        .try_to_complex128(false)?
                 }
                 _ => anyhow::bail!("draws need a synthetic or simulated dataset"),
             };
@@ -338,7 +343,8 @@ fn run_synthesis_job(
     let t = Instant::now();
     let stack = (matches!(method, Method::FullCovariance | Method::FourthOrder)
         || !plan.metrics.is_empty())
-    .then(|| data.stack.to_complex128(data.hwn));
+    .then(|| data.stack.try_to_complex128(data.hwn))
+    .transpose()?;
     let opts = FitOptions {
         half_width: syn.half_width,
         levels,
@@ -351,7 +357,7 @@ fn run_synthesis_job(
     let mut files = vec![out.join("models").join(&job.id)];
     crate::io::model::save(&model, &info, &files[0])?;
     let t = Instant::now();
-    let generated = model.generate_c64(job.generation_seed, 0, syn.samples);
+    let generated = model.try_generate_c64(job.generation_seed, 0, syn.samples)?;
     let generate_s = t.elapsed().as_secs_f64();
     if syn.save_samples {
         let path = out.join("samples").join(format!("{}.npy", job.id));

@@ -15,6 +15,7 @@ pub mod dataset;
 pub mod hypotheses;
 
 use crate::data::Materialised;
+use crate::run::estimate::Estimate;
 use crate::run::plan::Plan;
 use anyhow::Result;
 use polars::prelude::DataFrame;
@@ -100,6 +101,14 @@ pub trait JobKind: Send + Sync {
     fn seed(&self) -> Option<u64>;
     /// What the job reads.
     fn inputs(&self) -> Inputs;
+    /// Peak memory and work of the job, from its validated parameters alone (nothing is
+    /// allocated); the scheduler fails a job whose estimate exceeds the memory limit
+    /// ([`crate::run::estimate::Estimate::exceeds`]) instead of running it. Default: a small
+    /// job ([`Estimate::SMALL`]).
+    fn estimate(&self, plan: &Plan) -> Estimate {
+        let _ = plan;
+        Estimate::SMALL
+    }
     /// Materialises the dataset a group of jobs shares (called once per group with
     /// [`Inputs::Dataset`] `shared`).
     ///

@@ -1,0 +1,196 @@
+//! Sizes are estimated before anything is allocated: `validate` and `run --dry-run` refuse a
+//! sweep of too many points at once (counted, not expanded) and a job whose estimated peak
+//! memory exceeds the machine's or `--max-memory`, naming the YAML path; they print the largest
+//! job's estimate otherwise.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+const GOOD: &str = "name: est
+seed: 1
+datasets:
+  - id: small
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 1.0
+    alpha_v: 1.0
+    size: [16, 16]
+    samples: 20
+analysis:
+  levels: 2
+";
+
+/// A dataset of 10^6 samples of 4096 x 4096 pixels: 2.7e14 bytes as complex128.
+const BIG: &str = "  - id: big
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 1.0
+    alpha_v: 1.0
+    size: [4096, 4096]
+    samples: 1000000
+";
+
+fn bin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn write(dir: &Path, text: &str) -> PathBuf {
+    let p = dir.join("spec.yaml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn text_of(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// `GOOD` with the big dataset after the small one.
+fn with_big() -> String {
+    GOOD.replace("analysis:", &format!("{BIG}analysis:"))
+}
+
+#[test]
+fn a_sweep_of_12_to_the_8_points_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    // Eight grid axes of twelve values: 12^8 = 429981696 points.
+    let values: Vec<String> = (1..=12).map(|v| v.to_string()).collect();
+    let axes: String = [
+        "alpha_h",
+        "alpha_v",
+        "mean",
+        "mean_im",
+        "std",
+        "texture_shape",
+        "half_width",
+        "samples",
+    ]
+    .iter()
+    .map(|k| format!("    datasets.small.{k}: [{}]\n", values.join(", ")))
+    .collect();
+    let spec = write(dir.path(), &format!("{GOOD}sweep:\n  grid:\n{axes}"));
+    let t = Instant::now();
+    let o = bin(&["validate", spec.to_str().unwrap()]);
+    let elapsed = t.elapsed();
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("spec.yaml: sweep: sweep gives 429981696 points"),
+        "{err}"
+    );
+    assert!(err.contains("at most 100000 (split the spec)"), "{err}");
+    assert!(elapsed < Duration::from_secs(1), "took {elapsed:?}");
+}
+
+#[test]
+fn a_sweep_whose_count_overflows_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    // 2^16 values on each of four axes: 2^64 points, past usize.
+    let values: Vec<String> = (0..65536).map(|v| v.to_string()).collect();
+    let list = format!("[{}]", values.join(","));
+    let axes: String = ["mean", "std", "mean_im", "alpha_h"]
+        .iter()
+        .map(|k| format!("    datasets.small.{k}: {list}\n"))
+        .collect();
+    let spec = write(dir.path(), &format!("{GOOD}sweep:\n  grid:\n{axes}"));
+    let o = bin(&["validate", spec.to_str().unwrap()]);
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("sweep gives more than"), "{err}");
+}
+
+#[test]
+fn validate_prints_the_largest_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(dir.path(), GOOD);
+    let o = bin(&["validate", spec.to_str().unwrap()]);
+    let (out, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(out.contains("valid, 1 job(s)"), "{out}");
+    assert!(out.contains("largest job small:"), "{out}");
+    assert!(out.contains("peak memory") && out.contains("flop"), "{out}");
+}
+
+#[test]
+fn validate_refuses_a_dataset_no_machine_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(dir.path(), &with_big());
+    let t = Instant::now();
+    let o = bin(&["validate", spec.to_str().unwrap()]);
+    let (out, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{out}{err}");
+    assert!(
+        err.contains("spec.yaml: datasets[1]: job big needs about"),
+        "{err}"
+    );
+    assert!(err.contains("TiB"), "{err}");
+    assert!(t.elapsed() < Duration::from_secs(5));
+}
+
+#[test]
+fn max_memory_refuses_and_admits() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(dir.path(), GOOD);
+    let s = spec.to_str().unwrap();
+    let o = bin(&["validate", s, "--max-memory", "1K"]);
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("datasets[0]: job small needs about"), "{err}");
+    assert!(err.contains("--max-memory 1.00 KiB"), "{err}");
+    let o = bin(&["validate", s, "--max-memory", "512M"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text_of(&o).1);
+    let o = bin(&["validate", s, "--max-memory", "lots"]);
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("\"lots\" is not a size"), "{err}");
+}
+
+#[test]
+fn dry_run_prints_the_largest_job_and_refuses_the_big_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(dir.path(), GOOD);
+    let o = bin(&["run", spec.to_str().unwrap(), "--dry-run"]);
+    let (out, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(out.contains("largest job small:"), "{out}");
+    let spec = write(dir.path(), &with_big());
+    let o = bin(&["run", spec.to_str().unwrap(), "--dry-run"]);
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("datasets[1]: job big needs about"), "{err}");
+    assert!(!dir.path().join("outputs").exists());
+}
+
+#[test]
+fn a_plan_of_more_than_100000_jobs_is_refused() {
+    // 50001 sweep points (under the point limit) on a field both datasets take: 100002 jobs.
+    let dir = tempfile::tempdir().unwrap();
+    let values: Vec<String> = (0..50001).map(|v| v.to_string()).collect();
+    let second = GOOD
+        .split("datasets:\n")
+        .nth(1)
+        .and_then(|t| t.split("analysis:").next())
+        .unwrap()
+        .replace("id: small", "id: other");
+    let text = GOOD.replace("analysis:", &format!("{second}analysis:"));
+    let spec = write(
+        dir.path(),
+        &format!(
+            "{text}sweep:\n  grid:\n    datasets.*.mean: [{}]\n",
+            values.join(",")
+        ),
+    );
+    let o = bin(&["validate", spec.to_str().unwrap()]);
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("sweep: the sweep gives more than 100000 jobs (up to 100002"),
+        "{err}"
+    );
+}
