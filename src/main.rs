@@ -256,6 +256,7 @@ fn real_main() -> Result<ExitCode> {
             let out = out.unwrap_or_else(|| PathBuf::from("outputs").join(&plan.spec.name));
             let mut opts = RunOptions::new(out, jobs.unwrap_or_else(scheduler::default_threads));
             opts.quiet = quiet;
+            opts.max_memory = max_memory;
             let summary = scheduler::run(&plan, &opts)?;
             if !quiet {
                 for note in &summary.notes {

@@ -33,6 +33,9 @@ pub struct RunOptions {
     pub progress_bar: bool,
     /// Print progress at all.
     pub quiet: bool,
+    /// Memory limit in bytes (`--max-memory`; the machine's memory when lower or unset): a job
+    /// whose estimate ([`JobKind::estimate`]) exceeds it fails without allocating anything.
+    pub max_memory: Option<u64>,
 }
 
 impl RunOptions {
@@ -43,6 +46,7 @@ impl RunOptions {
             threads,
             progress_bar: std::io::stderr().is_terminal(),
             quiet: false,
+            max_memory: None,
         }
     }
 }
@@ -187,8 +191,12 @@ fn run_group(
     opts: &RunOptions,
     bar: &Option<ProgressBar>,
 ) -> Vec<(usize, Outcome)> {
+    let limit = crate::run::estimate::limit(opts.max_memory);
+    // A job that cannot fit fails before anything is allocated for it.
+    let too_big = |job: &dyn JobKind| limit.as_ref().and_then(|l| job.estimate(plan).exceeds(l));
     let first = jobs[group[0]];
     let shared = (group.len() > 1
+        && group.iter().all(|&i| too_big(jobs[i]).is_none())
         && matches!(first.inputs(), Inputs::Dataset { shared: true, .. }))
     .then(|| {
         catch_unwind(AssertUnwindSafe(|| {
@@ -201,8 +209,9 @@ fn run_group(
         .map(|&index| {
             let job = jobs[index];
             let t = Instant::now();
-            let rows = match &shared {
-                Some(Err(e)) => Err(e.clone()),
+            let rows = match (&shared, too_big(job)) {
+                (_, Some(reason)) => Err(reason),
+                (Some(Err(e)), _) => Err(e.clone()),
                 _ => {
                     let inputs = match job.inputs() {
                         Inputs::Rows(from) => from
