@@ -268,7 +268,7 @@ fn model_mis_shaped_arrays_are_refused_not_panicking() {
         &Array3::<f64>::zeros((12, 16, 16)),
     );
     let e = load_error(&m);
-    // Right shape, wrong element type: ndarray-npy's own error, with the file named.
+    // Right shape, wrong element type (float64 where complex128 belongs): too short a file.
     assert!(e.contains("deviations.npy"), "{e}");
     write_npy(
         &m.join("deviations.npy"),

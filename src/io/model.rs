@@ -213,10 +213,11 @@ impl Expect<'_> {
     {
         let a: ndarray::Array<A, D> = self.read()?;
         if let Some((at, v)) = a.indexed_iter().find(|(_, v)| !ok(v)) {
+            let at = ndarray::IntoDimension::into_dimension(at);
             bail!(
                 "{}: value {v:?} at {:?}; {rule}",
                 self.dir.join(self.name).display(),
-                at.into_dimension().slice()
+                ndarray::Dimension::slice(&at)
             );
         }
         Ok(a)
