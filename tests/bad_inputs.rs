@@ -113,6 +113,32 @@ fn npy_shape_larger_than_the_file_is_refused_as_truncated() {
     assert!(e.contains("short.npy") && e.contains("truncated"), "{e}");
 }
 
+/// Found by `tests/fuzz.rs`: an empty stack whose other axis is huge passed the size check
+/// (product 0) and then panicked in ndarray, which bounds the non-zero axes too.
+#[test]
+fn npy_empty_shape_with_a_huge_axis_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("empty.npy");
+    raw_npy(
+        &input,
+        "{'descr': '<c8', 'fortran_order': False, 'shape': (0, 18446744073709551615, 0), }",
+        &[],
+    );
+    let o = bin(&[
+        "fit",
+        "--input",
+        input.to_str().unwrap(),
+        "--method",
+        "uncorrelated",
+        "--out",
+        dir.path().join("m").to_str().unwrap(),
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("empty.npy") && e.contains("overflows"), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+}
+
 #[test]
 fn npy_header_length_beyond_the_file_is_refused_without_allocating_it() {
     let dir = tempfile::tempdir().unwrap();

@@ -107,9 +107,16 @@ impl RawHeader {
     }
 }
 
-/// The number of elements of `shape` (`None` if it overflows `usize`).
+/// The number of elements of `shape`, `None` where no array can have it: the product of the
+/// non-zero axis lengths exceeds `isize::MAX` (ndarray's rule, which bounds the axes of an
+/// empty array too).
 pub fn element_count(shape: &[usize]) -> Option<usize> {
-    shape.iter().try_fold(1usize, |n, &d| n.checked_mul(d))
+    let nonzero = shape
+        .iter()
+        .filter(|&&d| d != 0)
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .filter(|&n| n <= isize::MAX as usize)?;
+    Some(if shape.contains(&0) { 0 } else { nonzero })
 }
 
 /// Reads the header of an `.npy` file (magic, version, dict) without interpreting its element
@@ -210,7 +217,7 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
 }
 
 /// Refuses a shape whose data, of `size`-byte elements after `offset` header bytes, has a
-/// byte count that overflows `usize`.
+/// byte count beyond `isize::MAX` (counting the non-zero axes, as ndarray does).
 ///
 /// # Errors
 /// [`NpyError::Header`] naming the file and the shape.
@@ -220,9 +227,11 @@ pub fn check_size(
     offset: usize,
     size: usize,
 ) -> Result<(), NpyError> {
-    element_count(shape)
+    let nonzero: Vec<usize> = shape.iter().copied().filter(|&d| d != 0).collect();
+    element_count(&nonzero)
         .and_then(|n| n.checked_mul(size))
         .and_then(|b| b.checked_add(offset))
+        .filter(|&b| b <= isize::MAX as usize)
         .map(|_| ())
         .ok_or_else(|| NpyError::Header {
             path: path.to_path_buf(),
