@@ -14,6 +14,15 @@ use num_complex::Complex64;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 
+/// A path in a folder shared by every case of this binary (one name per test, so that the
+/// tests, which run in parallel, never share a file; the cases of one test run in turn).
+fn scratch(name: &str) -> PathBuf {
+    static DIR: std::sync::OnceLock<tempfile::TempDir> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| tempfile::tempdir().unwrap())
+        .path()
+        .join(name)
+}
+
 // ---- (a) the `.npy` header parser ----
 
 /// A header built from parts that may each be wrong: the descriptor, the shape (dimensions
@@ -124,12 +133,11 @@ fn read_everything(path: &Path) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 1500, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 1000, failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
     fn npy_arbitrary_bytes_are_refused(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("a.npy");
+        let p = scratch("arbitrary.npy");
         std::fs::write(&p, &bytes).unwrap();
         // Without the magic string nothing is a header.
         prop_assert!(!read_everything(&p) || bytes.starts_with(b"\x93NUMPY"));
@@ -137,8 +145,7 @@ proptest! {
 
     #[test]
     fn npy_mutated_headers_give_err_never_panic(case in npy_case()) {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("m.npy");
+        let p = scratch("mutated.npy");
         let (bytes, header_end) = case.bytes();
         std::fs::write(&p, &bytes).unwrap();
         let accepted = read_everything(&p);
@@ -268,9 +275,9 @@ fn apply(text: &str, e: &Edit) -> String {
 }
 
 /// Loads `text` as a spec from a temporary file: `Ok` or `Err`, never a panic.
-fn load_spec(text: &str) -> Result<(), String> {
-    let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("spec.yaml");
+fn load_spec(text: &str, name: &str) -> Result<(), String> {
+    let p = scratch(name).join("spec.yaml");
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
     std::fs::write(&p, text).unwrap();
     match isar_clutter::run::plan::load(&p) {
         Ok(_) => Ok(()),
@@ -287,7 +294,7 @@ proptest! {
 
     #[test]
     fn spec_arbitrary_text_never_panics(text in "(\\PC|\n| ){0,200}") {
-        let _ = load_spec(&text);
+        let _ = load_spec(&text, "arbitrary");
     }
 
     #[test]
@@ -297,14 +304,14 @@ proptest! {
     ) {
         let text = edits.iter().fold(SEED_SPECS[which].to_string(), |t, e| apply(&t, e));
         // Ok or Err (an error names the file, checked by `load_spec`); a panic fails.
-        let _ = load_spec(&text);
+        let _ = load_spec(&text, "mutated");
     }
 }
 
 #[test]
 fn spec_seed_specs_are_valid() {
     for text in SEED_SPECS {
-        load_spec(text).unwrap();
+        load_spec(text, "seeds").unwrap();
     }
 }
 
@@ -457,7 +464,7 @@ fn write_array(path: &Path, elem: Elem, shape: &[usize], values: &[f64]) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 300, failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
     fn model_with_one_random_array_loads_only_if_consistent(r in replacement()) {
@@ -465,8 +472,7 @@ proptest! {
         let method = METHODS[r.method];
         let list = files(method);
         let (name, elem0) = list[r.file % list.len()];
-        let dir = tempfile::tempdir().unwrap();
-        let folder = dir.path().join("m");
+        let folder = scratch("model");
         copy_dir(&paths[r.method], &folder);
         let original = npy::read_raw_header(&folder.join(name)).unwrap().shape;
         let shape = r.shape.clone().unwrap_or_else(|| original.clone());
