@@ -461,14 +461,25 @@ impl DatasetSpec {
                 ));
             }
         }
+        let finite = |p: &Option<ParamMap>, name: &str| -> Result<Map, SpecError> {
+            let m = map(p, name, 0.0)?;
+            check_range(
+                ctx,
+                &format!("{at}.{name}"),
+                &m,
+                f64::is_finite,
+                &format!("{name} must be finite"),
+            )?;
+            Ok(m)
+        };
         Ok(FilteredNoise {
             filter,
             height: h,
             width: w,
             samples,
             half_width,
-            mean: map(&self.mean, "mean", 0.0)?,
-            mean_im: map(&self.mean_im, "mean_im", 0.0)?,
+            mean: finite(&self.mean, "mean")?,
+            mean_im: finite(&self.mean_im, "mean_im")?,
             std,
             texture_shape,
         })

@@ -156,11 +156,82 @@ pub struct SweepSpec {
     pub zip: BTreeMap<String, Vec<serde_yaml_ng::Value>>,
 }
 
-/// Parses spec text, reporting errors against `file`.
+/// The text without a leading UTF-8 byte-order mark (some editors write one).
+pub fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
+/// Parses spec text, reporting errors against `file`. A leading UTF-8 byte-order mark is
+/// ignored; a number that is not finite is refused wherever it appears (see
+/// [`check_finite`]).
 ///
 /// # Errors
 /// A [`SpecError`] naming the YAML path and, where known, the line and column.
 pub fn parse(text: &str, file: &Path) -> Result<RawSpec, SpecError> {
+    let text = strip_bom(text);
+    let spec = parse_typed(text, file)?;
+    let raw: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
+    check_finite(&raw, file)?;
+    Ok(spec)
+}
+
+/// Refuses every number of the document that is NaN or infinite, naming its YAML path
+/// (`datasets[0].mean`, `sweep.grid.datasets.d.mean[1]`): one rule for every float field,
+/// sweep values included. The exception is `alpha_h`/`alpha_v`, where `.inf` means the
+/// constant filter (`-.inf` its sign-alternating twin); NaN is refused there too.
+///
+/// # Errors
+/// A [`SpecError`] at the first non-finite number.
+pub fn check_finite(doc: &serde_yaml_ng::Value, file: &Path) -> Result<(), SpecError> {
+    match first_non_finite(doc, String::new(), false) {
+        None => Ok(()),
+        Some((path, v)) => Err(SpecError::at(
+            file,
+            path,
+            format!(
+                "{v} is not allowed: every number must be finite (only `alpha_h` and `alpha_v` take .inf, the constant filter)"
+            ),
+        )),
+    }
+}
+
+/// The YAML path and value of the first number under `v` (at `path`) that is NaN, or infinite
+/// where `inf_ok` is false.
+fn first_non_finite(v: &serde_yaml_ng::Value, path: String, inf_ok: bool) -> Option<(String, f64)> {
+    use serde_yaml_ng::Value;
+    match v {
+        Value::Number(n) => n
+            .as_f64()
+            .filter(|x| x.is_nan() || (x.is_infinite() && !inf_ok))
+            .map(|x| (if path.is_empty() { ".".into() } else { path }, x)),
+        Value::Sequence(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, x)| first_non_finite(x, format!("{path}[{i}]"), inf_ok)),
+        Value::Mapping(m) => m.iter().find_map(|(k, x)| {
+            let key = match k {
+                Value::String(s) => s.clone(),
+                other => serde_yaml_ng::to_string(other)
+                    .map(|s| s.trim_end().to_string())
+                    .unwrap_or_default(),
+            };
+            // A sweep key (`datasets.d.alpha_h.to`) names its field by dotted parts.
+            let alpha = key.split('.').any(|p| p == "alpha_h" || p == "alpha_v");
+            let at = if path.is_empty() {
+                key
+            } else {
+                format!("{path}.{key}")
+            };
+            first_non_finite(x, at, inf_ok || alpha)
+        }),
+        Value::Tagged(t) => first_non_finite(&t.value, path, inf_ok),
+        Value::Null | Value::Bool(_) | Value::String(_) => None,
+    }
+}
+
+/// The typed parse of [`parse`].
+fn parse_typed(text: &str, file: &Path) -> Result<RawSpec, SpecError> {
     let de = serde_yaml_ng::Deserializer::from_str(text);
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();

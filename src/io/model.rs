@@ -136,27 +136,101 @@ pub fn save(model: &Model, info: &ModelInfo, dir: &Path) -> Result<()> {
     })
 }
 
-fn read<A: ndarray_npy::ReadableElement, D: ndarray::Dimension>(
-    dir: &Path,
-    name: &str,
-) -> Result<ndarray::Array<A, D>> {
-    let path = dir.join(name);
-    let file =
-        std::fs::File::open(&path).with_context(|| format!("cannot open {}", path.display()))?;
-    ndarray::Array::<A, D>::read_npy(std::io::BufReader::new(file))
-        .with_context(|| format!("cannot read {}", path.display()))
+/// Largest filter bank or padded white seed (bytes) a loaded model may ask for: a forged
+/// `half_width` or image size is refused before anything is allocated.
+pub const MAX_WORK_BYTES: u64 = 1 << 36;
+
+/// What one array of a model folder must be: its file, its shape and why.
+struct Expect<'a> {
+    dir: &'a Path,
+    name: &'static str,
+    shape: Vec<usize>,
+    why: &'static str,
 }
 
-/// Loads a model folder written by [`save`].
-///
-/// # Errors
-/// If `model.json` is missing or of another format, or an array is missing or mis-shaped.
-pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
+/// The array `name` of the folder `dir`, expected of `shape` (`why`: where the shape comes
+/// from).
+fn expect<'a>(
+    dir: &'a Path,
+    name: &'static str,
+    shape: Vec<usize>,
+    why: &'static str,
+) -> Expect<'a> {
+    Expect {
+        dir,
+        name,
+        shape,
+        why,
+    }
+}
+
+impl Expect<'_> {
+    /// Reads the array after checking its header's shape against the expected one and the
+    /// file's size against the shape (so nothing is allocated for a forged header).
+    fn read<A: ndarray_npy::ReadableElement, D: ndarray::Dimension>(
+        &self,
+    ) -> Result<ndarray::Array<A, D>> {
+        let path = self.dir.join(self.name);
+        let header = crate::io::npy::read_raw_header(&path)?;
+        if header.shape != self.shape {
+            bail!(
+                "{}: shape {:?}, expected {:?} ({})",
+                path.display(),
+                header.shape,
+                self.shape,
+                self.why
+            );
+        }
+        let need = header
+            .data_bytes(std::mem::size_of::<A>())
+            .and_then(|n| n.checked_add(header.data_offset))
+            .with_context(|| format!("{}: shape {:?} overflows", path.display(), header.shape))?;
+        let len = std::fs::metadata(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?
+            .len();
+        if len < need as u64 {
+            bail!(
+                "{}: truncated: shape {:?} needs {need} bytes, the file has {len}",
+                path.display(),
+                header.shape
+            );
+        }
+        let file = std::fs::File::open(&path)
+            .with_context(|| format!("cannot open {}", path.display()))?;
+        ndarray::Array::<A, D>::read_npy(std::io::BufReader::new(file))
+            .with_context(|| format!("cannot read {}", path.display()))
+    }
+
+    /// [`Expect::read`], then every value checked by `ok` (`rule` says what it requires).
+    fn read_checked<A, D>(
+        &self,
+        ok: impl Fn(&A) -> bool,
+        rule: &str,
+    ) -> Result<ndarray::Array<A, D>>
+    where
+        A: ndarray_npy::ReadableElement + std::fmt::Debug,
+        D: ndarray::Dimension,
+    {
+        let a: ndarray::Array<A, D> = self.read()?;
+        if let Some((at, v)) = a.indexed_iter().find(|(_, v)| !ok(v)) {
+            let at = ndarray::IntoDimension::into_dimension(at);
+            bail!(
+                "{}: value {v:?} at {:?}; {rule}",
+                self.dir.join(self.name).display(),
+                ndarray::Dimension::slice(&at)
+            );
+        }
+        Ok(a)
+    }
+}
+
+/// Reads `model.json` (a leading UTF-8 byte-order mark is ignored) and checks its format.
+fn read_info(dir: &Path) -> Result<ModelInfo> {
     let meta = dir.join("model.json");
-    let info: ModelInfo = serde_json::from_reader(
-        std::fs::File::open(&meta).with_context(|| format!("cannot open {}", meta.display()))?,
-    )
-    .with_context(|| format!("{} is not a model description", meta.display()))?;
+    let bytes = std::fs::read(&meta).with_context(|| format!("cannot open {}", meta.display()))?;
+    let text = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&bytes);
+    let info: ModelInfo = serde_json::from_slice(text)
+        .with_context(|| format!("{} is not a model description", meta.display()))?;
     if info.format != FORMAT {
         bail!(
             "{}: format {:?}, this version reads {FORMAT:?}",
@@ -164,56 +238,98 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
             info.format
         );
     }
-    let mean: Array2<num_complex::Complex64> = read(dir, "mean.npy")?;
-    let std: Array2<f64> = read(dir, "std.npy")?;
-    let shape = (info.height, info.width);
-    if mean.dim() != shape || std.dim() != shape {
+    check_info(&info).with_context(|| format!("{}", meta.display()))?;
+    Ok(info)
+}
+
+/// The sizes of `model.json` that every array is checked against: an image of at least one
+/// pixel (2x2 for the filter methods, which need a level-1 cell), Method 2's levels within the
+/// image and the half-width, and a filter bank and padded seed of bounded size.
+fn check_info(info: &ModelInfo) -> Result<()> {
+    let (h, w, k) = (info.height, info.width, info.half_width);
+    if h == 0 || w == 0 {
+        bail!("height {h} and width {w} must be at least 1");
+    }
+    if !matches!(info.method, Method::Method1 | Method::Method2) {
+        return Ok(());
+    }
+    if h < 2 || w < 2 {
         bail!(
-            "{}: mean.npy and std.npy must be {}x{}",
-            dir.display(),
-            info.height,
-            info.width
+            "{} needs an image of at least 2x2 pixels (one level-1 cell), this one is {h}x{w}",
+            info.method.as_str()
         );
     }
-    let filter = match info.method {
-        Method::Method1 | Method::Method2 => {
-            let params = if info.method == Method::Method1 {
-                CellParams::Exponential {
-                    alpha_h: read(dir, "alpha_h.npy")?,
-                    alpha_v: read(dir, "alpha_v.npy")?,
-                }
-            } else {
-                let split =
-                    |a: Array3<f64>| a.outer_iter().map(|m| m.to_owned()).collect::<Vec<_>>();
-                CellParams::Dyadic {
-                    r_h: split(read(dir, "r_h.npy")?),
-                    r_v: split(read(dir, "r_v.npy")?),
-                }
-            };
-            let residuals = (read(dir, "residual_h.npy")?, read(dir, "residual_v.npy")?);
-            let shape = (info.half_width, info.height, info.width);
-            Some(FilterModel::new(
-                params,
-                residuals,
-                read(dir, "clamped.npy")?,
-                shape,
-            ))
+    if info.method == Method::Method2 {
+        crate::stats::analysis::check_levels(info.levels, h, w)
+            .with_context(|| format!("levels {}", info.levels))?;
+        let reach = crate::stats::filters::dyadic_reach(info.levels);
+        if k < reach {
+            bail!(
+                "half_width {k} truncates a {}-level dyadic filter (needs {reach})",
+                info.levels
+            );
         }
+    }
+    let taps = k.checked_mul(2).and_then(|t| t.checked_add(1));
+    let bank = taps.and_then(|t| t.checked_mul(h)?.checked_mul(w)?.checked_mul(2 * 8));
+    let seed = k.checked_mul(2).and_then(|p| {
+        h.checked_add(p)?
+            .checked_mul(w.checked_add(p)?)?
+            .checked_mul(16)
+    });
+    for (what, bytes) in [("filter bank", bank), ("padded white seed", seed)] {
+        match bytes {
+            Some(b) if b as u64 <= MAX_WORK_BYTES => {}
+            _ => bail!(
+                "half_width {k} on a {h}x{w} image needs a {what} of {} bytes; at most {MAX_WORK_BYTES} are allowed",
+                bytes.map_or("more than 2^64".to_string(), |b| b.to_string())
+            ),
+        }
+    }
+    Ok(())
+}
+
+/// Loads a model folder written by [`save`], validating it as a whole: `model.json`'s sizes,
+/// every array's shape against them (image `[H, W]`, level-1 cell grid `[H/2, W/2]`, Method 2's
+/// `levels`, the samples fitted), and every value (finite where generation needs it, flags in
+/// range). A leading UTF-8 byte-order mark in `model.json` is ignored.
+///
+/// # Errors
+/// If `model.json` is missing, of another format or inconsistent, or an array is missing,
+/// mis-shaped, truncated or holds a value the model cannot hold; the message names the file.
+pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
+    let info = read_info(dir)?;
+    let (h, w) = (info.height, info.width);
+    let at = |name, shape, why| expect(dir, name, shape, why);
+    const IMAGE: &str = "height and width of model.json";
+    let mean = at("mean.npy", vec![h, w], IMAGE).read_checked(
+        |z: &num_complex::Complex64| z.is_finite(),
+        "the mean must be finite",
+    )?;
+    let std = at("std.npy", vec![h, w], IMAGE).read_checked(
+        |s: &f64| s.is_finite() && *s >= 0.0,
+        "the standard deviation must be finite and >= 0",
+    )?;
+    let filter = match info.method {
+        Method::Method1 | Method::Method2 => Some(load_filter(&info, dir)?),
         _ => None,
     };
     let deviations = match info.method {
-        Method::FullCovariance => Some(read::<num_complex::Complex64, ndarray::Ix3>(
-            dir,
-            "deviations.npy",
-        )?),
+        Method::FullCovariance => Some(
+            at(
+                "deviations.npy",
+                vec![info.samples_fitted, h, w],
+                "samples_fitted, height and width of model.json",
+            )
+            .read_checked(
+                |z: &num_complex::Complex64| z.is_finite(),
+                "deviations must be finite",
+            )?,
+        ),
         _ => None,
     };
     let fourth = match info.method {
-        Method::FourthOrder => Some(crate::synthesis::FourthOrderModel {
-            coefficients: read(dir, "fleishman.npy")?,
-            component_sd: read(dir, "component_sd.npy")?,
-            infeasible: read(dir, "infeasible.npy")?,
-        }),
+        Method::FourthOrder => Some(load_fourth(&info, dir)?),
         _ => None,
     };
     Ok((
@@ -228,6 +344,72 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
         },
         info,
     ))
+}
+
+/// Methods 1 and 2: the cell parameters, residuals and clamped counts on the level-1 cell grid.
+fn load_filter(info: &ModelInfo, dir: &Path) -> Result<FilterModel> {
+    let at = |name, shape, why| expect(dir, name, shape, why);
+    const CELLS: &str = "cell grid of model.json: [height / 2, width / 2]";
+    let cells = vec![info.height / 2, info.width / 2];
+    let params = if info.method == Method::Method1 {
+        let alpha = |name| {
+            at(name, cells.clone(), CELLS)
+                .read_checked(|a: &f64| !a.is_nan(), "alpha must not be NaN")
+        };
+        CellParams::Exponential {
+            alpha_h: alpha("alpha_h.npy")?,
+            alpha_v: alpha("alpha_v.npy")?,
+        }
+    } else {
+        let shape = vec![info.levels, cells[0], cells[1]];
+        let r = |name| -> Result<Vec<Array2<f64>>> {
+            let a: Array3<f64> = at(
+                name,
+                shape.clone(),
+                "levels and cell grid of model.json: [levels, height / 2, width / 2]",
+            )
+            .read_checked(|r: &f64| r.is_finite(), "r must be finite")?;
+            Ok(a.outer_iter().map(|m| m.to_owned()).collect())
+        };
+        CellParams::Dyadic {
+            r_h: r("r_h.npy")?,
+            r_v: r("r_v.npy")?,
+        }
+    };
+    let residual = |name| {
+        at(name, cells.clone(), CELLS).read_checked(
+            |e: &f64| !e.is_infinite(),
+            "a residual is finite (NaN for masked cells)",
+        )
+    };
+    let residuals = (residual("residual_h.npy")?, residual("residual_v.npy")?);
+    let clamped = at("clamped.npy", cells.clone(), CELLS).read_checked(
+        |c: &u8| *c <= 2,
+        "a clamped count is 0, 1 or 2 (one per direction)",
+    )?;
+    let shape = (info.half_width, info.height, info.width);
+    Ok(FilterModel::new(params, residuals, clamped, shape))
+}
+
+/// Fourth order: Fleishman coefficients, component standard deviations and infeasible flags.
+fn load_fourth(info: &ModelInfo, dir: &Path) -> Result<crate::synthesis::FourthOrderModel> {
+    let at = |name, shape, why| expect(dir, name, shape, why);
+    const PER_COMPONENT: &str = "[component, height, width] of model.json";
+    let (h, w) = (info.height, info.width);
+    Ok(crate::synthesis::FourthOrderModel {
+        coefficients: at(
+            "fleishman.npy",
+            vec![2, 4, h, w],
+            "[component, coefficient, height, width] of model.json",
+        )
+        .read_checked(|c: &f64| c.is_finite(), "coefficients must be finite")?,
+        component_sd: at("component_sd.npy", vec![2, h, w], PER_COMPONENT).read_checked(
+            |s: &f64| s.is_finite() && *s >= 0.0,
+            "a standard deviation must be finite and >= 0",
+        )?,
+        infeasible: at("infeasible.npy", vec![2, h, w], PER_COMPONENT)
+            .read_checked(|f: &u8| *f <= 1, "an infeasible flag is 0 or 1")?,
+    })
 }
 
 /// The header of a version-1.0 `.npy` file of complex64 `[m, h, w]`, padded to 64 bytes.

@@ -85,11 +85,46 @@ pub struct NpyHeader {
     pub shape: Vec<usize>,
 }
 
-/// Reads and validates the header of an `.npy` file without loading its data.
+/// The header of an `.npy` file as written, before its element type is interpreted: what
+/// [`read_header`] and readers of other element types (the model folder's `uint8` arrays)
+/// share.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RawHeader {
+    /// Byte offset of the data.
+    pub data_offset: usize,
+    /// The numpy type descriptor (`<f8`, `|u1`, ...).
+    pub descr: String,
+    /// Whether the data is stored in column-major order.
+    pub fortran_order: bool,
+    /// Array shape.
+    pub shape: Vec<usize>,
+}
+
+impl RawHeader {
+    /// Bytes of data that elements of `size` bytes take (`None` if the count overflows).
+    pub fn data_bytes(&self, size: usize) -> Option<usize> {
+        element_count(&self.shape)?.checked_mul(size)
+    }
+}
+
+/// The number of elements of `shape`, `None` where no array can have it: the product of the
+/// non-zero axis lengths exceeds `isize::MAX` (ndarray's rule, which bounds the axes of an
+/// empty array too).
+pub fn element_count(shape: &[usize]) -> Option<usize> {
+    let nonzero = shape
+        .iter()
+        .filter(|&&d| d != 0)
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .filter(|&n| n <= isize::MAX as usize)?;
+    Some(if shape.contains(&0) { 0 } else { nonzero })
+}
+
+/// Reads the header of an `.npy` file (magic, version, dict) without interpreting its element
+/// type. The header length is checked against the file before anything is allocated.
 ///
 /// # Errors
-/// [`NpyError`] if the file is missing, not `.npy`, or of an unsupported dtype.
-pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
+/// [`NpyError`] if the file is missing or its header is not a valid `.npy` header.
+pub fn read_raw_header(path: &Path) -> Result<RawHeader, NpyError> {
     let io = |source| NpyError::Io {
         path: path.to_path_buf(),
         source,
@@ -108,33 +143,27 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
         1 => {
             let mut b = [0u8; 2];
             f.read_exact(&mut b).map_err(|_| bad("truncated header"))?;
-            (u16::from_le_bytes(b) as usize, 10)
+            (u64::from(u16::from_le_bytes(b)), 10)
         }
         2 | 3 => {
             let mut b = [0u8; 4];
             f.read_exact(&mut b).map_err(|_| bad("truncated header"))?;
-            (u32::from_le_bytes(b) as usize, 12)
+            (u64::from(u32::from_le_bytes(b)), 12)
         }
         v => return Err(bad(&format!("unknown format version {v}"))),
     };
-    let mut text = vec![0u8; len];
-    f.read_exact(&mut text)
-        .map_err(|_| bad("truncated header"))?;
+    // Read at most what the file holds: a forged length cannot allocate gigabytes.
+    let mut text = Vec::new();
+    f.take(len).read_to_end(&mut text).map_err(io)?;
+    if text.len() as u64 != len {
+        return Err(bad(&format!(
+            "truncated header: {len} bytes announced, {} present",
+            text.len()
+        )));
+    }
     let text = String::from_utf8_lossy(&text);
     let descr = dict_value(&text, "descr").ok_or_else(|| bad("no 'descr'"))?;
     let descr = descr.trim_matches(|c| c == '\'' || c == '"').to_string();
-    let dtype = match descr.as_str() {
-        "<c8" => Dtype::Complex64,
-        "<c16" => Dtype::Complex128,
-        "<f4" => Dtype::Float32,
-        "<f8" => Dtype::Float64,
-        _ => {
-            return Err(NpyError::Dtype {
-                path: path.to_path_buf(),
-                descr,
-            })
-        }
-    };
     let fortran_order = match dict_value(&text, "fortran_order").as_deref() {
         Some("True") => true,
         Some("False") => false,
@@ -149,12 +178,79 @@ pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
         .map(|s| s.trim_end_matches('L').parse::<usize>())
         .collect::<Result<Vec<_>, _>>()
         .map_err(|_| bad("unreadable 'shape'"))?;
-    Ok(NpyHeader {
-        data_offset: prefix + len,
-        dtype,
+    Ok(RawHeader {
+        data_offset: prefix + len as usize,
+        descr,
         fortran_order,
         shape,
     })
+}
+
+/// Reads and validates the header of an `.npy` file without loading its data: the element
+/// type is one the tool reads, and the data size the shape implies fits in memory
+/// arithmetic (a forged shape whose size overflows is refused, naming the shape).
+///
+/// # Errors
+/// [`NpyError`] if the file is missing, not `.npy`, of an unsupported dtype, or of a shape
+/// whose size overflows.
+pub fn read_header(path: &Path) -> Result<NpyHeader, NpyError> {
+    let raw = read_raw_header(path)?;
+    let dtype = match raw.descr.as_str() {
+        "<c8" => Dtype::Complex64,
+        "<c16" => Dtype::Complex128,
+        "<f4" => Dtype::Float32,
+        "<f8" => Dtype::Float64,
+        _ => {
+            return Err(NpyError::Dtype {
+                path: path.to_path_buf(),
+                descr: raw.descr,
+            })
+        }
+    };
+    check_size(path, &raw.shape, raw.data_offset, dtype.size())?;
+    Ok(NpyHeader {
+        data_offset: raw.data_offset,
+        dtype,
+        fortran_order: raw.fortran_order,
+        shape: raw.shape,
+    })
+}
+
+/// Refuses a shape whose data, of `size`-byte elements after `offset` header bytes, has a
+/// byte count beyond `isize::MAX` (counting the non-zero axes, as ndarray does).
+///
+/// # Errors
+/// [`NpyError::Header`] naming the file and the shape.
+pub fn check_size(
+    path: &Path,
+    shape: &[usize],
+    offset: usize,
+    size: usize,
+) -> Result<(), NpyError> {
+    let nonzero: Vec<usize> = shape.iter().copied().filter(|&d| d != 0).collect();
+    element_count(&nonzero)
+        .and_then(|n| n.checked_mul(size))
+        .and_then(|b| b.checked_add(offset))
+        .filter(|&b| b <= isize::MAX as usize)
+        .map(|_| ())
+        .ok_or_else(|| NpyError::Header {
+            path: path.to_path_buf(),
+            reason: format!(
+                "shape {shape:?} of {size}-byte elements overflows the addressable size"
+            ),
+        })
+}
+
+impl NpyHeader {
+    /// Number of elements (the product of the shape; [`read_header`] refused overflow).
+    pub fn count(&self) -> usize {
+        element_count(&self.shape).unwrap_or(usize::MAX)
+    }
+
+    /// Bytes of element data (saturating; [`read_header`] refused overflow).
+    pub fn data_bytes(&self) -> usize {
+        self.count().saturating_mul(self.dtype.size())
+    }
 }
 
 /// The raw text of `key`'s value in a numpy header dict literal.
@@ -225,8 +321,8 @@ impl Stack {
             path: path.to_path_buf(),
             source,
         })?;
-        let need = header.shape.iter().product::<usize>() * header.dtype.size();
-        if map.len() < header.data_offset + need {
+        let need = header.data_bytes();
+        if map.len().saturating_sub(header.data_offset) < need {
             return Err(data_err(format!(
                 "truncated: the header promises {need} bytes of data, the file holds {}",
                 map.len().saturating_sub(header.data_offset)
@@ -278,8 +374,8 @@ impl Stack {
             hwn: bool,
         ) -> Result<Array3<Complex<f64>>, crate::alloc::AllocError> {
             use ndarray::ShapeBuilder;
-            let count: usize = m.header.shape.iter().product();
-            let bytes = &m.map[m.header.data_offset..][..count * std::mem::size_of::<T>()];
+            let bytes = &m.map[m.header.data_offset..][..m.header.data_bytes()];
+            let count = bytes.len() / std::mem::size_of::<T>();
             let mut data: ndarray::Array1<T> = crate::alloc::try_zeros(count, "the stack read")?;
             for (d, b) in data
                 .iter_mut()
@@ -321,7 +417,7 @@ impl Stack {
     pub fn bytes(&self) -> usize {
         match self {
             Stack::Generated(a) => a.len() * 16,
-            Stack::Mapped(m) => m.header.shape.iter().product::<usize>() * m.header.dtype.size(),
+            Stack::Mapped(m) => m.header.data_bytes(),
         }
     }
 }
@@ -335,8 +431,7 @@ impl MappedNpy {
         levels: usize,
     ) -> Result<Analysis, AnalysisError> {
         use ndarray::ShapeBuilder;
-        let count: usize = self.header.shape.iter().product();
-        let bytes = &self.map[self.header.data_offset..][..count * std::mem::size_of::<T>()];
+        let bytes = &self.map[self.header.data_offset..][..self.header.data_bytes()];
         let s = &self.header.shape;
         let shape = (s[0], s[1], s[2]).set_f(self.header.fortran_order);
         match bytemuck::try_cast_slice::<u8, T>(bytes) {
@@ -391,14 +486,14 @@ fn read_array<T: Element, D: ndarray::Dimension>(
         path: path.to_path_buf(),
         source,
     };
-    let count: usize = header.shape.iter().product();
+    let count = header.count();
+    let need = count.saturating_mul(std::mem::size_of::<T>());
     let mut f = File::open(path).map_err(io)?;
-    let size = f.metadata().map_err(io)?.len() as usize;
-    if size < header.data_offset + count * std::mem::size_of::<T>() {
+    let size = f.metadata().map_err(io)?.len();
+    let held = size.saturating_sub(header.data_offset as u64);
+    if held < need as u64 {
         return Err(data_err(format!(
-            "truncated: the header promises {} bytes of data, the file holds {}",
-            count * std::mem::size_of::<T>(),
-            size.saturating_sub(header.data_offset)
+            "truncated: the header promises {need} bytes of data, the file holds {held}"
         )));
     }
     f.seek(SeekFrom::Start(header.data_offset as u64))

@@ -165,6 +165,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         .map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;
     let text = String::from_utf8(bytes.clone())
         .map_err(|_| SpecError::at(file, ".", "the spec is not UTF-8 text"))?;
+    let text = experiment::strip_bom(&text).to_string();
     let spec = experiment::parse(&text, file)?;
     let raw: Yaml =
         serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;

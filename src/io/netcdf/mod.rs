@@ -521,15 +521,29 @@ impl NcFile {
     /// The raw bytes of the variable, concatenated over records.
     fn raw_bytes(&self, var: &Variable) -> Result<Vec<u8>, NcError> {
         self.check_extent(var)?;
-        // check_extent guarantees every slice below is in range and fits usize.
-        let slab = (self.slab_len(var).unwrap_or(0) as usize) * var.nc_type.size();
+        // check_extent keeps every slice below inside the file; the sizes are still computed
+        // with checked arithmetic, so that a header can never make them wrap.
+        let overflow = || NcError::BadHeader {
+            path: self.path.clone(),
+            offset: 0,
+            msg: format!("size of variable {:?} overflows", var.name),
+        };
+        let slab = self
+            .slab_len(var)
+            .and_then(|n| n.checked_mul(var.nc_type.size() as u64))
+            .and_then(|n| usize::try_from(n).ok())
+            .ok_or_else(overflow)?;
         let nrec = if var.is_record { self.numrecs } else { 1 };
         if slab == 0 {
             return Ok(Vec::new());
         }
-        let mut out = Vec::with_capacity(slab * nrec);
+        let mut out = Vec::with_capacity(slab.checked_mul(nrec).ok_or_else(overflow)?);
         for r in 0..nrec {
-            let start = (var.begin + r as u64 * self.recsize) as usize;
+            let start = (r as u64)
+                .checked_mul(self.recsize)
+                .and_then(|x| x.checked_add(var.begin))
+                .and_then(|x| usize::try_from(x).ok())
+                .ok_or_else(overflow)?;
             out.extend_from_slice(&self.bytes[start..start + slab]);
         }
         Ok(out)
