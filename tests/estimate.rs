@@ -194,3 +194,86 @@ fn a_plan_of_more_than_100000_jobs_is_refused() {
         "{err}"
     );
 }
+
+/// Reads a string column of a Parquet table.
+fn column(path: &Path, name: &str) -> Vec<String> {
+    use polars::prelude::{ParquetReader, SerReader};
+    let df = ParquetReader::new(std::fs::File::open(path).unwrap())
+        .finish()
+        .unwrap();
+    let c = df.column(name).unwrap().str().unwrap();
+    (0..c.len())
+        .map(|i| c.get(i).unwrap_or_default().to_string())
+        .collect()
+}
+
+#[test]
+fn run_fails_the_absurd_job_only_and_writes_the_good_ones_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(dir.path(), &with_big());
+    let out = dir.path().join("out");
+    let o = bin(&[
+        "run",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("failed: big: needs about"), "{err}");
+    let jobs = out.join("jobs.parquet");
+    assert_eq!(column(&jobs, "job"), ["small", "big"]);
+    assert_eq!(column(&jobs, "status"), ["ok", "failed"]);
+    assert!(column(&jobs, "error")[1].contains("estimated before allocating"));
+    let summary = column(&out.join("analysis_summary.parquet"), "dataset");
+    assert!(!summary.is_empty() && summary.iter().all(|d| d == "small"));
+    assert!(out.join("maps/small/mean.npy").is_file());
+}
+
+/// A job the estimate admits but whose allocation fails (the process's address space is
+/// limited to 1.5 GiB, the job's stack needs 3.9 GB): that job fails, the other finishes.
+#[test]
+fn an_allocation_failure_fails_its_job_only() {
+    use std::os::unix::process::CommandExt;
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(
+        dir.path(),
+        &GOOD.replace(
+            "analysis:",
+            "  - id: large\n    kind: filtered_noise\n    family: exponential\n    alpha_h: 1.0\n    alpha_v: 1.0\n    size: [64, 64]\n    samples: 60000\n    half_width: 2\nanalysis:",
+        ),
+    );
+    let out = dir.path().join("out");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_isar-clutter"));
+    cmd.args([
+        "run",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ])
+    .args(["--quiet", "--no-report", "--jobs", "1"]);
+    // SAFETY: setrlimit is async-signal-safe; nothing else runs between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            let lim = libc::rlimit {
+                rlim_cur: 3 << 29,
+                rlim_max: 3 << 29,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = cmd.output().unwrap();
+    let (_, err) = text_of(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("failed: large: ") && err.contains("allocate"),
+        "{err}"
+    );
+    let jobs = out.join("jobs.parquet");
+    assert_eq!(column(&jobs, "status"), ["ok", "failed"]);
+    assert!(out.join("maps/small/mean.npy").is_file());
+}
