@@ -38,13 +38,20 @@ log() { echo "slurm/start: $*" >&2; }
 
 # ---------------------------------------------------------------------------
 # Helpers on pid files: "alive NAME" is true when STATE_DIR/pid/NAME.pid names a live
-# process whose command is NAME (guards against a recycled pid).
+# (not zombie) process whose command is NAME (guards against a recycled pid, and
+# against an exited daemon that init has not reaped yet).
 # ---------------------------------------------------------------------------
-pid_of() { cat "$PID_DIR/$1.pid" 2>/dev/null || true; }
 alive() {
-    local pid
-    pid=$(pid_of "$1")
-    [ -n "$pid" ] && [ -r "/proc/$pid/comm" ] && [ "$(cat "/proc/$pid/comm")" = "$1" ]
+    local pid stat
+    pid=$(cat "$PID_DIR/$1.pid" 2>/dev/null) || return 1
+    [ -n "$pid" ] || return 1
+    stat=$(cat "/proc/$pid/stat" 2>/dev/null) || return 1
+    # /proc/PID/stat is "PID (COMM) STATE ..."
+    case "$stat" in
+        *"($1) Z "*|*"($1) X "*) return 1 ;;
+        *"($1) "*) return 0 ;;
+        *) return 1 ;;
+    esac
 }
 
 # ---------------------------------------------------------------------------
@@ -111,8 +118,9 @@ fi
 # 3. Directories, munge key and slurm.conf (rewritten on every cold start).
 # ---------------------------------------------------------------------------
 mkdir -p "$MUNGE_DIR" "$PID_DIR" "$LOG_DIR" "$STATE_DIR/ctld" "$STATE_DIR/spool"
-# munged refuses keys and socket dirs that others can write or (for the key) read.
-chmod 700 "$MUNGE_DIR"
+# munged refuses a key others can read, and a socket dir that others can write or
+# cannot traverse (clients connect to the socket): 755 for the dir, 400 for the key.
+chmod 755 "$MUNGE_DIR"
 chmod 755 "$STATE_DIR"   # slurmstepd and the job (root here) need to traverse it
 if [ ! -s "$MUNGE_KEY" ]; then
     # 1024 random bytes, as mungekey(8) would create; no need for the mungekey tool.
@@ -140,7 +148,7 @@ AuthInfo=socket=$MUNGE_SOCKET
 CredType=cred/munge
 
 StateSaveLocation=$STATE_DIR/ctld
-SlurmdSpoolDir=$STATE_DIR/spool/slurmd-%n
+SlurmdSpoolDir=$STATE_DIR/spool
 SlurmctldPidFile=$PID_DIR/slurmctld.pid
 SlurmdPidFile=$PID_DIR/slurmd.pid
 SlurmctldLogFile=$LOG_DIR/slurmctld.log
@@ -155,6 +163,7 @@ JobAcctGatherType=jobacct_gather/none
 AccountingStorageType=accounting_storage/none
 JobCompType=jobcomp/none
 MpiDefault=none
+MailProg=/bin/true
 SwitchType=switch/none
 
 SchedulerType=sched/backfill

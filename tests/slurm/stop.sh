@@ -23,11 +23,26 @@ PATH="$PATH:/usr/sbin:/sbin"
 
 log() { echo "slurm/stop: $*" >&2; }
 
-# pid NAME: the pid in NAME's pid file if that process is alive and is NAME, else empty.
+# running PID NAME: true when PID is a live (not zombie) process whose command is NAME.
+# Checking the name guards against a pid recycled since the pid file was written; the
+# state guards against an exited daemon not yet reaped by init (common in containers).
+running() {
+    local stat
+    stat=$(cat "/proc/$1/stat" 2>/dev/null) || return 1
+    # /proc/PID/stat is "PID (COMM) STATE ..."
+    case "$stat" in
+        *"($2) Z "*|*"($2) X "*) return 1 ;;
+        *"($2) "*) return 0 ;;
+        *) return 1 ;;
+    esac
+}
+
+# pid NAME: the pid in NAME's pid file if that process is running NAME, else empty.
+# (The daemons remove their own pid file on a clean shutdown.)
 pid() {
     local p
     p=$(cat "$PID_DIR/$1.pid" 2>/dev/null || true)
-    if [ -n "$p" ] && [ -r "/proc/$p/comm" ] && [ "$(cat "/proc/$p/comm" 2>/dev/null)" = "$1" ]; then
+    if [ -n "$p" ] && running "$p" "$1"; then
         echo "$p"
     fi
 }
@@ -47,9 +62,10 @@ if [ -n "$(pid slurmctld)" ] && [ -f "$STATE_DIR/slurm.conf" ]; then
     fi
 fi
 
-# stop NAME: TERM, wait up to WAIT seconds, then KILL.
+# stop NAME: TERM the pid from NAME's pid file, wait up to WAIT seconds for that pid
+# to exit, then KILL it.
 stop() {
-    local name=$1 p i
+    local name=$1 p
     p=$(pid "$name")
     if [ -z "$p" ]; then
         rm -f "$PID_DIR/$name.pid"
@@ -57,20 +73,20 @@ stop() {
     fi
     log "stopping $name (pid $p)"
     kill -TERM "$p" 2>/dev/null || true
-    for i in $(seq 1 $((WAIT * 5))); do
-        [ -z "$(pid "$name")" ] && break
+    for _ in $(seq 1 $((WAIT * 5))); do
+        running "$p" "$name" || break
         sleep 0.2
     done
-    if [ -n "$(pid "$name")" ]; then
+    if running "$p" "$name"; then
         log "$name (pid $p) ignored TERM for ${WAIT}s; sending KILL"
         kill -KILL "$p" 2>/dev/null || true
         sleep 0.5
     fi
-    if [ -n "$(pid "$name")" ]; then
+    rm -f "$PID_DIR/$name.pid"
+    if running "$p" "$name"; then
         log "$name (pid $p) is still running"
         return 1
     fi
-    rm -f "$PID_DIR/$name.pid"
 }
 
 # Reverse start order: slurmd and slurmctld need munged to shut down cleanly.
