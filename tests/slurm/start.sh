@@ -170,6 +170,9 @@ SchedulerType=sched/backfill
 SelectType=select/cons_tres
 SelectTypeParameters=CR_CPU
 ReturnToService=2
+# A job whose afterok dependency fails (e.g. an array task exits non-zero) is cancelled
+# instead of pending forever with Reason=DependencyNeverSatisfied.
+DependencyParameters=kill_invalid_depend
 # Quick turnaround for tests.
 SchedulerParameters=sched_interval=1
 MinJobAge=300
@@ -192,6 +195,19 @@ export SLURM_CONF="$CONF"
 # ---------------------------------------------------------------------------
 # 4. Start the daemons (each daemonises itself and writes its pid file).
 # ---------------------------------------------------------------------------
+# From here on, a failure stops whatever this run started (by its pid files), so that
+# a failed start leaves no daemon behind.
+HERE=$(cd "$(dirname "$0")" && pwd)
+cleanup_on_failure() {
+    local rc=$?
+    if [ "$rc" != 0 ]; then
+        log "start failed (exit $rc); stopping what was started"
+        "$HERE/stop.sh" "$STATE_DIR" || true
+    fi
+    exit "$rc"
+}
+trap cleanup_on_failure EXIT
+
 log "starting munged"
 rm -f "$MUNGE_SOCKET" "$MUNGE_SOCKET.lock"
 munged --key-file="$MUNGE_KEY" --socket="$MUNGE_SOCKET" \
@@ -199,8 +215,9 @@ munged --key-file="$MUNGE_KEY" --socket="$MUNGE_SOCKET" \
     --seed-file="$MUNGE_DIR/munged.seed"
 
 log "starting slurmctld"
-# -i: ignore state left from an earlier run in the same STATE_DIR (start from scratch).
-slurmctld -f "$CONF" -i
+# -c: discard job/node state left by an earlier run in the same STATE_DIR, so every
+# start is a fresh cluster (job ids, though, keep counting up).
+slurmctld -f "$CONF" -c
 
 log "starting slurmd"
 slurmd -f "$CONF" -N "$NODE"
@@ -215,6 +232,14 @@ while :; do
     case "$state" in
         idle) break ;;
     esac
+    # A daemon that died (port in use, bad config...) will not come back: fail now.
+    for d in munged slurmctld slurmd; do
+        if ! alive "$d"; then
+            log "$d is not running; see $LOG_DIR/$d.log:"
+            tail -n 15 "$LOG_DIR/$d.log" >&2 2>/dev/null || true
+            exit 1
+        fi
+    done
     if [ "$(date +%s)" -ge "$deadline" ]; then
         log "node not idle after ${TIMEOUT}s (state: '${state:-no answer}'); last log lines:"
         for f in munged slurmctld slurmd; do
