@@ -22,6 +22,15 @@ fi
 
 mkdir -p "$1"
 STATE_DIR=$(cd "$1" && pwd)          # absolute: daemons chdir to /
+# slurm.conf values cannot hold whitespace, and the munge socket path must fit in a
+# sockaddr_un (108 bytes): keep STATE_DIR short and plain (e.g. under /tmp).
+case "$STATE_DIR" in
+    *[[:space:]]*) echo "slurm/start: STATE_DIR must not contain whitespace: '$STATE_DIR'" >&2; exit 1 ;;
+esac
+if [ ${#STATE_DIR} -gt 80 ]; then
+    echo "slurm/start: STATE_DIR is too long (${#STATE_DIR} > 80 chars) for the munge socket path" >&2
+    exit 1
+fi
 CTLD_PORT=${SLURM_TEST_CTLD_PORT:-6817}
 SLURMD_PORT=${SLURM_TEST_SLURMD_PORT:-6818}
 TIMEOUT=${SLURM_TEST_TIMEOUT:-60}
