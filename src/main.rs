@@ -92,6 +92,33 @@ enum Command {
         #[arg(long, value_name = "SIZE", value_parser = isar_clutter::run::estimate::parse_size)]
         max_memory: Option<u64>,
     },
+    /// Write (and with --submit, submit) Slurm scripts running a spec in shards: an array job
+    /// (`run --shards N`, one task per shard) and a merge job after it (`merge OUT`).
+    Slurm {
+        /// The experiment spec (YAML).
+        spec: PathBuf,
+        /// Number of shards: array tasks, each running its share of the jobs.
+        #[arg(long)]
+        shards: usize,
+        /// Output folder (default: outputs/<name>); the scripts go to OUT/slurm/.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Slurm partition of both jobs.
+        #[arg(long)]
+        partition: Option<String>,
+        /// Time limit of each job (sbatch --time, e.g. 2:00:00).
+        #[arg(long)]
+        time: Option<String>,
+        /// CPUs per array task (and the worker threads of each shard).
+        #[arg(long, default_value_t = 1)]
+        cpus: usize,
+        /// Memory of each job (sbatch --mem, e.g. 8G).
+        #[arg(long)]
+        mem: Option<String>,
+        /// Submit both jobs with sbatch (the merge job with --dependency=afterok).
+        #[arg(long)]
+        submit: bool,
+    },
     /// Fit a synthesis model to a stack and save it as a model folder.
     Fit {
         /// The stack: .npy of complex64, complex128 or real values, [N, H, W].
@@ -193,6 +220,40 @@ fn real_main() -> Result<ExitCode> {
             let largest = estimate::check(&plan, estimate::limit(max_memory))?;
             println!("{}: valid, {} job(s)", spec.display(), plan.jobs.len());
             println!("{largest}");
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Slurm {
+            spec,
+            shards,
+            out,
+            partition,
+            time,
+            cpus,
+            mem,
+            submit,
+        } => {
+            use isar_clutter::run::slurm;
+            let out = match out {
+                Some(out) => out,
+                None => PathBuf::from("outputs").join(&plan::load(&spec)?.spec.name),
+            };
+            let mut opts = slurm::SlurmOptions::new(spec, out, shards)?;
+            (opts.partition, opts.time, opts.cpus, opts.mem) = (partition, time, cpus, mem);
+            let scripts = slurm::write_scripts(&opts)?;
+            println!("{}\n{}", scripts.array.display(), scripts.merge.display());
+            if scripts.shards > scripts.jobs {
+                eprintln!(
+                    "note: {} shards for {} job(s): some shards have nothing to do",
+                    scripts.shards, scripts.jobs
+                );
+            }
+            if submit {
+                let (array, merge) = slurm::submit(&scripts)?;
+                println!(
+                    "submitted array job {array} ({} shards) and merge job {merge} (afterok)",
+                    scripts.shards
+                );
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Fit {
