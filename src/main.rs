@@ -43,6 +43,17 @@ enum Command {
         /// Do not build figures/ and report.html at the end.
         #[arg(long)]
         no_report: bool,
+        /// Redo every job, even those whose result the job store (OUT/jobs/) already holds.
+        #[arg(long)]
+        fresh: bool,
+        /// Split the jobs into N shards (balanced by estimated work) and run one of them:
+        /// `--shard I`, or SLURM_ARRAY_TASK_ID / JOB_COMPLETION_INDEX when omitted. A shard
+        /// writes only into the job store; `merge OUT` assembles the tables.
+        #[arg(long, value_name = "N")]
+        shards: Option<usize>,
+        /// The shard to run, 0 <= I < N (with --shards).
+        #[arg(long, value_name = "I", requires = "shards")]
+        shard: Option<usize>,
         /// Refuse a job whose estimated peak memory exceeds SIZE (bytes, or e.g. 512M, 8G;
         /// default: the machine's memory).
         #[arg(long, value_name = "SIZE", value_parser = isar_clutter::run::estimate::parse_size)]
@@ -82,6 +93,30 @@ enum Command {
         /// since its manifest (refused otherwise).
         #[arg(long)]
         allow_incomplete: bool,
+    },
+    /// Assemble the tables, the manifest and the report of a folder from its job store (after
+    /// every shard of `run --shards N` finished).
+    Merge {
+        /// The output folder the shards wrote into.
+        results: PathBuf,
+        /// Merge even when jobs are missing (they are listed as failed; the folder stays
+        /// marked incomplete).
+        #[arg(long)]
+        partial: bool,
+        /// Do not build figures/ and report.html.
+        #[arg(long)]
+        no_report: bool,
+        /// Worker threads (default: RAYON_NUM_THREADS, else all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// No progress output.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// List the jobs of an output folder: done, failed or missing, per shard.
+    Status {
+        /// The output folder.
+        results: PathBuf,
     },
     /// Check a spec (syntax, types, files, sizes) without running it.
     Validate {
@@ -215,6 +250,45 @@ fn real_main() -> Result<ExitCode> {
             );
             Ok(ExitCode::SUCCESS)
         }
+        Command::Merge {
+            results,
+            partial,
+            no_report,
+            jobs,
+            quiet,
+        } => {
+            let mut opts =
+                RunOptions::new(results.clone(), jobs.unwrap_or_else(scheduler::default_threads));
+            opts.quiet = quiet;
+            let merged = pool(jobs)?
+                .install(|| isar_clutter::run::merge::merge(&results, &opts, partial))?;
+            for note in &merged.notes {
+                eprintln!("note: {note}");
+            }
+            for (job, err) in &merged.failed {
+                eprintln!("  failed: {job}: {err}");
+            }
+            eprintln!(
+                "merged {} ({} failed, {} missing)",
+                results.display(),
+                merged.failed.len() - merged.missing.len(),
+                merged.missing.len()
+            );
+            if !no_report {
+                pool(jobs)?
+                    .install(|| isar_clutter::report::build(&results, !merged.missing.is_empty()))
+                    .context("building the report (the tables are written; retry with `isar-clutter report`)")?;
+            }
+            Ok(if merged.failed.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            })
+        }
+        Command::Status { results } => {
+            print!("{}", isar_clutter::run::merge::status(&results)?);
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Validate { spec, max_memory } => {
             let plan = plan::load(&spec)?;
             let largest = estimate::check(&plan, estimate::limit(max_memory))?;
@@ -306,6 +380,9 @@ fn real_main() -> Result<ExitCode> {
             quiet,
             no_report,
             max_memory,
+            fresh,
+            shards,
+            shard,
         } => {
             let plan = plan::load(&spec)?;
             if dry_run {
@@ -318,6 +395,8 @@ fn real_main() -> Result<ExitCode> {
             let mut opts = RunOptions::new(out, jobs.unwrap_or_else(scheduler::default_threads));
             opts.quiet = quiet;
             opts.max_memory = max_memory;
+            opts.fresh = fresh;
+            opts.shard = shard_option(shards, shard)?;
             let summary = scheduler::run(&plan, &opts)?;
             if !quiet {
                 for note in &summary.notes {
@@ -335,7 +414,12 @@ fn real_main() -> Result<ExitCode> {
             for (job, err) in &summary.failed {
                 eprintln!("  failed: {job}: {err}");
             }
-            if !no_report {
+            if let Some((i, n)) = opts.shard {
+                eprintln!(
+                    "shard {i}/{n}: when every shard is done, `isar-clutter merge {}`",
+                    summary.out.display()
+                );
+            } else if !no_report {
                 let t = std::time::Instant::now();
                 let report = pool(jobs)?
                     .install(|| isar_clutter::report::build(&summary.out, false))
@@ -356,6 +440,35 @@ fn real_main() -> Result<ExitCode> {
             })
         }
     }
+}
+
+/// The shard of `run --shards N [--shard I]`: `I` from the flag, else from
+/// `SLURM_ARRAY_TASK_ID` or `JOB_COMPLETION_INDEX` (Kubernetes indexed jobs).
+fn shard_option(shards: Option<usize>, shard: Option<usize>) -> Result<Option<(usize, usize)>> {
+    let Some(n) = shards else { return Ok(None) };
+    if n == 0 {
+        anyhow::bail!("--shards must be at least 1");
+    }
+    let i = match shard {
+        Some(i) => i,
+        None => {
+            let (var, value) = ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"]
+                .iter()
+                .find_map(|v| std::env::var(v).ok().map(|x| (*v, x)))
+                .with_context(|| {
+                    "--shards without --shard: set --shard I, or run as a Slurm array task \
+                     (SLURM_ARRAY_TASK_ID) or a Kubernetes indexed job (JOB_COMPLETION_INDEX)"
+                })?;
+            value
+                .trim()
+                .parse()
+                .with_context(|| format!("{var}={value:?} is not a shard index"))?
+        }
+    };
+    if i >= n {
+        anyhow::bail!("--shard {i} is not below --shards {n} (shards are 0..{n})");
+    }
+    Ok(Some((i, n)))
 }
 
 /// A rayon pool of `jobs` threads (default: all cores).

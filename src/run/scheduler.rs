@@ -10,9 +10,9 @@
 use crate::io::atomic::write_parquet;
 use crate::io::outdir::{OutDir, Purpose};
 use crate::run::jobs::all::AllJobs;
-use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Status};
+use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Rows, Status};
 use crate::run::plan::Plan;
-use crate::run::{manifest, tables};
+use crate::run::{merge, store, tables};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use polars::prelude::DataFrame;
@@ -33,6 +33,11 @@ pub struct RunOptions {
     pub progress_bar: bool,
     /// Print progress at all.
     pub quiet: bool,
+    /// Run one shard only: `(index, shards)`; its jobs go into the job store, and `merge`
+    /// assembles the tables.
+    pub shard: Option<(usize, usize)>,
+    /// Redo every job, even those the job store holds.
+    pub fresh: bool,
     /// Memory limit in bytes (`--max-memory`; the machine's memory when lower or unset): a job
     /// whose estimate ([`JobKind::estimate`]) exceeds it fails without allocating anything.
     pub max_memory: Option<u64>,
@@ -47,6 +52,8 @@ impl RunOptions {
             progress_bar: std::io::stderr().is_terminal(),
             quiet: false,
             max_memory: None,
+            shard: None,
+            fresh: false,
         }
     }
 }
@@ -63,8 +70,13 @@ pub struct RunSummary {
     /// Wall time in seconds.
     pub elapsed_s: f64,
     /// What claiming the folder did besides (a stale lock taken over, temporary files of an
-    /// interrupted run removed) and how many stale files of an earlier run went.
+    /// interrupted run removed), how many jobs the store already held, how many stale files of
+    /// an earlier run went.
     pub notes: Vec<String>,
+    /// Jobs skipped because the job store held their result.
+    pub skipped: usize,
+    /// Whether the tables and the manifest were written (not for a shard).
+    pub merged: bool,
 }
 
 /// Default number of worker threads: `RAYON_NUM_THREADS` when it is set to a positive
@@ -84,83 +96,93 @@ fn threads_from(env: Option<&str>) -> usize {
         })
 }
 
-/// Runs every job of `plan` and writes the outputs.
+/// Runs the jobs of `plan` (all, or one shard's) into the job store of the output folder,
+/// skipping those whose result the store already holds (unless `fresh`), then, for a run that
+/// is not a shard, merges the store into the tables, the files and the manifest
+/// ([`crate::run::merge`]).
 ///
 /// # Errors
 /// Only for failures outside the jobs (an output folder that is not the tool's or is locked,
-/// tables, manifest); a failed job is recorded in `jobs.parquet` (or, for a job of the run as a
-/// whole, in the manifest) and in the returned summary. A run that stops with an error leaves
-/// its folder marked in progress, which `table` and `report` refuse.
+/// the store, tables, manifest); a failed job is recorded in the store, in `jobs.parquet` (or,
+/// for a job of the run as a whole, in the manifest) and in the returned summary. A run that
+/// stops with an error leaves its folder marked in progress, which `table` and `report` refuse.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let start = Instant::now();
-    let outdir = OutDir::claim(&opts.out, Some(&plan.spec.name), Purpose::Run)?;
+    let purpose = match opts.shard {
+        Some((index, _)) => Purpose::Shard { index },
+        None => Purpose::Run,
+    };
+    let outdir = OutDir::claim(&opts.out, Some(&plan.spec.name), purpose)?;
     let mut notes = outdir.notes.clone();
+    merge::record_plan(&opts.out, plan, opts.shard.map(|(_, n)| n))?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads.max(1))
         .build()?;
     let all = AllJobs::new(plan);
     let jobs = all.list();
-    let bar = progress(jobs.len(), opts);
-    let mut outcomes: Vec<Option<Outcome>> = (0..jobs.len()).map(|_| None).collect();
-    // Jobs that read other jobs' rows wait for the first wave.
-    let (first, second): (Vec<usize>, Vec<usize>) =
-        (0..jobs.len()).partition(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)));
-    for wave in [first, second] {
-        let done: Vec<(usize, Outcome)> = pool.install(|| {
-            groups(&jobs, &wave)
-                .par_iter()
-                .flat_map_iter(|group| run_group(plan, &jobs, &outcomes, group, opts, &bar))
-                .collect()
-        });
-        for (i, o) in done {
-            outcomes[i] = Some(o);
+    let keys: Vec<String> = jobs
+        .iter()
+        .map(|j| store::key(*j, plan))
+        .collect::<Result<_>>()?;
+    // This run's jobs: a shard's share, or every job; jobs that read other jobs' rows run at
+    // the merge.
+    let mine: Vec<usize> = match opts.shard {
+        Some((index, shards)) => {
+            let assigned = store::assign(plan, &jobs, shards)?;
+            (0..jobs.len()).filter(|&i| assigned[i] == Some(index)).collect()
         }
+        None => (0..jobs.len())
+            .filter(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)))
+            .collect(),
+    };
+    let (todo, skipped): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| {
+        opts.fresh || !matches!(store::entry(&opts.out, &keys[i]), store::Entry::Done(_))
+    });
+    if !skipped.is_empty() {
+        notes.push(format!(
+            "resumed: {} job(s) already done in the job store were skipped (--fresh redoes them)",
+            skipped.len()
+        ));
     }
-    let outcomes: Vec<Outcome> = outcomes
-        .into_iter()
-        .map(|o| o.expect("every job ran"))
-        .collect();
+    let bar = progress(todo.len(), opts);
+    let none: Vec<Option<Outcome>> = vec![];
+    let done: Vec<(usize, Outcome)> = pool.install(|| {
+        groups(&jobs, &todo)
+            .par_iter()
+            .flat_map_iter(|group| run_group(plan, &jobs, &keys, &none, group, opts, &bar, false))
+            .collect()
+    });
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let t_tables = Instant::now();
-    pool.install(|| write_tables(plan, &jobs, &outcomes, opts))?;
-    let tables_s = t_tables.elapsed().as_secs_f64();
-    // Everything an earlier run wrote that this one did not: jobs no longer in the spec, the
-    // old maps of a job that failed now, an old report (rebuilt after the manifest).
-    let stale = outdir.remove_stale(|_| true)?;
-    if stale > 0 {
-        notes.push(format!(
-            "removed {stale} file(s) an earlier run wrote that this run does not have"
-        ));
-    }
-    let failed: Vec<(String, String)> = jobs
+    let mut failed: Vec<(String, String)> = done
         .iter()
-        .zip(&outcomes)
-        .filter_map(|(job, o)| {
-            o.rows
-                .as_ref()
-                .err()
-                .map(|e| (job.id().to_string(), e.clone()))
-        })
+        .filter_map(|(i, o)| o.rows.as_ref().err().map(|e| (jobs[*i].id().to_string(), e.clone())))
         .collect();
-    let elapsed_s = start.elapsed().as_secs_f64();
-    manifest::write(
-        plan,
-        &jobs,
-        &outcomes,
-        opts.threads,
-        &opts.out,
-        (elapsed_s, tables_s),
-        &outdir.written(),
-    )?;
-    outdir.complete()?;
+    if opts.shard.is_some() {
+        // The folder stays in progress: `merge` writes the tables and the manifest.
+        return Ok(RunSummary {
+            total: mine.len(),
+            failed,
+            out: opts.out.clone(),
+            elapsed_s: start.elapsed().as_secs_f64(),
+            notes,
+            skipped: skipped.len(),
+            merged: false,
+        });
+    }
+    drop(done);
+    let merged = pool.install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start))?;
+    notes.extend(merged.notes);
+    failed = merged.failed;
     Ok(RunSummary {
-        total: outcomes.len(),
+        total: jobs.len(),
         failed,
         out: opts.out.clone(),
-        elapsed_s,
+        elapsed_s: start.elapsed().as_secs_f64(),
         notes,
+        skipped: skipped.len(),
+        merged: true,
     })
 }
 
@@ -181,15 +203,34 @@ fn groups(jobs: &[&dyn JobKind], wave: &[usize]) -> Vec<Vec<usize>> {
     groups.into_iter().map(|(_, g)| g).collect()
 }
 
+/// Runs the jobs `indices` (grouped as [`run`] groups them) with the outcomes of earlier jobs,
+/// keeping their rows; each is saved in the store too.
+pub(crate) fn run_group_each(
+    plan: &Plan,
+    jobs: &[&dyn JobKind],
+    keys: &[String],
+    earlier: &[Option<Outcome>],
+    indices: &[usize],
+    opts: &RunOptions,
+) -> Vec<(usize, Outcome)> {
+    groups(jobs, indices)
+        .par_iter()
+        .flat_map_iter(|g| run_group(plan, jobs, keys, earlier, g, opts, &None, true))
+        .collect()
+}
+
 /// Runs one group of jobs: its shared dataset materialised once (no lock: the group owns it)
 /// when worth it, then its jobs in parallel; each job's panic or error is its own outcome.
+#[allow(clippy::too_many_arguments)]
 fn run_group(
     plan: &Plan,
     jobs: &[&dyn JobKind],
+    keys: &[String],
     earlier: &[Option<Outcome>],
     group: &[usize],
     opts: &RunOptions,
     bar: &Option<ProgressBar>,
+    keep_rows: bool,
 ) -> Vec<(usize, Outcome)> {
     let limit = crate::run::estimate::limit(opts.max_memory);
     // A job that cannot fit fails before anything is allocated for it.
@@ -209,7 +250,9 @@ fn run_group(
         .map(|&index| {
             let job = jobs[index];
             let t = Instant::now();
+            let dir = store::begin(&opts.out, &keys[index]);
             let rows = match (&shared, too_big(job)) {
+                _ if dir.is_err() => Err(format!("{:#}", dir.as_ref().err().expect("an error"))),
                 (_, Some(reason)) => Err(reason),
                 (Some(Err(e)), _) => Err(e.clone()),
                 _ => {
@@ -225,7 +268,7 @@ fn run_group(
                     };
                     let cx = JobContext {
                         plan,
-                        out: &opts.out,
+                        out: dir.as_ref().expect("checked above"),
                         shared: shared.as_ref().and_then(|r| r.as_ref().ok()),
                         inputs,
                     };
@@ -236,18 +279,26 @@ fn run_group(
                         .map_err(|e| format!("{e:#}"))
                 }
             };
-            let outcome = Outcome {
+            let mut outcome = Outcome {
                 rows,
                 elapsed_s: t.elapsed().as_secs_f64(),
             };
+            // Into the store at once; a store that cannot be written fails the job.
+            if let Err(e) = store::save(&opts.out, &keys[index], job, &outcome) {
+                outcome.rows = Err(format!("saving the result: {e:#}"));
+            }
             report(bar, opts, job, &outcome);
+            if !keep_rows {
+                // Stored: the job's memory goes now, not at the end of the run.
+                outcome.rows = outcome.rows.map(|_| Rows::default());
+            }
             (index, outcome)
         })
         .collect()
 }
 
 /// Assembles the tables from every job's rows and status row and writes them, in parallel.
-fn write_tables(
+pub(crate) fn write_tables(
     plan: &Plan,
     jobs: &[&dyn JobKind],
     outcomes: &[Outcome],
@@ -276,7 +327,7 @@ fn write_tables(
     })
 }
 
-fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
+pub(crate) fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
     (opts.progress_bar && !opts.quiet).then(|| {
         let bar = ProgressBar::new(n as u64);
         bar.set_style(

@@ -233,7 +233,10 @@ fn merge_script(c: &Common, name: &str) -> String {
         &format!("{}/merge.log", c.dir),
         None,
     );
-    s.push_str("exec \"$BINARY\" merge \"$OUT\"\n");
+    s.push_str(&format!(
+        "exec \"$BINARY\" merge \"$OUT\" --jobs \"${{SLURM_CPUS_PER_TASK:-{}}}\"\n",
+        c.opts.cpus
+    ));
     s
 }
 
@@ -396,7 +399,7 @@ mod tests {
         let log = format!("#SBATCH --output={}/slurm/merge.log\n", out.display());
         assert!(merge.contains(&log), "{merge}");
         assert!(
-            merge.contains("exec \"$BINARY\" merge \"$OUT\"\n"),
+            merge.contains("exec \"$BINARY\" merge \"$OUT\" --jobs \"${SLURM_CPUS_PER_TASK:-4}\"\n"),
             "{merge}"
         );
         assert!(!merge.contains("--array"), "{merge}");
@@ -466,7 +469,7 @@ mod tests {
         );
         assert!(args.contains("--jobs\n7\n"), "{args}");
         let args = run_with_fake_binary(&opts, &s.merge, &[]);
-        assert_eq!(args, format!("merge\n{}\n", out.display()));
+        assert_eq!(args, format!("merge\n{}\n--jobs\n2\n", out.display()));
         // The #SBATCH line double-quotes the log path, escaping its double quotes.
         let log = format!(
             "#SBATCH --output=\"{}/slurm/shard-%a.log\"\n",

@@ -71,8 +71,13 @@ impl Holder {
 }
 
 /// Takes the lock of `root` for `me`, taking over a dead holder's.
-pub(super) fn take_lock(root: &Path, me: &Holder, notes: &mut Vec<String>) -> Result<()> {
-    let path = root.join(STATE).join("lock");
+pub(super) fn take_lock(
+    root: &Path,
+    name: &str,
+    me: &Holder,
+    notes: &mut Vec<String>,
+) -> Result<()> {
+    let path = root.join(STATE).join(name);
     for _ in 0..3 {
         match OpenOptions::new().write(true).create_new(true).open(&path) {
             Ok(mut f) => {
@@ -158,4 +163,39 @@ pub(super) fn utc(s: u64) -> String {
         rem % 3600 / 60,
         rem % 60
     )
+}
+
+/// The live holders of the other locks of `root` (`lock`, `lock.shard-<i>`) than `mine`, by
+/// lock name; dead holders' locks are removed (said in `notes`).
+///
+/// # Errors
+/// If the state folder cannot be read or a dead lock removed.
+pub(super) fn other_locks(
+    root: &Path,
+    mine: &str,
+    notes: &mut Vec<String>,
+) -> Result<Vec<(String, Holder)>> {
+    let state = root.join(STATE);
+    let mut live = vec![];
+    for e in fs::read_dir(&state)
+        .with_context(|| format!("cannot read {}", state.display()))?
+        .flatten()
+    {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name == mine || !(name == "lock" || name.starts_with("lock.shard-")) {
+            continue;
+        }
+        let holder: Option<Holder> = fs::read_to_string(e.path())
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok());
+        match holder {
+            Some(h) if !h.is_dead() => live.push((name, h)),
+            Some(h) => {
+                notes.push(format!("removed the stale {name} of a {} that is gone", h.describe()));
+                let _ = fs::remove_file(e.path());
+            }
+            None => {} // being written by its taker this instant, or unreadable: left alone
+        }
+    }
+    Ok(live)
 }

@@ -44,6 +44,7 @@ pub const STATE: &str = ".isar-clutter";
 pub struct OutDir {
     root: PathBuf,
     abs: PathBuf,
+    lock: String,
     /// Notes for the caller: stale lock taken over, temporary files removed.
     pub notes: Vec<String>,
 }
@@ -54,6 +55,13 @@ pub enum Purpose {
     /// A run: any folder the tool owns for this experiment (or a new or empty one); marked in
     /// progress until its manifest is written.
     Run,
+    /// One shard of a run (`run --shards N --shard index`): several shards write into one
+    /// folder at once, each under its own lock (`lock.shard-<index>`); the folder is marked in
+    /// progress until `merge` writes the manifest. A shard removes nothing.
+    Shard {
+        /// The shard's index.
+        index: usize,
+    },
     /// Rebuilding the report of a finished run: the folder must be complete (or the caller
     /// allows an incomplete one).
     Report {
@@ -142,35 +150,65 @@ impl OutDir {
         let mut notes = vec![];
         let me = Holder::me(match purpose {
             Purpose::Run => "run",
+            Purpose::Shard { .. } => "shard",
             Purpose::Report { .. } => "report",
         });
-        take_lock(root, &me, &mut notes)?;
+        let lock = match purpose {
+            Purpose::Shard { index } => format!("lock.shard-{index}"),
+            _ => "lock".to_string(),
+        };
+        take_lock(root, &lock, &me, &mut notes)?;
         let abs = std::path::absolute(root)
             .with_context(|| format!("cannot resolve {}", root.display()))?;
         let dir = OutDir {
             root: root.to_path_buf(),
             abs,
+            lock,
             notes,
         };
         // From here on the lock is ours; dropping `dir` releases it on any error.
         let mut dir = dir;
+        // A shard runs beside other shards, never beside a whole run or a merge; those run
+        // beside nothing.
+        let conflicts = lock::other_locks(root, &dir.lock, &mut dir.notes)?;
+        let blocking: Vec<Holder> = conflicts
+            .into_iter()
+            .filter(|(name, _)| !matches!(purpose, Purpose::Shard { .. }) || name == "lock")
+            .map(|(_, h)| h)
+            .collect();
+        if let Some(h) = blocking.first() {
+            bail!(
+                "{} is being written by a {} that is still running: wait for it to finish (nothing \
+                 was changed)",
+                root.display(),
+                h.describe()
+            );
+        }
         if let Some(name) = name {
             let owner = serde_json::json!({"tool": env!("CARGO_PKG_NAME"), "name": name});
             write_json(&state.join("owner.json"), &owner)?;
         }
-        let removed = dir.remove_dead_temporaries()?;
+        let removed = if matches!(purpose, Purpose::Shard { .. }) {
+            0 // other shards may be writing: their temporary files are alive
+        } else {
+            dir.remove_dead_temporaries()?
+        };
         if removed > 0 {
             dir.notes.push(format!(
                 "removed {removed} temporary file(s) left by an interrupted writer in {}",
                 root.display()
             ));
         }
-        if purpose == Purpose::Run {
+        if matches!(purpose, Purpose::Run | Purpose::Shard { .. }) {
             write_json(&state.join("in-progress"), &me)?;
             let manifest = root.join("manifest.json");
-            if manifest.is_file() {
-                fs::rename(&manifest, state.join("previous-manifest.json"))
-                    .with_context(|| format!("cannot move {} aside", manifest.display()))?;
+            match fs::rename(&manifest, state.join("previous-manifest.json")) {
+                // Another shard moved it first, or there was none.
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(e)
+                        .with_context(|| format!("cannot move {} aside", manifest.display()))
+                }
+                _ => {}
             }
         }
         let file = OpenOptions::new()
@@ -323,7 +361,7 @@ impl Drop for OutDir {
         if let Ok(mut active) = ACTIVE.lock() {
             active.retain(|j| j.abs != self.abs);
         }
-        let _ = fs::remove_file(self.root.join(STATE).join("lock"));
+        let _ = fs::remove_file(self.root.join(STATE).join(&self.lock));
     }
 }
 

@@ -35,6 +35,10 @@ impl JobKind for CalibrationJob {
         Some(self.seed)
     }
 
+    fn key_material(&self, plan: &Plan) -> String {
+        format!("{self:?}\n{:?}", plan.spec.calibration)
+    }
+
     fn inputs(&self) -> Inputs {
         Inputs::Nothing
     }

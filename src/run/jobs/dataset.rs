@@ -55,6 +55,28 @@ impl JobKind for Job {
         crate::run::estimate::dataset_job(plan, self)
     }
 
+    fn key_material(&self, plan: &Plan) -> String {
+        // The job in full (dataset with any maps read from files, analysis, synthesis, seeds)
+        // and the plan-wide settings its rows read.
+        format!(
+            "{self:?}\nmetrics={:?}\nhypotheses={}\noutputs={:?}\nparam_keys={:?}",
+            plan.metrics,
+            plan.spec.hypotheses.is_some(),
+            plan.spec.outputs,
+            plan.param_keys
+        )
+    }
+
+    fn input_files(&self) -> Vec<std::path::PathBuf> {
+        use crate::experiment::Dataset;
+        match &self.dataset {
+            Dataset::Npy(d) => vec![d.path.clone()],
+            Dataset::Netcdf(d) => vec![d.path.clone()],
+            Dataset::Kspace(d) => vec![d.path.clone()],
+            Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
+        }
+    }
+
     fn materialise(&self) -> Result<Materialised> {
         materialise(&self.dataset, self.data_seed)
             .with_context(|| format!("dataset {}", self.dataset_id))

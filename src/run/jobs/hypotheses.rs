@@ -126,6 +126,10 @@ impl JobKind for HypothesesJob {
         None
     }
 
+    fn key_material(&self, plan: &Plan) -> String {
+        format!("{self:?}\n{:?}", plan.spec.hypotheses)
+    }
+
     fn inputs(&self) -> Inputs {
         Inputs::Rows(self.inputs.clone())
     }

@@ -109,6 +109,17 @@ pub trait JobKind: Send + Sync {
         let _ = plan;
         Estimate::SMALL
     }
+    /// Everything besides kind, identity and seed that the job's result depends on, as text
+    /// for its key in the job store ([`crate::run::store::key`]): its validated parameters and
+    /// the plan-wide settings its rows read. Default: nothing more.
+    fn key_material(&self, plan: &Plan) -> String {
+        let _ = plan;
+        String::new()
+    }
+    /// Files the job reads, whose content hashes go into its key. Default: none.
+    fn input_files(&self) -> Vec<PathBuf> {
+        vec![]
+    }
     /// Materialises the dataset a group of jobs shares (called once per group with
     /// [`Inputs::Dataset`] `shared`).
     ///

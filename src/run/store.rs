@@ -1,0 +1,401 @@
+//! The durable job store: every job, when it finishes, leaves its result under
+//! `OUT/jobs/<key>/`, so that a run killed at any moment resumes where it stopped, shards on
+//! other machines add their jobs to the same folder, and `merge` assembles the tables from the
+//! store alone.
+//!
+//! `key` is the first 20 hex digits of a SHA-256 over what determines the result: the store's
+//! schema version, the job's kind, identity and seed, its full validated parameters
+//! ([`JobKind::key_material`]: for a dataset job its dataset, analysis and synthesis settings
+//! and the plan-wide settings its rows depend on) and the content hash of its input files. A
+//! changed spec or input file changes the keys of exactly the jobs it affects; a key of an
+//! earlier spec is never read.
+//!
+//! A job's folder holds the files the job wrote (`maps/<id>/...`, `models/<id>/...`,
+//! `samples/...`, `kspace/...`, the same relative paths as in the output folder), its table
+//! fragments (`fragments/<n>-<table>.parquet`) and, written last, `done.json` (id, kind, key,
+//! schema, timings, every file with its size). A failed job leaves `failed.json` with its error
+//! instead, and is run again by the next run. Everything is written through the atomic writer.
+
+use crate::io::atomic::{atomic_write, read_parquet, write_parquet};
+use crate::run::jobs::{JobKind, Outcome, Rows};
+use crate::run::plan::Plan;
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Version of what a job's record and fragments hold; part of every key, so results of another
+/// schema are never merged.
+pub const SCHEMA: u32 = 1;
+
+/// The record of a finished job (`done.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Done {
+    /// [`SCHEMA`] when written.
+    pub schema: u32,
+    /// The job's key.
+    pub key: String,
+    /// The job's id.
+    pub id: String,
+    /// The job's kind.
+    pub kind: String,
+    /// Wall time of the job in seconds.
+    pub elapsed_s: f64,
+    /// The job's timings for the manifest.
+    pub timing: Option<serde_json::Value>,
+    /// Table fragments in the job's order: `(table, file under fragments/)`.
+    pub fragments: Vec<(String, String)>,
+    /// Files the job wrote (relative to its folder, and to the output folder once merged),
+    /// with their sizes.
+    pub files: BTreeMap<String, u64>,
+}
+
+/// The record of a failed job (`failed.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Failed {
+    /// [`SCHEMA`] when written.
+    pub schema: u32,
+    /// The job's key.
+    pub key: String,
+    /// The job's id.
+    pub id: String,
+    /// The error with its cause chain.
+    pub error: String,
+    /// Wall time of the job in seconds.
+    pub elapsed_s: f64,
+}
+
+/// What the store holds for one job.
+#[derive(Debug, Clone)]
+pub enum Entry {
+    /// Finished and verified.
+    Done(Done),
+    /// Failed with this record.
+    Failed(Failed),
+    /// Nothing usable (never run, killed while running, or a record that does not verify:
+    /// the reason).
+    Missing(Option<String>),
+}
+
+/// The folder of the job with `key`.
+pub fn job_dir(out: &Path, key: &str) -> PathBuf {
+    out.join("jobs").join(key)
+}
+
+/// The key of `job` in `plan`.
+///
+/// # Errors
+/// If an input file cannot be read for its hash.
+pub fn key(job: &dyn JobKind, plan: &Plan) -> Result<String> {
+    let mut text = format!(
+        "isar-clutter/store/{SCHEMA}\nkind={}\nidentity={}\nseed={:?}\n{}\n",
+        job.kind(),
+        job.identity(),
+        job.seed(),
+        job.key_material(plan)
+    );
+    for file in job.input_files() {
+        text.push_str(&format!("file={}\n", content_hash(&file)?));
+    }
+    Ok(crate::seeds::sha256_hex(text.as_bytes())[..20].to_string())
+}
+
+/// SHA-256 of a file's bytes, memoised per path, size and modification time within the
+/// process (a large stack read by many jobs is hashed once).
+fn content_hash(path: &Path) -> Result<String> {
+    use sha2::{Digest, Sha256};
+    static MEMO: Mutex<Option<HashMap<(PathBuf, u64, std::time::SystemTime), String>>> =
+        Mutex::new(None);
+    let meta = fs::metadata(path).with_context(|| format!("reading {}", path.display()))?;
+    let id = (
+        path.to_path_buf(),
+        meta.len(),
+        meta.modified().unwrap_or(std::time::UNIX_EPOCH),
+    );
+    if let Some(h) = MEMO
+        .lock()
+        .ok()
+        .and_then(|m| m.as_ref().and_then(|m| m.get(&id).cloned()))
+    {
+        return Ok(h);
+    }
+    let mut file = fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = std::io::Read::read(&mut file, &mut buf)
+            .with_context(|| format!("reading {}", path.display()))?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    let hex: String = hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    if let Ok(mut m) = MEMO.lock() {
+        m.get_or_insert_with(HashMap::new).insert(id, hex.clone());
+    }
+    Ok(hex)
+}
+
+/// Reads what the store holds for `key`, verifying a `done.json` (schema, key, every file
+/// present with its size, every fragment present).
+pub fn entry(out: &Path, key: &str) -> Entry {
+    let dir = job_dir(out, key);
+    let read = |name: &str| fs::read(dir.join(name)).ok();
+    if let Some(bytes) = read("done.json") {
+        let done: Done = match serde_json::from_slice(&bytes) {
+            Ok(d) => d,
+            Err(e) => return Entry::Missing(Some(format!("done.json unreadable: {e}"))),
+        };
+        if done.schema != SCHEMA || done.key != key {
+            return Entry::Missing(Some(format!(
+                "done.json of schema {} (this tool writes {SCHEMA})",
+                done.schema
+            )));
+        }
+        for (rel, bytes) in &done.files {
+            match fs::metadata(dir.join(rel)) {
+                Ok(m) if m.len() == *bytes => {}
+                _ => return Entry::Missing(Some(format!("{rel} is missing or changed"))),
+            }
+        }
+        for (_, file) in &done.fragments {
+            if !dir.join("fragments").join(file).is_file() {
+                return Entry::Missing(Some(format!("fragments/{file} is missing")));
+            }
+        }
+        return Entry::Done(done);
+    }
+    if let Some(bytes) = read("failed.json") {
+        if let Ok(f) = serde_json::from_slice::<Failed>(&bytes) {
+            if f.schema == SCHEMA && f.key == key {
+                return Entry::Failed(f);
+            }
+        }
+    }
+    Entry::Missing(None)
+}
+
+/// Prepares the folder of a job about to run: its old records go first (a rerun of a failed or
+/// interrupted job), so that `done.json` exists only for a run that finished.
+///
+/// # Errors
+/// If a record cannot be removed.
+pub fn begin(out: &Path, key: &str) -> Result<PathBuf> {
+    let dir = job_dir(out, key);
+    for name in ["done.json", "failed.json"] {
+        match fs::remove_file(dir.join(name)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(e).with_context(|| format!("removing {}", dir.join(name).display()))
+            }
+            _ => {}
+        }
+    }
+    Ok(dir)
+}
+
+/// Saves a finished job's outcome: its fragments and then `done.json` (or `failed.json`).
+///
+/// # Errors
+/// If a file cannot be written.
+pub fn save(out: &Path, key: &str, job: &dyn JobKind, outcome: &Outcome) -> Result<()> {
+    let dir = job_dir(out, key);
+    let rows = match &outcome.rows {
+        Err(error) => {
+            let failed = Failed {
+                schema: SCHEMA,
+                key: key.into(),
+                id: job.id().into(),
+                error: error.clone(),
+                elapsed_s: outcome.elapsed_s,
+            };
+            return write_json(&dir.join("failed.json"), &failed);
+        }
+        Ok(rows) => rows,
+    };
+    let mut fragments = vec![];
+    for (i, (table, df)) in rows.tables.iter().enumerate() {
+        let file = format!("{i}-{table}.parquet");
+        write_parquet(&dir.join("fragments").join(&file), &mut df.clone())?;
+        fragments.push((table.to_string(), file));
+    }
+    let mut files = BTreeMap::new();
+    list_files(&dir, &dir, &mut files)?;
+    let done = Done {
+        schema: SCHEMA,
+        key: key.into(),
+        id: job.id().into(),
+        kind: job.kind().into(),
+        elapsed_s: outcome.elapsed_s,
+        timing: rows.timing.clone(),
+        fragments,
+        files,
+    };
+    write_json(&dir.join("done.json"), &done)
+}
+
+/// Every regular file under `dir` but the records and fragments, relative to `root`.
+fn list_files(root: &Path, dir: &Path, out: &mut BTreeMap<String, u64>) -> Result<()> {
+    let Ok(entries) = fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for e in entries.flatten() {
+        let path = e.path();
+        let rel = path.strip_prefix(root).unwrap_or(&path).to_path_buf();
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if dir == root && matches!(&*name, "done.json" | "failed.json" | "fragments") {
+            continue;
+        }
+        if name.starts_with('.') {
+            continue; // a temporary file of an atomic write
+        }
+        let meta = e.metadata().with_context(|| format!("reading {}", path.display()))?;
+        if meta.is_dir() {
+            list_files(root, &path, out)?;
+        } else if let Some(s) = rel.to_str() {
+            out.insert(s.to_string(), meta.len());
+        }
+    }
+    Ok(())
+}
+
+/// The rows of a finished job, read back from its fragments.
+///
+/// # Errors
+/// If a fragment cannot be read.
+pub fn load_rows(out: &Path, done: &Done) -> Result<Rows> {
+    let dir = job_dir(out, &done.key).join("fragments");
+    let mut tables = vec![];
+    for (table, file) in &done.fragments {
+        let path = dir.join(file);
+        let df = read_parquet(&path)?.with_context(|| format!("{} is missing", path.display()))?;
+        tables.push((static_name(table), df));
+    }
+    Ok(Rows {
+        tables,
+        files: done.files.keys().map(PathBuf::from).collect(),
+        timing: done.timing.clone(),
+    })
+}
+
+/// A table name as `&'static str` (the fragments' type): each distinct name is leaked once.
+fn static_name(name: &str) -> &'static str {
+    static NAMES: Mutex<Option<HashSet<&'static str>>> = Mutex::new(None);
+    let mut guard = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+    let set = guard.get_or_insert_with(HashSet::new);
+    if let Some(n) = set.get(name) {
+        return n;
+    }
+    let leaked: &'static str = Box::leak(name.to_string().into_boxed_str());
+    set.insert(leaked);
+    leaked
+}
+
+/// Puts a finished job's files in place in the output folder: each is hard-linked (copied
+/// where links are impossible) from the job's folder to the same relative path, atomically.
+///
+/// # Errors
+/// If a file cannot be linked or copied.
+pub fn publish(out: &Path, done: &Done) -> Result<()> {
+    let dir = job_dir(out, &done.key);
+    for rel in done.files.keys() {
+        let from = dir.join(rel);
+        let to = out.join(rel);
+        crate::io::outdir::note(&to);
+        if let Some(parent) = to.parent() {
+            fs::create_dir_all(parent)
+                .with_context(|| format!("cannot create {}", parent.display()))?;
+        }
+        if fs::symlink_metadata(&to).is_ok_and(|m| !m.is_file()) {
+            bail!(
+                "{} exists and is not a regular file; nothing is renamed over it",
+                to.display()
+            );
+        }
+        if same_file(&from, &to) {
+            continue;
+        }
+        link_over(&from, &to).with_context(|| format!("publishing {}", to.display()))?;
+    }
+    Ok(())
+}
+
+/// Whether two paths name the same file (a link made by an earlier merge).
+fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (fs::metadata(a), fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => false,
+    }
+}
+
+/// Replaces the file `to` with a hard link to `from` (a copy if linking fails), through a
+/// temporary name.
+fn link_over(from: &Path, to: &Path) -> Result<()> {
+    let name = to.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let tmp = to.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let _ = fs::remove_file(&tmp);
+    if fs::hard_link(from, &tmp).is_err() {
+        fs::copy(from, &tmp).with_context(|| format!("copying {}", from.display()))?;
+    }
+    fs::rename(&tmp, to).with_context(|| format!("renaming to {}", to.display()))?;
+    Ok(())
+}
+
+fn write_json(path: &Path, v: &impl Serialize) -> Result<()> {
+    atomic_write(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, v)?;
+        Ok(())
+    })
+}
+
+/// Which shard runs each job: jobs that read the same dataset stay together; groups are
+/// handed out largest estimated work first, each to the shard with the least work so far
+/// (ties: the lower shard). Deterministic for a plan and `shards`. `None` for jobs that read
+/// other jobs' rows: `merge` runs them.
+///
+/// # Errors
+/// If `shards` is zero.
+pub fn assign(plan: &Plan, jobs: &[&dyn JobKind], shards: usize) -> Result<Vec<Option<usize>>> {
+    use crate::run::jobs::Inputs;
+    if shards == 0 {
+        bail!("--shards must be at least 1");
+    }
+    let mut groups: Vec<(Option<u64>, Vec<usize>, f64)> = vec![];
+    for (i, job) in jobs.iter().enumerate() {
+        let key = match job.inputs() {
+            Inputs::Rows(_) => continue,
+            Inputs::Dataset { data_seed, .. } => Some(data_seed),
+            Inputs::Nothing => None,
+        };
+        let cost = job.estimate(plan).flops.max(1.0);
+        match groups.iter_mut().find(|(k, _, _)| key.is_some() && *k == key) {
+            Some((_, g, c)) => {
+                g.push(i);
+                *c += cost;
+            }
+            None => groups.push((key, vec![i], cost)),
+        }
+    }
+    let mut order: Vec<usize> = (0..groups.len()).collect();
+    order.sort_by(|&a, &b| groups[b].2.total_cmp(&groups[a].2).then(a.cmp(&b)));
+    let mut load = vec![0.0f64; shards];
+    let mut out = vec![None; jobs.len()];
+    for g in order {
+        let s = (0..shards)
+            .min_by(|&a, &b| load[a].total_cmp(&load[b]).then(a.cmp(&b)))
+            .unwrap_or(0);
+        load[s] += groups[g].2;
+        for &i in &groups[g].1 {
+            out[i] = Some(s);
+        }
+    }
+    Ok(out)
+}
