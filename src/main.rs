@@ -257,8 +257,10 @@ fn real_main() -> Result<ExitCode> {
             jobs,
             quiet,
         } => {
-            let mut opts =
-                RunOptions::new(results.clone(), jobs.unwrap_or_else(scheduler::default_threads));
+            let mut opts = RunOptions::new(
+                results.clone(),
+                jobs.unwrap_or_else(scheduler::default_threads),
+            );
             opts.quiet = quiet;
             let merged = pool(jobs)?
                 .install(|| isar_clutter::run::merge::merge(&results, &opts, partial))?;

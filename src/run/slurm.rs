@@ -66,11 +66,11 @@ pub struct Scripts {
     pub out: PathBuf,
 }
 
-/// Validates the spec (as `run` would), then writes `OUT/slurm/array.sbatch` and
-/// `OUT/slurm/merge.sbatch` (replacing earlier ones). Refuses zero shards or CPUs, a spec that
-/// does not load, paths that are not UTF-8 or hold a line break (or, for the results folder,
-/// a backslash), and Slurm values with
-/// whitespace.
+/// Validates the spec (as `run` would), marks OUT as the experiment's output folder, then
+/// writes `OUT/slurm/array.sbatch` and `OUT/slurm/merge.sbatch` (replacing earlier ones).
+/// Refuses zero shards or CPUs, a spec that does not load, an OUT that `run` would refuse
+/// (another experiment's, or not empty and not the tool's), paths that are not UTF-8 or hold
+/// a line break (or, for OUT, a backslash), and Slurm values with whitespace or quotes.
 pub fn write_scripts(opts: &SlurmOptions) -> Result<Scripts> {
     if opts.shards == 0 {
         bail!("--shards must be at least 1");
@@ -117,6 +117,8 @@ pub fn write_scripts(opts: &SlurmOptions) -> Result<Scripts> {
     }
     let array_text = array_script(&common, &name);
     let merge_text = merge_script(&common, &name);
+    // Marked as the experiment's folder, so that the shards accept the scripts in it.
+    crate::io::outdir::mark(&out, &plan.spec.name)?;
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let array = dir.join("array.sbatch");
     let merge = dir.join("merge.sbatch");
@@ -399,7 +401,8 @@ mod tests {
         let log = format!("#SBATCH --output={}/slurm/merge.log\n", out.display());
         assert!(merge.contains(&log), "{merge}");
         assert!(
-            merge.contains("exec \"$BINARY\" merge \"$OUT\" --jobs \"${SLURM_CPUS_PER_TASK:-4}\"\n"),
+            merge
+                .contains("exec \"$BINARY\" merge \"$OUT\" --jobs \"${SLURM_CPUS_PER_TASK:-4}\"\n"),
             "{merge}"
         );
         assert!(!merge.contains("--array"), "{merge}");
@@ -529,6 +532,23 @@ mod tests {
             !dir.path().join("out").exists(),
             "nothing written for bad input"
         );
+    }
+
+    #[test]
+    fn the_folder_is_marked_and_a_foreign_one_refused() {
+        let (dir, opts) = setup("out", 2);
+        write_scripts(&opts).unwrap();
+        let marker = read(&dir.path().join("out/.isar-clutter/owner.json"));
+        assert!(marker.contains("\"name\": \"s\""), "{marker}");
+        // Again (resubmitting): the folder is the experiment's now.
+        write_scripts(&opts).unwrap();
+        let (dir, opts) = setup("out", 2);
+        std::fs::create_dir_all(dir.path().join("out")).unwrap();
+        std::fs::write(dir.path().join("out/notes.txt"), "mine").unwrap();
+        let err = format!("{:#}", write_scripts(&opts).unwrap_err());
+        assert!(err.contains("not written by isar-clutter"), "{err}");
+        assert!(!dir.path().join("out/slurm").exists());
+        assert!(!dir.path().join("out/.isar-clutter").exists());
     }
 
     #[test]

@@ -401,6 +401,29 @@ pub fn owned(root: &Path) -> Result<BTreeSet<PathBuf>> {
     Ok(set)
 }
 
+/// Marks `root` (created if missing) as an output folder of the experiment `name` without
+/// claiming it, for files written before any run (the Slurm scripts of `isar-clutter slurm`).
+/// Refused, with nothing changed, where a run's claim would be: `root` is not a folder, holds
+/// entries without the tool's marker, or belongs to another experiment.
+///
+/// # Errors
+/// As above, or when the marker cannot be written.
+pub fn mark(root: &Path, name: &str) -> Result<()> {
+    match fs::symlink_metadata(root) {
+        Ok(m) if !m.is_dir() => bail!(
+            "{} exists and is not a folder: choose another --out (nothing was changed)",
+            root.display()
+        ),
+        Ok(_) => check_owner(root, Some(name), Purpose::Run)?,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", root.display())),
+    }
+    let state = root.join(STATE);
+    fs::create_dir_all(&state).with_context(|| format!("cannot create {}", state.display()))?;
+    let owner = serde_json::json!({"tool": env!("CARGO_PKG_NAME"), "name": name});
+    write_json(&state.join("owner.json"), &owner)
+}
+
 /// Refuses a folder the tool may not write into for the experiment `name` (any experiment
 /// when `None`): one with entries and no marker of the tool, or one that belongs to another
 /// experiment. A report needs the marker (or a manifest) even in an empty folder.
