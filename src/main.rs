@@ -230,8 +230,10 @@ fn real_main() -> Result<ExitCode> {
             jobs,
             quiet,
         } => {
-            let mut opts =
-                RunOptions::new(results.clone(), jobs.unwrap_or_else(scheduler::default_threads));
+            let mut opts = RunOptions::new(
+                results.clone(),
+                jobs.unwrap_or_else(scheduler::default_threads),
+            );
             opts.quiet = quiet;
             let merged = pool(jobs)?
                 .install(|| isar_clutter::run::merge::merge(&results, &opts, partial))?;
@@ -337,10 +339,8 @@ fn real_main() -> Result<ExitCode> {
             opts.fresh = fresh;
             opts.shard = shard_option(shards, shard)?;
             let summary = scheduler::run(&plan, &opts)?;
-            if !quiet {
-                for note in &summary.notes {
-                    eprintln!("note: {note}");
-                }
+            for note in &summary.notes {
+                eprintln!("note: {note}");
             }
             let ok = summary.total - summary.failed.len();
             eprintln!(

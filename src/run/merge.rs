@@ -305,7 +305,10 @@ pub fn status(out: &Path) -> Result<String> {
         )?;
     }
     for (s, [d, f, m]) in counts.iter().enumerate() {
-        writeln!(text, "shard {s}/{shards}: {d} done, {f} failed, {m} missing")?;
+        writeln!(
+            text,
+            "shard {s}/{shards}: {d} done, {f} failed, {m} missing"
+        )?;
     }
     let complete = crate::io::outdir::check_complete(out).is_ok();
     writeln!(

@@ -129,7 +129,9 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let mine: Vec<usize> = match opts.shard {
         Some((index, shards)) => {
             let assigned = store::assign(plan, &jobs, shards)?;
-            (0..jobs.len()).filter(|&i| assigned[i] == Some(index)).collect()
+            (0..jobs.len())
+                .filter(|&i| assigned[i] == Some(index))
+                .collect()
         }
         None => (0..jobs.len())
             .filter(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)))
@@ -157,7 +159,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     }
     let mut failed: Vec<(String, String)> = done
         .iter()
-        .filter_map(|(i, o)| o.rows.as_ref().err().map(|e| (jobs[*i].id().to_string(), e.clone())))
+        .filter_map(|(i, o)| {
+            o.rows
+                .as_ref()
+                .err()
+                .map(|e| (jobs[*i].id().to_string(), e.clone()))
+        })
         .collect();
     if opts.shard.is_some() {
         // The folder stays in progress: `merge` writes the tables and the manifest.
@@ -172,7 +179,8 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         });
     }
     drop(done);
-    let merged = pool.install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start))?;
+    let merged =
+        pool.install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start))?;
     notes.extend(merged.notes);
     failed = merged.failed;
     Ok(RunSummary {

@@ -256,7 +256,9 @@ fn list_files(root: &Path, dir: &Path, out: &mut BTreeMap<String, u64>) -> Resul
         if name.starts_with('.') {
             continue; // a temporary file of an atomic write
         }
-        let meta = e.metadata().with_context(|| format!("reading {}", path.display()))?;
+        let meta = e
+            .metadata()
+            .with_context(|| format!("reading {}", path.display()))?;
         if meta.is_dir() {
             list_files(root, &path, out)?;
         } else if let Some(s) = rel.to_str() {
@@ -376,7 +378,10 @@ pub fn assign(plan: &Plan, jobs: &[&dyn JobKind], shards: usize) -> Result<Vec<O
             Inputs::Nothing => None,
         };
         let cost = job.estimate(plan).flops.max(1.0);
-        match groups.iter_mut().find(|(k, _, _)| key.is_some() && *k == key) {
+        match groups
+            .iter_mut()
+            .find(|(k, _, _)| key.is_some() && *k == key)
+        {
             Some((_, g, c)) => {
                 g.push(i);
                 *c += cost;

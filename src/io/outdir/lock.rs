@@ -191,7 +191,10 @@ pub(super) fn other_locks(
         match holder {
             Some(h) if !h.is_dead() => live.push((name, h)),
             Some(h) => {
-                notes.push(format!("removed the stale {name} of a {} that is gone", h.describe()));
+                notes.push(format!(
+                    "removed the stale {name} of a {} that is gone",
+                    h.describe()
+                ));
                 let _ = fs::remove_file(e.path());
             }
             None => {} // being written by its taker this instant, or unreadable: left alone
