@@ -400,10 +400,8 @@ fn real_main() -> Result<ExitCode> {
             opts.fresh = fresh;
             opts.shard = shard_option(shards, shard)?;
             let summary = scheduler::run(&plan, &opts)?;
-            if !quiet {
-                for note in &summary.notes {
-                    eprintln!("note: {note}");
-                }
+            for note in &summary.notes {
+                eprintln!("note: {note}");
             }
             let ok = summary.total - summary.failed.len();
             eprintln!(

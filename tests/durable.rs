@@ -1,0 +1,317 @@
+//! Durable runs (issue 15): every finished job is in the job store, so a run killed at any
+//! moment resumes with the same tables; shards run subsets and `merge` assembles the same
+//! tables as one local run; bad shard arguments and merges are refused clearly.
+
+use std::collections::BTreeMap;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_isar-clutter");
+
+/// 24 jobs: four datasets under a 6-value sweep, about 0.1-0.3 s each on one thread.
+const SPEC: &str = "name: durable
+seed: 5
+datasets:
+  - id: a
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 1.0
+    alpha_v: 0.5
+    size: [32, 32]
+    samples: 400
+    half_width: 4
+  - id: b
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 2.0
+    alpha_v: 1.0
+    size: [32, 32]
+    samples: 400
+    half_width: 4
+  - id: c
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 0.5
+    alpha_v: 2.0
+    size: [32, 32]
+    samples: 400
+    half_width: 4
+  - id: d
+    kind: filtered_noise
+    family: exponential
+    alpha_h: 1.5
+    alpha_v: 1.5
+    size: [32, 32]
+    samples: 400
+    half_width: 4
+analysis:
+  levels: 2
+sweep:
+  grid:
+    datasets.*.mean: [0, 1, 2, 3, 4, 5]
+";
+
+fn bin(args: &[&str]) -> Output {
+    Command::new(BIN).args(args).output().unwrap()
+}
+
+fn text(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout)
+}
+
+fn spec(dir: &Path) -> PathBuf {
+    let p = dir.join("spec.yaml");
+    fs::write(&p, SPEC).unwrap();
+    p
+}
+
+fn run(spec: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "run",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-report",
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    bin(&args)
+}
+
+/// Every Parquet table of a results folder, value by value, without the timing columns
+/// (`*_s`, which differ between any two runs).
+fn tables(dir: &Path) -> BTreeMap<String, polars::prelude::DataFrame> {
+    use polars::prelude::*;
+    let mut out = BTreeMap::new();
+    for e in fs::read_dir(dir).unwrap().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if !name.ends_with(".parquet") {
+            continue;
+        }
+        let df = ParquetReader::new(fs::File::open(e.path()).unwrap())
+            .finish()
+            .unwrap();
+        let keep: Vec<String> = df
+            .get_column_names()
+            .iter()
+            .map(|c| c.to_string())
+            .filter(|c| !c.ends_with("_s"))
+            .collect();
+        out.insert(name, df.select(keep).unwrap());
+    }
+    assert!(!out.is_empty(), "no tables in {}", dir.display());
+    out
+}
+
+/// Asserts two folders' tables are equal value by value (NaN equal to NaN).
+fn same_tables(a: &Path, b: &Path) {
+    let (x, y) = (tables(a), tables(b));
+    assert_eq!(x.keys().collect::<Vec<_>>(), y.keys().collect::<Vec<_>>());
+    for (name, df) in &x {
+        assert!(
+            df.equals_missing(&y[name]),
+            "{name} differs:\n{df}\n{}",
+            y[name]
+        );
+    }
+}
+
+/// Every `.npy` under `maps/`, by relative path.
+fn maps(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.join("maps")];
+    while let Some(d) = stack.pop() {
+        for e in fs::read_dir(&d).unwrap().flatten() {
+            if e.path().is_dir() {
+                stack.push(e.path());
+            } else {
+                out.insert(
+                    e.path().strip_prefix(dir).unwrap().to_path_buf(),
+                    fs::read(e.path()).unwrap(),
+                );
+            }
+        }
+    }
+    out
+}
+
+fn done_records(out: &Path) -> usize {
+    fs::read_dir(out.join("jobs"))
+        .map(|r| {
+            r.flatten()
+                .filter(|e| e.path().join("done.json").is_file())
+                .count()
+        })
+        .unwrap_or(0)
+}
+
+#[test]
+fn a_run_killed_half_way_resumes_to_the_same_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec(dir.path());
+    let whole = dir.path().join("whole");
+    let o = run(&spec, &whole, &["--jobs", "1"]);
+    assert!(o.status.success(), "{}", text(&o));
+    // The same run, killed (SIGKILL) once about half of its jobs are in the store.
+    let out = dir.path().join("killed");
+    let mut child = Command::new(BIN)
+        .args([
+            "run",
+            spec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(["--no-report", "--quiet", "--jobs", "1"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while done_records(&out) < 12 {
+        assert!(
+            t.elapsed() < Duration::from_secs(120),
+            "the run never got half-way"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let before = done_records(&out);
+    assert!((12..24).contains(&before), "{before} jobs done at the kill");
+    assert!(!out.join("manifest.json").exists());
+    // The rerun skips what the store holds and ends with the same tables and maps.
+    let o = run(&spec, &out, &["--jobs", "1"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let msg = text(&o);
+    assert!(
+        msg.contains(&format!("{before} job(s) already done")),
+        "{msg}"
+    );
+    same_tables(&out, &whole);
+    assert_eq!(maps(&out), maps(&whole));
+    // A third run has nothing to do; --fresh redoes everything, with the same tables.
+    let o = run(&spec, &out, &[]);
+    assert!(text(&o).contains("24 job(s) already done"), "{}", text(&o));
+    let o = run(&spec, &out, &["--fresh"]);
+    assert!(
+        o.status.success() && !text(&o).contains("already done"),
+        "{}",
+        text(&o)
+    );
+    same_tables(&out, &whole);
+}
+
+#[test]
+fn three_shards_and_a_merge_equal_one_local_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec(dir.path());
+    let local = dir.path().join("local");
+    assert!(run(&spec, &local, &[]).status.success());
+    let out = dir.path().join("sharded");
+    // Shards 0 and 2 (the second from the environment, as a Slurm array task would).
+    let o = run(&spec, &out, &["--shards", "3", "--shard", "0"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = Command::new(BIN)
+        .args([
+            "run",
+            spec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(["--no-report", "--quiet", "--shards", "3"])
+        .env("SLURM_ARRAY_TASK_ID", "2")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        !out.join("manifest.json").exists(),
+        "a shard writes no tables"
+    );
+    // Shard 1 is missing: merge refuses and names its jobs; status shows them.
+    let o = bin(&["merge", out.to_str().unwrap(), "--no-report"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let msg = text(&o);
+    assert!(msg.contains("lacks") && msg.contains("job(s): "), "{msg}");
+    let status = text(&bin(&["status", out.to_str().unwrap()]));
+    let missing: Vec<&str> = status
+        .lines()
+        .filter(|l| l.contains(" missing"))
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|id| *id != "shard")
+        .collect();
+    assert!(!missing.is_empty(), "{status}");
+    for id in &missing {
+        assert!(msg.contains(id), "merge did not name {id}: {msg}");
+    }
+    assert!(status.contains("shard 1/3: 0 done"), "{status}");
+    // The shards are balanced: each has some jobs.
+    for s in 0..3 {
+        assert!(
+            !status.contains(&format!("shard {s}/3: 0 done, 0 failed, 0 missing")),
+            "{status}"
+        );
+    }
+    let o = run(&spec, &out, &["--shards", "3", "--shard", "1"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = bin(&["merge", out.to_str().unwrap(), "--no-report"]);
+    assert!(o.status.success(), "{}", text(&o));
+    same_tables(&out, &local);
+    assert_eq!(maps(&out), maps(&local));
+    assert!(bin(&["table", out.to_str().unwrap()]).status.success());
+}
+
+#[test]
+fn bad_shards_and_merges_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec(dir.path());
+    let out = dir.path().join("out");
+    for (args, needle) in [
+        (
+            vec!["--shards", "3", "--shard", "3"],
+            "not below --shards 3",
+        ),
+        (vec!["--shards", "0", "--shard", "0"], "at least 1"),
+        (vec!["--shards", "2"], "--shards without --shard"),
+    ] {
+        let o = Command::new(BIN)
+            .args([
+                "run",
+                spec.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .args(&args)
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX")
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains(needle), "{args:?}: {}", text(&o));
+    }
+    assert!(!out.exists(), "a refused shard wrote something");
+    // merge on a folder that holds no run, and on one whose spec changed since.
+    let o = bin(&["merge", dir.path().to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("plan.json"), "{}", text(&o));
+    assert!(run(&spec, &out, &["--shards", "2", "--shard", "0"])
+        .status
+        .success());
+    fs::write(&spec, SPEC.replace("seed: 5", "seed: 6")).unwrap();
+    let o = bin(&["merge", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("changed since the jobs"), "{}", text(&o));
+    // A record of another schema version is not merged: the job counts as missing.
+    fs::write(&spec, SPEC).unwrap();
+    let record = out.join(".isar-clutter/plan.json");
+    let text_record = fs::read_to_string(&record).unwrap();
+    fs::write(
+        &record,
+        text_record.replace("\"schema\": 1", "\"schema\": 99"),
+    )
+    .unwrap();
+    let o = bin(&["merge", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("schema 99"), "{}", text(&o));
+}
