@@ -260,7 +260,9 @@ fn run_group(
             let t = Instant::now();
             let dir = store::begin(&opts.out, &keys[index]);
             let rows = match (&shared, too_big(job)) {
-                _ if dir.is_err() => Err(format!("{:#}", dir.as_ref().err().expect("an error"))),
+                _ if dir.is_err() => Err(dir
+                    .as_ref()
+                    .map_or_else(|e| format!("{e:#}"), |_| String::new())),
                 (_, Some(reason)) => Err(reason),
                 (Some(Err(e)), _) => Err(e.clone()),
                 _ => {

@@ -106,8 +106,9 @@ pub fn key(job: &dyn JobKind, plan: &Plan) -> Result<String> {
 /// process (a large stack read by many jobs is hashed once).
 fn content_hash(path: &Path) -> Result<String> {
     use sha2::{Digest, Sha256};
-    static MEMO: Mutex<Option<HashMap<(PathBuf, u64, std::time::SystemTime), String>>> =
-        Mutex::new(None);
+    /// A file as last seen: path, size, modification time.
+    type Seen = (PathBuf, u64, std::time::SystemTime);
+    static MEMO: Mutex<Option<HashMap<Seen, String>>> = Mutex::new(None);
     let meta = fs::metadata(path).with_context(|| format!("reading {}", path.display()))?;
     let id = (
         path.to_path_buf(),
