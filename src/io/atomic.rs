@@ -21,11 +21,32 @@ pub fn atomic_write(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
+    write_via_temporary(path, false, write)
+}
+
+/// [`atomic_write`], and the file's data on disk (`fsync`) before the rename and the rename
+/// itself after it (the folder synced): for records that must survive a power failure, such
+/// as the job store's `done.json`.
+///
+/// # Errors
+/// As [`atomic_write`], or if a sync fails.
+pub fn atomic_write_durable(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
+) -> Result<()> {
+    write_via_temporary(path, true, write)
+}
+
+fn write_via_temporary(
+    path: &Path,
+    durable: bool,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
+) -> Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
     let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     crate::io::outdir::note(path);
-    let result = (|| {
+    let result = (|| -> Result<()> {
         // The folder is made only when it is missing (one failed open, not a mkdir per file).
         let file = match File::create(&tmp) {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -40,9 +61,16 @@ pub fn atomic_write(
         let mut w = BufWriter::with_capacity(1 << 20, file);
         write(&mut w)?;
         w.flush()?;
+        if durable {
+            w.get_ref().sync_all()?;
+        }
         drop(w);
         replace(&tmp, path)
-            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
+        if durable {
+            File::open(dir).and_then(|d| d.sync_all())?;
+        }
+        Ok(())
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);

@@ -14,9 +14,11 @@
 //! `samples/...`, `kspace/...`, the same relative paths as in the output folder), its table
 //! fragments (`fragments/<n>-<table>.parquet`) and, written last, `done.json` (id, kind, key,
 //! schema, timings, every file with its size). A failed job leaves `failed.json` with its error
-//! instead, and is run again by the next run. Everything is written through the atomic writer.
+//! instead, and is run again by the next run. Everything is written through the atomic writer;
+//! the records are synced to disk before and after their rename, and the sizes they list are
+//! checked on reading, so a job whose files did not reach the disk is run again.
 
-use crate::io::atomic::{atomic_write, read_parquet, write_parquet};
+use crate::io::atomic::{read_parquet, write_parquet};
 use crate::run::jobs::{JobKind, Outcome, Rows};
 use crate::run::plan::Plan;
 use anyhow::{bail, Context, Result};
@@ -352,8 +354,9 @@ fn link_over(from: &Path, to: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Writes a record durably (synced before and after its rename).
 fn write_json(path: &Path, v: &impl Serialize) -> Result<()> {
-    atomic_write(path, |w| {
+    crate::io::atomic::atomic_write_durable(path, |w| {
         serde_json::to_writer_pretty(&mut *w, v)?;
         Ok(())
     })
