@@ -311,6 +311,17 @@ impl OutDir {
         Ok(())
     }
 
+    /// Keeps the folder marked incomplete and says why (a merge with jobs missing): readers
+    /// refuse it with this reason.
+    ///
+    /// # Errors
+    /// If the marker cannot be written.
+    pub fn mark_incomplete(&self, reason: &str) -> Result<()> {
+        let mut v = serde_json::to_value(Holder::me("merge"))?;
+        v["reason"] = serde_json::Value::String(reason.into());
+        write_json(&self.root.join(STATE).join("in-progress"), &v)
+    }
+
     /// Marks the run complete: called right after its manifest is written.
     ///
     /// # Errors
