@@ -399,7 +399,7 @@ fn real_main() -> Result<ExitCode> {
             opts.max_memory = max_memory;
             opts.fresh = fresh;
             opts.shard = shard_option(shards, shard)?;
-            let summary = scheduler::run(&plan, &opts)?;
+            let summary = isar_clutter::run::driver::run(&plan, &opts)?;
             for note in &summary.notes {
                 eprintln!("note: {note}");
             }

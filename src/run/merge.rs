@@ -203,7 +203,7 @@ pub fn merge_claimed(
         bail!("{}", missing_message(out, &merged.missing));
     }
     // The jobs over other jobs' rows (cheap): run now, from the merged rows.
-    let ran = scheduler::run_group_each(plan, jobs, keys, &outcomes, &second, opts);
+    let ran = scheduler::execute(plan, jobs, keys, &outcomes, &second, opts, &None, true);
     for (i, o) in ran {
         if let store::Entry::Done(d) = store::entry(out, &keys[i]) {
             done.push(d);
