@@ -346,7 +346,10 @@ fn a_live_shard_blocks_a_merge_and_a_partial_merge_stays_incomplete() {
         .spawn()
         .unwrap();
     let t = Instant::now();
-    while !out.join(".isar-clutter/lock.shard-0").exists() {
+    // The shard holds its lock and has recorded its spec: it is running jobs.
+    while !(out.join(".isar-clutter/lock.shard-0").exists()
+        && out.join(".isar-clutter/plan.json").exists())
+    {
         assert!(t.elapsed() < Duration::from_secs(60));
         std::thread::sleep(Duration::from_millis(2));
     }
