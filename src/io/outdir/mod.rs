@@ -305,7 +305,9 @@ impl OutDir {
                 text.push('\n');
             }
         }
-        write_small(&state.join("owned"), text.as_bytes())?;
+        crate::io::atomic::atomic_write(&state.join("owned"), |w| {
+            Ok(w.write_all(text.as_bytes())?)
+        })?;
         fs::write(state.join("journal"), b"")
             .with_context(|| format!("cannot reset {}/{STATE}/journal", self.root.display()))?;
         Ok(())
@@ -501,15 +503,7 @@ fn check_owner(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<()> 
 }
 
 fn write_json(path: &Path, v: &impl Serialize) -> Result<()> {
-    write_small(path, &serde_json::to_vec_pretty(v)?)
-}
-
-/// Writes a small state file through a temporary name and a rename (never half a file).
-fn write_small(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
-    fs::write(&tmp, bytes)
-        .and_then(|()| fs::rename(&tmp, path))
-        .with_context(|| format!("cannot write {}", path.display()))
+    crate::io::atomic::atomic_write(path, |w| Ok(serde_json::to_writer_pretty(w, v)?))
 }
 
 #[cfg(test)]
