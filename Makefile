@@ -9,7 +9,7 @@ BIN := $(CARGO_TARGET_DIR)/release/isar-clutter
 PYTHON ?= python3
 VENV := .venv
 
-.PHONY: build run-experiment run-all compare validate test test-deps lint fmt bench bench-deps data
+.PHONY: build run-experiment run-all compare validate test test-deps lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch
 
 ## build: release build of the isar-clutter binary
 build:
@@ -68,6 +68,23 @@ bench-deps: $(VENV)/bin/python
 ## bench: analysis benchmark (isar-clutter run vs numpy baselines); see BENCHMARKS.md
 bench: build bench-deps
 	$(VENV)/bin/python bench/analysis_bench.py --bin $(BIN)
+
+## bench-torch-deps: a separate virtualenv (.venv-torch) with a pinned PyTorch for the CNN
+## reference benchmark (the PyPI wheel is a large CUDA build, ~5 GB installed; only its CPU
+## path is used; numpy only silences torch's import warning)
+VENV_TORCH := .venv-torch
+TORCH_VERSION := 2.15.0
+$(VENV_TORCH)/.torch-$(TORCH_VERSION):
+	$(PYTHON) -m venv $(VENV_TORCH)
+	$(VENV_TORCH)/bin/pip install --quiet torch==$(TORCH_VERSION) numpy==2.3.5
+	touch $@
+bench-torch-deps: $(VENV_TORCH)/.torch-$(TORCH_VERSION)
+
+## bench-cnn-torch: PyTorch training throughput of the Table 18 and Table 23 CNNs on CPU
+## (batch 128, SGD with momentum) with 1 and 2 threads; see BENCHMARKS.md
+bench-cnn-torch: bench-torch-deps
+	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 1
+	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 2
 
 ## data: real data for the shipped experiments: NOAA's monthly surface winds
 ## (monthly_navy_winds.cdf, public domain) from Debian's ferret-datasets package, downloaded

@@ -1,4 +1,6 @@
 //! Applications built on the statistics: the dissertation's hypothesis tests on plant clutter
-//! (ch. 5.1). The deep-learning applications of ch. 5.3 belong here too.
+//! (ch. 5.1) and its deep-learning applications (ch. 5.3: clutter classification and target
+//! location with CNNs trained on generated clutter).
 
+pub mod cnn;
 pub mod hypotheses;

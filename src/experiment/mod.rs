@@ -12,12 +12,14 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+mod cnn;
 mod dataset;
 mod dataset_check;
 mod maps;
 mod metrics;
 mod synthesis;
 
+pub use cnn::*;
 pub use dataset::*;
 pub use maps::*;
 pub use metrics::*;
@@ -99,6 +101,14 @@ pub struct RawSpec {
     /// `calibration_summary.parquet`; `datasets` may then be empty.
     #[serde(default)]
     pub calibration: Option<crate::physics::calibration::ChainParams>,
+    /// Clutter classification with CNNs trained on generated clutter (ch. 5.3.2-5.3.7):
+    /// `classification.parquet`.
+    #[serde(default)]
+    pub classification: Option<ClassificationSpec>,
+    /// Target location with CNNs trained on generated clutter (ch. 5.3.8-5.3.9):
+    /// `location.parquet` and `location_summary.parquet`.
+    #[serde(default)]
+    pub location: Option<LocationSpec>,
     /// Output options.
     #[serde(default)]
     pub outputs: OutputsSpec,

@@ -109,6 +109,10 @@ pub struct Plan {
     pub param_keys: Vec<String>,
     /// Validated similarity metrics (empty: none).
     pub metrics: Vec<crate::stats::metrics::Metric>,
+    /// The validated `classification` section.
+    pub classification: Option<experiment::ClassificationPlan>,
+    /// The validated `location` section.
+    pub location: Option<experiment::LocationPlan>,
 }
 
 /// A parsed sweep axis.
@@ -231,6 +235,16 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         check_job_metrics(&spec, &metrics, &ctx, job)?;
     }
     assign_ids(&mut jobs);
+    let classification = spec
+        .classification
+        .as_ref()
+        .map(|c| c.validate(&ctx, &jobs))
+        .transpose()?;
+    let location = spec
+        .location
+        .as_ref()
+        .map(|l| l.validate(&ctx, &jobs))
+        .transpose()?;
     let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
     param_keys.sort();
     param_keys.dedup();
@@ -241,6 +255,8 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         jobs,
         param_keys,
         metrics,
+        classification,
+        location,
     })
 }
 

@@ -1,8 +1,10 @@
 //! Every job of a plan behind the one seam, in plan order: the dataset jobs (analysis and
 //! synthesis), then the jobs of the run as a whole made from their spec sections (calibration,
-//! hypotheses). [`super::Inputs::Rows`] indices refer to this order.
+//! hypotheses), then the CNN trainings (classification, location) and the location summary.
+//! [`super::Inputs::Rows`] indices refer to this order.
 
 use super::calibration::CalibrationJob;
+use super::cnn::{ClassificationJob, LocationJob, LocationSummaryJob};
 use super::hypotheses::HypothesesJob;
 use super::JobKind;
 use crate::run::plan::Plan;
@@ -12,22 +14,39 @@ pub struct AllJobs<'a> {
     plan: &'a Plan,
     calibration: Option<CalibrationJob>,
     hypotheses: Option<HypothesesJob>,
+    classification: Vec<ClassificationJob>,
+    location: Vec<LocationJob>,
+    location_summary: Option<LocationSummaryJob>,
 }
 
 impl<'a> AllJobs<'a> {
     /// The jobs of `plan`.
     pub fn new(plan: &'a Plan) -> Self {
+        let calibration = plan.spec.calibration.clone().map(|chain| CalibrationJob {
+            chain,
+            seed: plan.calibration_seed(),
+        });
+        let hypotheses = plan
+            .spec
+            .hypotheses
+            .as_ref()
+            .map(|_| HypothesesJob::new(&plan.jobs));
+        let classification = ClassificationJob::all(plan);
+        let location = LocationJob::all(plan);
+        let first_location = plan.jobs.len()
+            + usize::from(calibration.is_some())
+            + usize::from(hypotheses.is_some())
+            + classification.len();
+        let location_summary = (!location.is_empty()).then(|| LocationSummaryJob {
+            inputs: (first_location..first_location + location.len()).collect(),
+        });
         AllJobs {
             plan,
-            calibration: plan.spec.calibration.clone().map(|chain| CalibrationJob {
-                chain,
-                seed: plan.calibration_seed(),
-            }),
-            hypotheses: plan
-                .spec
-                .hypotheses
-                .as_ref()
-                .map(|_| HypothesesJob::new(&plan.jobs)),
+            calibration,
+            hypotheses,
+            classification,
+            location,
+            location_summary,
         }
     }
 
@@ -39,6 +58,11 @@ impl<'a> AllJobs<'a> {
         }
         if let Some(h) = &self.hypotheses {
             all.push(h);
+        }
+        all.extend(self.classification.iter().map(|j| j as &dyn JobKind));
+        all.extend(self.location.iter().map(|j| j as &dyn JobKind));
+        if let Some(s) = &self.location_summary {
+            all.push(s);
         }
         all
     }

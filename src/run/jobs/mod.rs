@@ -11,6 +11,7 @@
 
 pub mod all;
 pub mod calibration;
+pub mod cnn;
 pub mod dataset;
 pub mod hypotheses;
 

@@ -1,0 +1,12 @@
+//! The deep-learning applications of the dissertation's chapter 5.3 (SPEC-NOTES section 9):
+//! small CNNs trained on generated clutter and tested on original data. [`net`] holds the
+//! networks of Tables 18 and 23, [`train`] the training loop (MATLAB's `sgdm` defaults) on
+//! burn's pure-Rust CPU backend, [`classification`] and [`location`] the two applications'
+//! data sets (splits, normalisation, the mix of generated and original samples, targets and
+//! signal-to-clutter ratio), and [`store`] saving and loading trained networks.
+
+pub mod classification;
+pub mod location;
+pub mod net;
+pub mod store;
+pub mod train;

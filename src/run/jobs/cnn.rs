@@ -1,0 +1,918 @@
+//! The CNN trainings of the `classification` and `location` sections (ch. 5.3), one job per
+//! training, and the location summary over them. A training job reads its datasets through the
+//! scheduler's shared materialisation (every class stack, or the clutter stack, made once per
+//! run), fits its method with the synthesis code, composes its training, validation and test
+//! sets ([`crate::apps::cnn::classification`], [`crate::apps::cnn::location`]), trains
+//! ([`crate::apps::cnn::train`]) and leaves rows in `classification` or `location`, its
+//! per-epoch record in `training_history` and its confusion matrix in `confusion`.
+//!
+//! Seeds: the job's seed (master seed and identity) draws the network's initial weights and
+//! its shuffles. The samples a training sees are drawn from seeds of the identity without the
+//! method (common random numbers): every method of one size and repeat gets the same
+//! originals, the same generation seed and the same initial weights, so method comparisons are
+//! paired.
+
+use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
+use crate::apps::cnn::classification::{
+    compose, fit_model, labelled, permutation, split_class, Normalise, Source,
+};
+use crate::apps::cnn::location::{self, TargetKind};
+use crate::apps::cnn::net::NetConfig;
+use crate::apps::cnn::train::{train, Labelled, Trained};
+use crate::data::{materialise, Materialised};
+use crate::experiment::DataRef;
+use crate::io::npy::Stack;
+use crate::run::estimate::Estimate;
+use crate::run::plan::Plan;
+use crate::seeds::derive_seed;
+use crate::synthesis::FitOptions;
+use anyhow::{Context, Result};
+use ndarray::{s, Array3, Axis};
+use num_complex::{Complex32, Complex64};
+use polars::prelude::*;
+use serde_json::json;
+use std::sync::Arc;
+
+/// Table of classification trainings.
+pub const CLASSIFICATION: &str = "classification";
+/// Table of location trainings.
+pub const LOCATION: &str = "location";
+/// Table of the location summary.
+pub const LOCATION_SUMMARY: &str = "location_summary";
+/// Per-epoch records of every training.
+pub const HISTORY: &str = "training_history";
+/// Confusion matrices of every training (test set).
+pub const CONFUSION: &str = "confusion";
+
+/// The stacks of several datasets concatenated along the sample axis (as complex128), with
+/// their sample counts.
+fn materialise_all(data: &[DataRef]) -> Result<Materialised> {
+    let mut planes: Vec<Array3<Complex64>> = vec![];
+    for d in data {
+        let m =
+            materialise(&d.dataset, d.data_seed).with_context(|| format!("dataset {}", d.id))?;
+        planes.push(m.stack.try_to_complex128(m.hwn)?);
+    }
+    let views: Vec<_> = planes.iter().map(|p| p.view()).collect();
+    let all = ndarray::concatenate(Axis(0), &views).context("stacks of one image size")?;
+    Ok(Materialised {
+        stack: Stack::Generated(all),
+        hwn: false,
+        truth: None,
+        kspace: None,
+    })
+}
+
+/// The group key of jobs reading `data`: a hash of their data seeds.
+fn group_seed(domain: &str, data: &[DataRef]) -> u64 {
+    let ids: Vec<String> = data.iter().map(|d| format!("{}", d.data_seed)).collect();
+    derive_seed(0, domain, &ids.join(","))
+}
+
+/// The concatenated stacks of a job (shared by the scheduler, or made here).
+fn stacks_of<'a>(
+    shared: Option<&'a Materialised>,
+    data: &[DataRef],
+    owned: &'a mut Option<Array3<Complex64>>,
+) -> Result<std::borrow::Cow<'a, Array3<Complex64>>> {
+    if let Some(Materialised {
+        stack: Stack::Generated(a),
+        ..
+    }) = shared
+    {
+        return Ok(std::borrow::Cow::Borrowed(a));
+    }
+    let m = materialise_all(data)?;
+    let Stack::Generated(a) = m.stack else {
+        unreachable!("materialise_all makes a generated stack")
+    };
+    *owned = Some(a);
+    Ok(std::borrow::Cow::Borrowed(
+        owned.as_ref().expect("just set"),
+    ))
+}
+
+/// Rough peak memory and work of one training: the sets as complex64 and prepared float32,
+/// activations of a batch with their gradients, and `6 x` the forward multiply-adds per
+/// trained sample.
+fn training_estimate(net: &NetConfig, train_n: usize, other_n: usize, epochs: usize) -> Estimate {
+    let pixels = (net.height * net.width) as u64;
+    let prepared = net.prepared_len() as u64 * 4;
+    let sets = (2 * train_n + other_n) as u64 * (pixels * 8 + prepared);
+    let f = net.arch.filters();
+    let act = 128 * pixels * (f[0] as u64) * 4 / 4 * 8;
+    let macs = (pixels / 4) as f64 * (f[0] * 2 * 64) as f64
+        + (pixels / 64) as f64 * (f[1] * f[0] * 16) as f64
+        + (pixels / 1024) as f64 * (f[2] * f[1] * 4) as f64;
+    Estimate {
+        bytes: sets + act + (64 << 20),
+        flops: 6.0 * macs * (train_n * epochs) as f64,
+    }
+}
+
+/// The fragments every training leaves besides its own table: its epochs and its confusion
+/// matrix.
+fn record_tables(
+    id: &str,
+    t: &Trained,
+    confusion: &[Vec<usize>],
+) -> Result<Vec<(&'static str, DataFrame)>> {
+    let e = &t.epochs;
+    let history = DataFrame::new_infer_height(vec![
+        Column::new("job".into(), vec![id; e.len()]),
+        Column::new(
+            "epoch".into(),
+            e.iter().map(|x| x.epoch as i64).collect::<Vec<_>>(),
+        ),
+        Column::new("loss".into(), e.iter().map(|x| x.loss).collect::<Vec<_>>()),
+        Column::new(
+            "batch_accuracy".into(),
+            e.iter().map(|x| x.batch_accuracy).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "validation_accuracy".into(),
+            e.iter()
+                .map(|x| nan_none(x.validation_accuracy))
+                .collect::<Vec<_>>(),
+        ),
+    ])?;
+    let k = confusion.len();
+    let (mut truth, mut pred, mut count) = (vec![], vec![], vec![]);
+    for (a, row) in confusion.iter().enumerate() {
+        for (b, &c) in row.iter().enumerate() {
+            truth.push(a as i64);
+            pred.push(b as i64);
+            count.push(c as i64);
+        }
+    }
+    let conf = DataFrame::new_infer_height(vec![
+        Column::new("job".into(), vec![id; k * k]),
+        Column::new("true_class".into(), truth),
+        Column::new("predicted_class".into(), pred),
+        Column::new("count".into(), count),
+    ])?;
+    Ok(vec![(HISTORY, history), (CONFUSION, conf)])
+}
+
+fn nan_none(x: f64) -> Option<f64> {
+    (!x.is_nan()).then_some(x)
+}
+
+/// A row of `jobs.parquet` for a training (the columns that apply; the others are null).
+fn training_status(
+    id: &str,
+    kind: &str,
+    dataset: &str,
+    method: &str,
+    seed: u64,
+    samples: usize,
+    net: &NetConfig,
+    status: &Status,
+) -> Result<DataFrame> {
+    Ok(DataFrame::new_infer_height(vec![
+        Column::new("job".into(), [id]),
+        Column::new("dataset".into(), [dataset]),
+        Column::new("kind".into(), [kind]),
+        Column::new("method".into(), [method]),
+        Column::new(
+            "status".into(),
+            [if status.error.is_none() {
+                "ok"
+            } else {
+                "failed"
+            }],
+        ),
+        Column::new("error".into(), [status.error]),
+        Column::new("seed".into(), [seed]),
+        Column::new("samples".into(), [samples as i64]),
+        Column::new("height".into(), [net.height as i64]),
+        Column::new("width".into(), [net.width as i64]),
+        Column::new("elapsed_s".into(), [status.elapsed_s]),
+    ])?)
+}
+
+/// One classification training.
+#[derive(Debug, Clone)]
+pub struct ClassificationJob {
+    /// `classification.<normalise>.<method>.n<size>.r<repeat>`.
+    pub id: String,
+    /// Canonical identity (JSON).
+    pub identity: String,
+    /// Seed of the network's initial weights and shuffles.
+    pub seed: u64,
+    /// Seed of the samples (identity without the method).
+    pub data_seed: u64,
+    /// Normalisation.
+    pub normalise: Normalise,
+    /// Training-set source.
+    pub source: Source,
+    /// Total training-set size.
+    pub train_size: usize,
+    /// Repeat number, from 0.
+    pub repeat: usize,
+    /// The class datasets.
+    pub classes: Arc<Vec<DataRef>>,
+}
+
+impl ClassificationJob {
+    /// Every training of the plan's `classification` section, in order normalisation,
+    /// method, size, repeat.
+    pub fn all(plan: &Plan) -> Vec<ClassificationJob> {
+        let Some(cp) = &plan.classification else {
+            return vec![];
+        };
+        let classes = Arc::new(cp.classes.clone());
+        let mut out = vec![];
+        for &normalise in &cp.normalise {
+            for &source in &cp.sources {
+                for &n in &cp.spec.train_sizes {
+                    for repeat in 0..cp.spec.repeats {
+                        let paired = format!(
+                            "{{\"app\":\"classification\",\"normalise\":\"{}\",\"train_size\":{n},\"repeat\":{repeat}}}",
+                            normalise.as_str()
+                        );
+                        let identity = json!({
+                            "app": "classification",
+                            "normalise": normalise.as_str(),
+                            "method": source.as_str(),
+                            "train_size": n,
+                            "repeat": repeat,
+                        })
+                        .to_string();
+                        out.push(ClassificationJob {
+                            id: format!(
+                                "classification.{}.{}.n{n}.r{repeat}",
+                                normalise.as_str(),
+                                source.as_str()
+                            ),
+                            seed: derive_seed(plan.spec.seed, "cnn", &identity),
+                            data_seed: derive_seed(plan.spec.seed, "cnn/samples", &paired),
+                            identity,
+                            normalise,
+                            source,
+                            train_size: n,
+                            repeat,
+                            classes: classes.clone(),
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+impl JobKind for ClassificationJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "classification"
+    }
+
+    fn identity(&self) -> &str {
+        &self.identity
+    }
+
+    fn seed(&self) -> Option<u64> {
+        Some(self.seed)
+    }
+
+    fn inputs(&self) -> Inputs {
+        Inputs::Dataset {
+            data_seed: group_seed("cnn/classes", &self.classes),
+            shared: true,
+        }
+    }
+
+    fn estimate(&self, plan: &Plan) -> Estimate {
+        let cp = plan
+            .classification
+            .as_ref()
+            .expect("a classification section");
+        let originals: usize = self.classes.iter().map(|c| c.dataset.shape().0).sum();
+        training_estimate(&cp.net, self.train_size, originals, cp.spec.training.epochs)
+    }
+
+    fn key_material(&self, plan: &Plan) -> String {
+        let cp = plan
+            .classification
+            .as_ref()
+            .expect("a classification section");
+        format!("{self:?}\n{:?}\n{:?}", cp.spec, cp.net)
+    }
+
+    fn input_files(&self) -> Vec<std::path::PathBuf> {
+        self.classes
+            .iter()
+            .flat_map(|c| dataset_files(&c.dataset))
+            .collect()
+    }
+
+    fn materialise(&self) -> Result<Materialised> {
+        materialise_all(&self.classes)
+    }
+
+    fn run(&self, cx: &JobContext) -> Result<Rows> {
+        let plan = cx.plan;
+        let cp = plan
+            .classification
+            .as_ref()
+            .expect("a classification section");
+        let mut owned = None;
+        let all = stacks_of(cx.shared, &self.classes, &mut owned)?;
+        let k = self.classes.len();
+        let (mut train_set, mut validation, mut test) = (
+            Labelled::default(),
+            Labelled::default(),
+            Labelled::default(),
+        );
+        let mut first = 0;
+        let (mut generated, mut originals, mut reused) = (0, 0, false);
+        for (c, class) in self.classes.iter().enumerate() {
+            let n = class.dataset.shape().0;
+            let stack = all.slice(s![first..first + n, .., ..]);
+            first += n;
+            let split_seed = derive_seed(plan.spec.seed, "cnn/classification/split", &class.id);
+            let data = split_class(stack, cp.spec.holdout, self.normalise, split_seed);
+            let model = match self.source {
+                Source::Original => None,
+                Source::Generated(m) => Some(
+                    fit_model(
+                        data.fit.view(),
+                        m,
+                        FitOptions {
+                            half_width: cp.spec.half_width,
+                            levels: cp.spec.levels,
+                        },
+                    )
+                    .with_context(|| format!("class {}", class.id))?,
+                ),
+            };
+            // Balanced: N / k per class, the remainder to the first classes.
+            let per_class = self.train_size / k + usize::from(c < self.train_size % k);
+            let composition = compose(
+                c,
+                data.fit.view(),
+                model.as_ref(),
+                per_class,
+                cp.spec.original_fraction,
+                derive_seed(self.data_seed, "originals", &class.id),
+                derive_seed(self.data_seed, "generate", &class.id),
+                &mut train_set,
+                &mut validation,
+            );
+            generated += composition.generated;
+            originals += composition.originals;
+            reused |= composition.reused;
+            labelled(data.test.view(), c, &mut test);
+        }
+        let trained = train(
+            &cp.net,
+            &cp.spec.training,
+            &train_set,
+            &validation,
+            self.seed,
+        );
+        let (test_accuracy, confusion) = trained.evaluate(&test);
+        let mut files = vec![];
+        if cp.spec.save_networks {
+            let dir = cx.out.join("networks").join(&self.id);
+            let names: Vec<String> = self.classes.iter().map(|c| c.id.clone()).collect();
+            crate::apps::cnn::store::save(&trained, &names, &self.id, self.seed, &dir)?;
+            files.push(dir);
+        }
+        let protocol = if cp.spec.holdout > 0.0 {
+            "holdout"
+        } else {
+            "dissertation (test = fit data)"
+        };
+        let row = DataFrame::new_infer_height(vec![
+            Column::new("job".into(), [self.id.as_str()]),
+            Column::new("method".into(), [self.source.as_str()]),
+            Column::new("normalise".into(), [self.normalise.as_str()]),
+            Column::new("train_size".into(), [self.train_size as i64]),
+            Column::new("repeat".into(), [self.repeat as i64]),
+            Column::new("seed".into(), [self.seed]),
+            Column::new("train_accuracy".into(), [trained.train_accuracy]),
+            Column::new(
+                "validation_accuracy".into(),
+                [nan_none(trained.validation_accuracy)],
+            ),
+            Column::new("test_accuracy".into(), [test_accuracy]),
+            Column::new("test_samples".into(), [test.len() as i64]),
+            Column::new("epochs".into(), [trained.epochs.len() as i64]),
+            Column::new("train_seconds".into(), [trained.seconds]),
+            Column::new(
+                "train_samples_per_second".into(),
+                [trained.samples_per_second],
+            ),
+            Column::new("train_samples".into(), [train_set.len() as i64]),
+            Column::new("train_generated".into(), [generated as i64]),
+            Column::new("train_originals".into(), [originals as i64]),
+            Column::new("validation_samples".into(), [validation.len() as i64]),
+            Column::new("validation_reuses_originals".into(), [reused]),
+            Column::new("protocol".into(), [protocol]),
+        ])?;
+        let mut tables = vec![(CLASSIFICATION, row)];
+        tables.extend(record_tables(&self.id, &trained, &confusion)?);
+        Ok(Rows {
+            tables,
+            files,
+            timing: Some(json!({
+                "train_s": trained.seconds,
+                "train_samples_per_s": trained.samples_per_second,
+            })),
+        })
+    }
+
+    fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>> {
+        let cp = plan.classification.as_ref()?;
+        let names: Vec<&str> = self.classes.iter().map(|c| c.id.as_str()).collect();
+        Some(training_status(
+            &self.id,
+            "classification",
+            &names.join(","),
+            self.source.as_str(),
+            self.seed,
+            self.train_size,
+            &cp.net,
+            status,
+        ))
+    }
+
+    fn manifest(&self) -> serde_json::Value {
+        json!({
+            "normalise": self.normalise.as_str(),
+            "method": self.source.as_str(),
+            "train_size": self.train_size,
+            "repeat": self.repeat,
+            "samples_seed": self.data_seed,
+        })
+    }
+}
+
+/// Files a dataset reads (their hashes go into the key).
+fn dataset_files(d: &crate::experiment::Dataset) -> Vec<std::path::PathBuf> {
+    use crate::experiment::Dataset;
+    match d {
+        Dataset::Npy(d) => vec![d.path.clone()],
+        Dataset::Netcdf(d) => vec![d.path.clone()],
+        Dataset::Kspace(d) => vec![d.path.clone()],
+        Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
+    }
+}
+
+/// One location training.
+#[derive(Debug, Clone)]
+pub struct LocationJob {
+    /// `location.<target>.<method>.scr<dB>.r<repeat>`.
+    pub id: String,
+    /// Canonical identity (JSON).
+    pub identity: String,
+    /// Seed of the network's initial weights, shuffles and training targets.
+    pub seed: u64,
+    /// Seed of the generated clutter (identity without the method).
+    pub data_seed: u64,
+    /// Target kind.
+    pub target: TargetKind,
+    /// Training-set source.
+    pub source: Source,
+    /// Signal-to-clutter ratio in dB.
+    pub scr_db: f64,
+    /// Repeat number, from 0.
+    pub repeat: usize,
+    /// The clutter dataset.
+    pub clutter: Arc<Vec<DataRef>>,
+}
+
+/// `-12` -> `m12`, `2.5` -> `2.5`: an SCR for a job id.
+fn scr_label(x: f64) -> String {
+    let s = format!("{x}");
+    match s.strip_prefix('-') {
+        Some(rest) => format!("m{rest}"),
+        None => s,
+    }
+}
+
+impl LocationJob {
+    /// Every training of the plan's `location` section, in order target, method, SCR, repeat.
+    pub fn all(plan: &Plan) -> Vec<LocationJob> {
+        let Some(lp) = &plan.location else {
+            return vec![];
+        };
+        let clutter = Arc::new(vec![lp.clutter.clone()]);
+        let mut out = vec![];
+        for &target in &lp.spec.targets {
+            for &source in &lp.sources {
+                for &scr in &lp.spec.scr_db {
+                    for repeat in 0..lp.spec.repeats {
+                        let paired = json!({
+                            "app": "location",
+                            "repeat": repeat,
+                        })
+                        .to_string();
+                        let identity = json!({
+                            "app": "location",
+                            "target": target.as_str(),
+                            "method": source.as_str(),
+                            "scr_db": scr,
+                            "repeat": repeat,
+                        })
+                        .to_string();
+                        out.push(LocationJob {
+                            id: format!(
+                                "location.{}.{}.scr{}.r{repeat}",
+                                target.as_str(),
+                                source.as_str(),
+                                scr_label(scr)
+                            ),
+                            seed: derive_seed(plan.spec.seed, "cnn", &identity),
+                            data_seed: derive_seed(plan.spec.seed, "cnn/samples", &paired),
+                            identity,
+                            target,
+                            source,
+                            scr_db: scr,
+                            repeat,
+                            clutter: clutter.clone(),
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+impl JobKind for LocationJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "location"
+    }
+
+    fn identity(&self) -> &str {
+        &self.identity
+    }
+
+    fn seed(&self) -> Option<u64> {
+        Some(self.seed)
+    }
+
+    fn inputs(&self) -> Inputs {
+        Inputs::Dataset {
+            data_seed: group_seed("cnn/clutter", &self.clutter),
+            shared: true,
+        }
+    }
+
+    fn estimate(&self, plan: &Plan) -> Estimate {
+        let lp = plan.location.as_ref().expect("a location section");
+        let n = self.clutter[0].dataset.shape().0;
+        let train_n = match self.source {
+            Source::Original => lp.spec.fit_samples / 2,
+            Source::Generated(_) => lp.spec.generated_samples / 2,
+        };
+        training_estimate(&lp.net, train_n, n, lp.spec.training.epochs)
+    }
+
+    fn key_material(&self, plan: &Plan) -> String {
+        let lp = plan.location.as_ref().expect("a location section");
+        format!("{self:?}\n{:?}\n{:?}", lp.spec, lp.net)
+    }
+
+    fn input_files(&self) -> Vec<std::path::PathBuf> {
+        dataset_files(&self.clutter[0].dataset)
+    }
+
+    fn materialise(&self) -> Result<Materialised> {
+        materialise_all(&self.clutter)
+    }
+
+    fn run(&self, cx: &JobContext) -> Result<Rows> {
+        let plan = cx.plan;
+        let lp = plan.location.as_ref().expect("a location section");
+        let mut owned = None;
+        let all = stacks_of(cx.shared, &self.clutter, &mut owned)?;
+        let (n, h, w) = all.dim();
+        let pixels = h * w;
+        let clutter_id = &self.clutter[0].id;
+        let perm = permutation(
+            n,
+            derive_seed(plan.spec.seed, "cnn/location/split", clutter_id),
+        );
+        let (fit_idx, test_idx) = perm.split_at(lp.spec.fit_samples);
+        let fit = all.select(Axis(0), fit_idx);
+        let test_clutter = all.select(Axis(0), test_idx);
+        // P_c: the mean over the image of the per-pixel variance of all originals.
+        let mean = all.mean_axis(Axis(0)).expect("samples");
+        let p_c = all
+            .axis_iter(Axis(0))
+            .map(|plane| {
+                plane
+                    .iter()
+                    .zip(mean.iter())
+                    .map(|(z, m)| (z - m).norm_sqr())
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+            / ((n.max(2) - 1) * pixels) as f64;
+        let amp = location::amplitude(p_c, self.scr_db);
+        let constant =
+            location::constant_pattern(derive_seed(plan.spec.seed, "cnn/location/constant", ""));
+        let c32 = |a: ndarray::ArrayView3<Complex64>| -> Vec<Complex32> {
+            a.iter()
+                .map(|z| Complex32::new(z.re as f32, z.im as f32))
+                .collect()
+        };
+        let (train_clutter, val_clutter, generated) = match self.source {
+            Source::Original => {
+                let half = lp.spec.fit_samples / 2;
+                (
+                    c32(fit.slice(s![..half, .., ..])),
+                    c32(fit.slice(s![half.., .., ..])),
+                    0,
+                )
+            }
+            Source::Generated(m) => {
+                let model = fit_model(
+                    fit.view(),
+                    m,
+                    FitOptions {
+                        half_width: lp.spec.half_width,
+                        levels: lp.spec.levels,
+                    },
+                )?;
+                let g = lp.spec.generated_samples;
+                let gen_seed = derive_seed(self.data_seed, "generate", clutter_id);
+                let half = g / 2;
+                let tr = model.try_generate_c64(gen_seed, 0, half)?;
+                let va = model.try_generate_c64(gen_seed, half, g - half)?;
+                (
+                    tr.into_raw_vec_and_offset().0,
+                    va.into_raw_vec_and_offset().0,
+                    g,
+                )
+            }
+        };
+        let targets = |clutter: &[Complex32], seed: u64| {
+            location::with_targets(clutter, w, pixels, self.target, &constant, amp, seed)
+        };
+        let train_set = targets(&train_clutter, derive_seed(self.seed, "targets", "train"));
+        let validation = targets(
+            &val_clutter,
+            derive_seed(self.seed, "targets", "validation"),
+        );
+        let test_seed = derive_seed(
+            plan.spec.seed,
+            "cnn/location/test",
+            &format!("{}/{}", self.target.as_str(), self.scr_db),
+        );
+        let test = targets(&c32(test_clutter.view()), test_seed);
+        let trained = train(
+            &lp.net,
+            &lp.spec.training,
+            &train_set,
+            &validation,
+            self.seed,
+        );
+        let (test_accuracy, confusion) = trained.evaluate(&test);
+        let mut files = vec![];
+        if lp.spec.save_networks {
+            let dir = cx.out.join("networks").join(&self.id);
+            let names: Vec<String> = (0..location::LOCATIONS)
+                .map(|l| {
+                    let (r, c) = location::centre(l);
+                    format!("row{r}_col{c}")
+                })
+                .collect();
+            crate::apps::cnn::store::save(&trained, &names, &self.id, self.seed, &dir)?;
+            files.push(dir);
+        }
+        // Example training images (one per grid row) for the report (Fig. 72).
+        if self.repeat == 0 {
+            let picks = [0usize, 6, 12, 18, 24];
+            let mut ex = Array3::<Complex32>::zeros((picks.len(), h, w));
+            for (k, &l) in picks.iter().enumerate() {
+                if l < train_set.len() {
+                    let img = &train_set.images[l * pixels..(l + 1) * pixels];
+                    ex.index_axis_mut(Axis(0), k)
+                        .as_slice_mut()
+                        .expect("standard layout")
+                        .copy_from_slice(img);
+                }
+            }
+            let path = std::path::PathBuf::from("examples").join(format!("{}.npy", self.id));
+            let path = cx.out.join(path);
+            crate::io::atomic::write_npy(&path, &ex)?;
+            files.push(path);
+        }
+        let row = DataFrame::new_infer_height(vec![
+            Column::new("job".into(), [self.id.as_str()]),
+            Column::new("target".into(), [self.target.as_str()]),
+            Column::new("method".into(), [self.source.as_str()]),
+            Column::new("scr_db".into(), [self.scr_db]),
+            Column::new("repeat".into(), [self.repeat as i64]),
+            Column::new("seed".into(), [self.seed]),
+            Column::new("train_accuracy".into(), [trained.train_accuracy]),
+            Column::new(
+                "validation_accuracy".into(),
+                [nan_none(trained.validation_accuracy)],
+            ),
+            Column::new("test_accuracy".into(), [test_accuracy]),
+            Column::new("test_samples".into(), [test.len() as i64]),
+            Column::new("epochs".into(), [trained.epochs.len() as i64]),
+            Column::new("train_seconds".into(), [trained.seconds]),
+            Column::new(
+                "train_samples_per_second".into(),
+                [trained.samples_per_second],
+            ),
+            Column::new("train_samples".into(), [train_set.len() as i64]),
+            Column::new("train_generated".into(), [(generated / 2) as i64]),
+            Column::new("clutter_power".into(), [p_c]),
+        ])?;
+        let mut tables = vec![(LOCATION, row)];
+        tables.extend(record_tables(&self.id, &trained, &confusion)?);
+        Ok(Rows {
+            tables,
+            files,
+            timing: Some(json!({
+                "train_s": trained.seconds,
+                "train_samples_per_s": trained.samples_per_second,
+            })),
+        })
+    }
+
+    fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>> {
+        let lp = plan.location.as_ref()?;
+        Some(training_status(
+            &self.id,
+            "location",
+            &self.clutter[0].id,
+            self.source.as_str(),
+            self.seed,
+            match self.source {
+                Source::Original => lp.spec.fit_samples / 2,
+                Source::Generated(_) => lp.spec.generated_samples / 2,
+            },
+            &lp.net,
+            status,
+        ))
+    }
+
+    fn manifest(&self) -> serde_json::Value {
+        json!({
+            "target": self.target.as_str(),
+            "method": self.source.as_str(),
+            "scr_db": self.scr_db,
+            "repeat": self.repeat,
+            "samples_seed": self.data_seed,
+        })
+    }
+}
+
+/// Per target and method: the SCR where mean test accuracy first reaches 50 % and 90 %, and
+/// the gain over `original` (positive: reached at a lower SCR).
+#[derive(Debug, Clone)]
+pub struct LocationSummaryJob {
+    /// The location jobs (indices into the plan's job list).
+    pub inputs: Vec<usize>,
+}
+
+impl JobKind for LocationSummaryJob {
+    fn id(&self) -> &str {
+        "location_summary"
+    }
+
+    fn kind(&self) -> &'static str {
+        "location_summary"
+    }
+
+    fn identity(&self) -> &str {
+        ""
+    }
+
+    fn seed(&self) -> Option<u64> {
+        None
+    }
+
+    fn key_material(&self, plan: &Plan) -> String {
+        format!("{self:?}\n{:?}", plan.spec.location)
+    }
+
+    fn inputs(&self) -> Inputs {
+        Inputs::Rows(self.inputs.clone())
+    }
+
+    fn run(&self, cx: &JobContext) -> Result<Rows> {
+        let frames: Vec<DataFrame> = cx
+            .inputs
+            .iter()
+            .filter_map(|(_, r)| r.table(LOCATION).cloned())
+            .collect();
+        let table = location_summary(&frames)?;
+        Ok(Rows {
+            tables: vec![(LOCATION_SUMMARY, table)],
+            ..Rows::default()
+        })
+    }
+
+    fn status_row(&self, _plan: &Plan, _status: &Status) -> Option<Result<DataFrame>> {
+        None
+    }
+}
+
+/// The summary of `location` rows (see [`LocationSummaryJob`]).
+///
+/// # Errors
+/// If the rows lack a column.
+pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
+    use std::collections::BTreeMap;
+    // (target, method) -> scr (as bits for ordering) -> accuracies
+    let mut acc: BTreeMap<(String, String), Vec<(f64, Vec<f64>)>> = BTreeMap::new();
+    let mut order: Vec<(String, String)> = vec![];
+    for df in frames {
+        let t = df.column("target")?.str()?.clone();
+        let m = df.column("method")?.str()?.clone();
+        let s = df.column("scr_db")?.f64()?.clone();
+        let a = df.column("test_accuracy")?.f64()?.clone();
+        for i in 0..df.height() {
+            let (Some(t), Some(m), Some(s), Some(a)) = (t.get(i), m.get(i), s.get(i), a.get(i))
+            else {
+                continue;
+            };
+            let key = (t.to_string(), m.to_string());
+            if !order.contains(&key) {
+                order.push(key.clone());
+            }
+            let v = acc.entry(key).or_default();
+            match v.iter_mut().find(|(x, _)| *x == s) {
+                Some((_, list)) => list.push(a),
+                None => v.push((s, vec![a])),
+            }
+        }
+    }
+    let mut rows: Vec<(String, String, Option<f64>, Option<f64>, f64, usize)> = vec![];
+    for key in &order {
+        let mut pts: Vec<(f64, f64)> = acc[key]
+            .iter()
+            .map(|(s, a)| (*s, a.iter().sum::<f64>() / a.len() as f64))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let best = pts.iter().map(|p| p.1).fold(f64::NAN, f64::max);
+        rows.push((
+            key.0.clone(),
+            key.1.clone(),
+            location::crossing(&pts, 0.5),
+            location::crossing(&pts, 0.9),
+            best,
+            pts.len(),
+        ));
+    }
+    let gain =
+        |target: &str,
+         x: Option<f64>,
+         pick: fn(&(String, String, Option<f64>, Option<f64>, f64, usize)) -> Option<f64>| {
+            let base = rows
+                .iter()
+                .find(|r| r.0 == target && r.1 == "original")
+                .and_then(pick);
+            match (base, x) {
+                (Some(b), Some(x)) => Some(b - x),
+                _ => None,
+            }
+        };
+    let g50: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.2, |r| r.2)).collect();
+    let g90: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.3, |r| r.3)).collect();
+    Ok(DataFrame::new_infer_height(vec![
+        Column::new(
+            "target".into(),
+            rows.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "method".into(),
+            rows.iter().map(|r| r.1.clone()).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "scr_50_db".into(),
+            rows.iter().map(|r| r.2).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "scr_90_db".into(),
+            rows.iter().map(|r| r.3).collect::<Vec<_>>(),
+        ),
+        Column::new("gain_50_db".into(), g50),
+        Column::new("gain_90_db".into(), g90),
+        Column::new(
+            "best_mean_accuracy".into(),
+            rows.iter().map(|r| r.4).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "scr_points".into(),
+            rows.iter().map(|r| r.5 as i64).collect::<Vec<_>>(),
+        ),
+    ])?)
+}
