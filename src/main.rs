@@ -294,7 +294,10 @@ fn real_main() -> Result<ExitCode> {
         Command::Validate { spec, max_memory } => {
             let plan = plan::load(&spec)?;
             let largest = estimate::check(&plan, estimate::limit(max_memory))?;
-            println!("{}: valid, {} job(s)", spec.display(), plan.jobs.len());
+            let all = isar_clutter::run::jobs::all::AllJobs::new(&plan)
+                .list()
+                .len();
+            println!("{}: valid, {all} job(s)", spec.display());
             println!("{largest}");
             Ok(ExitCode::SUCCESS)
         }
@@ -609,7 +612,7 @@ fn save_model(
 
 /// Prints the job table of `--dry-run`.
 fn print_jobs(plan: &Plan) {
-    let rows: Vec<[String; 7]> = plan
+    let mut rows: Vec<[String; 7]> = plan
         .jobs
         .iter()
         .map(|j| {
@@ -625,6 +628,20 @@ fn print_jobs(plan: &Plan) {
             ]
         })
         .collect();
+    // The jobs of the run as a whole (calibration, hypotheses, CNN trainings).
+    let all = isar_clutter::run::jobs::all::AllJobs::new(plan);
+    for j in all.list().into_iter().skip(plan.jobs.len()) {
+        rows.push([
+            j.id().to_string(),
+            j.kind().to_string(),
+            "-".into(),
+            "-".into(),
+            j.seed().map_or("-".into(), |s| s.to_string()),
+            "-".into(),
+            j.manifest().to_string(),
+        ]);
+    }
+    let total = rows.len();
     let head = [
         "job",
         "kind",
@@ -655,7 +672,7 @@ fn print_jobs(plan: &Plan) {
     for r in &rows {
         line([&r[0], &r[1], &r[2], &r[3], &r[4], &r[5], &r[6]]);
     }
-    println!("{} job(s), master seed {}", plan.jobs.len(), plan.spec.seed);
+    println!("{total} job(s), master seed {}", plan.spec.seed);
 }
 
 /// Prints the standard tables (or one) of a results folder.

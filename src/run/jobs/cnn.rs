@@ -292,7 +292,12 @@ impl JobKind for ClassificationJob {
             .as_ref()
             .expect("a classification section");
         let originals: usize = self.classes.iter().map(|c| c.dataset.shape().0).sum();
-        training_estimate(&cp.net, self.train_size, originals, cp.spec.training.epochs)
+        // `original` trains on the fit originals at most.
+        let train_n = match self.source {
+            Source::Original => self.train_size.min(originals),
+            Source::Generated(_) => self.train_size,
+        };
+        training_estimate(&cp.net, train_n, originals, cp.spec.training.epochs)
     }
 
     fn key_material(&self, plan: &Plan) -> String {
