@@ -12,8 +12,10 @@ VENV := .venv
 .PHONY: build run-experiment run-all compare validate test test-deps lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch
 
 ## build: release build of the isar-clutter binary
+FEATURES ?=
+CARGO_FEATURES := $(if $(FEATURES),--features $(FEATURES))
 build:
-	cargo build --release --locked
+	cargo build --release --locked $(CARGO_FEATURES)
 
 ## run-experiment: build and run SPEC (default: the Table 4 spec) into outputs/<name>/
 run-experiment: build

@@ -38,6 +38,18 @@ pub enum Optimiser {
     Adam,
 }
 
+/// Where a training runs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Device {
+    /// burn's pure-Rust CPU backend `flex` (the default; bit-identical whatever the thread
+    /// count).
+    #[default]
+    Cpu,
+    /// burn's CUDA backend (a binary built with the `cuda` feature and an NVIDIA driver).
+    Cuda,
+}
+
 /// Training settings (a spec's `training:` block).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -60,6 +72,9 @@ pub struct TrainingOptions {
     /// Epochs (default 30).
     #[serde(default = "epochs")]
     pub epochs: usize,
+    /// `cpu` (default) or `cuda`.
+    #[serde(default)]
+    pub device: Device,
 }
 
 fn sgdm() -> Optimiser {
@@ -90,6 +105,7 @@ impl Default for TrainingOptions {
             l2: l2(),
             batch_size: batch_size(),
             epochs: epochs(),
+            device: Device::Cpu,
         }
     }
 }
@@ -257,6 +273,86 @@ pub fn train(
     seed: u64,
 ) -> Trained {
     train_on::<CpuTrain>(cfg, opts, train, validation, seed, &Default::default())
+}
+
+/// [`train`] on the device the options name (`cpu`, or `cuda` in a binary built with the
+/// `cuda` feature).
+///
+/// # Errors
+/// For `cuda`: a binary without the feature, no loadable NVIDIA driver, or a failure inside
+/// the CUDA backend (which burn reports by panicking; it is caught here).
+pub fn train_on_device(
+    cfg: &NetConfig,
+    opts: &TrainingOptions,
+    train_set: &Labelled,
+    validation: &Labelled,
+    seed: u64,
+) -> anyhow::Result<Trained> {
+    match opts.device {
+        Device::Cpu => Ok(train(cfg, opts, train_set, validation, seed)),
+        Device::Cuda => cuda::train(cfg, opts, train_set, validation, seed),
+    }
+}
+
+/// The CUDA route: a driver check before burn touches CUDA (cudarc panics without one).
+#[cfg(feature = "cuda")]
+mod cuda {
+    use super::*;
+
+    /// Whether `libcuda.so.1` (the NVIDIA driver's library) can be loaded.
+    fn driver() -> anyhow::Result<()> {
+        let name = c"libcuda.so.1";
+        // SAFETY: dlopen with a valid C string; the handle is closed at once.
+        let handle = unsafe { libc::dlopen(name.as_ptr(), libc::RTLD_LAZY) };
+        if handle.is_null() {
+            anyhow::bail!(
+                "training.device is cuda, but no NVIDIA driver could be loaded (libcuda.so.1): run on a machine with a GPU and its driver, or use `device: cpu`"
+            );
+        }
+        // SAFETY: a handle dlopen returned.
+        unsafe { libc::dlclose(handle) };
+        Ok(())
+    }
+
+    pub(super) fn train(
+        cfg: &NetConfig,
+        opts: &TrainingOptions,
+        train_set: &Labelled,
+        validation: &Labelled,
+        seed: u64,
+    ) -> anyhow::Result<Trained> {
+        driver()?;
+        type Gpu = burn::backend::Autodiff<burn::backend::Cuda>;
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            train_on::<Gpu>(cfg, opts, train_set, validation, seed, &Default::default())
+        }))
+        .map_err(|p| {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            anyhow::anyhow!("the CUDA backend failed: {msg}")
+        })
+    }
+}
+
+/// Without the `cuda` feature: a clear error.
+#[cfg(not(feature = "cuda"))]
+mod cuda {
+    use super::*;
+
+    pub(super) fn train(
+        _: &NetConfig,
+        _: &TrainingOptions,
+        _: &Labelled,
+        _: &Labelled,
+        _: u64,
+    ) -> anyhow::Result<Trained> {
+        anyhow::bail!(
+            "training.device is cuda, but this binary was built without CUDA: rebuild with `make build FEATURES=cuda`"
+        )
+    }
 }
 
 /// [`train`] on any autodiff backend `B` whose inner backend is [`Cpu`]-compatible for the

@@ -18,7 +18,7 @@ use crate::apps::cnn::classification::{
 };
 use crate::apps::cnn::location::{self, TargetKind};
 use crate::apps::cnn::net::NetConfig;
-use crate::apps::cnn::train::{train, Labelled, Trained};
+use crate::apps::cnn::train::{train_on_device, Labelled, Trained};
 use crate::data::{materialise, Materialised};
 use crate::experiment::DataRef;
 use crate::io::npy::Stack;
@@ -373,13 +373,13 @@ impl JobKind for ClassificationJob {
             reused |= composition.reused;
             labelled(data.test.view(), c, &mut test);
         }
-        let trained = train(
+        let trained = train_on_device(
             &cp.net,
             &cp.spec.training,
             &train_set,
             &validation,
             self.seed,
-        );
+        )?;
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];
         if cp.spec.save_networks {
@@ -677,13 +677,13 @@ impl JobKind for LocationJob {
             &format!("{}/{}", self.target.as_str(), self.scr_db),
         );
         let test = targets(&c32(test_clutter.view()), test_seed);
-        let trained = train(
+        let trained = train_on_device(
             &lp.net,
             &lp.spec.training,
             &train_set,
             &validation,
             self.seed,
-        );
+        )?;
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];
         if lp.spec.save_networks {
