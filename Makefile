@@ -9,7 +9,7 @@ BIN := $(CARGO_TARGET_DIR)/release/isar-clutter
 PYTHON ?= python3
 VENV := .venv
 
-.PHONY: build run-experiment run-all compare validate test test-deps lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch
+.PHONY: build run-experiment run-all compare validate test test-deps lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
 
 ## build: release build of the isar-clutter binary
 FEATURES ?=
@@ -85,6 +85,13 @@ bench-torch-deps: $(VENV_TORCH)/.torch-$(TORCH_VERSION)
 ## bench-cnn-torch: PyTorch training throughput of the Table 18 and Table 23 CNNs on CPU
 ## (batch 128, SGD with momentum) with 1 and 2 threads; see BENCHMARKS.md
 bench-cnn-torch: bench-torch-deps
+	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 1
+	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 2
+
+## bench-cnn: CNN training throughput side by side in one run: burn (cargo bench --bench cnn:
+## 1 and 2 threads, two trainings side by side) and PyTorch (1 and 2 threads)
+bench-cnn: bench-torch-deps
+	cargo bench --locked --bench cnn
 	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 1
 	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 2
 
