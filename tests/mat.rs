@@ -144,7 +144,10 @@ fn a_missing_variable_lists_the_file() {
         "{e}"
     );
     let e = err(&dir.join("flat.mat"), None);
-    assert!(e.contains("0 numeric 3-D arrays") && e.contains("m2 (4x5 double)"), "{e}");
+    assert!(
+        e.contains("0 numeric 3-D arrays") && e.contains("m2 (4x5 double)"),
+        "{e}"
+    );
 }
 
 #[test]

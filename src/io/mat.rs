@@ -115,8 +115,24 @@ impl Variable {
 }
 
 const CLASSES: [&str; 18] = [
-    "unknown", "cell", "struct", "object", "char", "sparse", "double", "single", "int8", "uint8",
-    "int16", "uint16", "int32", "uint32", "int64", "uint64", "function_handle", "opaque",
+    "unknown",
+    "cell",
+    "struct",
+    "object",
+    "char",
+    "sparse",
+    "double",
+    "single",
+    "int8",
+    "uint8",
+    "int16",
+    "uint16",
+    "int32",
+    "uint32",
+    "int64",
+    "uint64",
+    "function_handle",
+    "opaque",
 ];
 
 fn numeric_class(c: &str) -> bool {
@@ -363,12 +379,12 @@ impl MatFile {
         let mut at = 128;
         while at < map.len() {
             if map.len() - at < 8 {
-                return Err(fmt(format!("truncated: {} stray bytes at the end", map.len() - at)));
+                return Err(fmt(format!(
+                    "truncated: {} stray bytes at the end",
+                    map.len() - at
+                )));
             }
-            let mut e = Elements {
-                r: &map[at..],
-                big,
-            };
+            let mut e = Elements { r: &map[at..], big };
             let tag = e.tag().map_err(fmt)?;
             let start = at + 8;
             let end = start
@@ -384,7 +400,11 @@ impl MatFile {
             let compressed = match tag.ty {
                 MI_MATRIX => false,
                 MI_COMPRESSED => true,
-                t => return Err(fmt(format!("unexpected data element of type {t} at byte {at}"))),
+                t => {
+                    return Err(fmt(format!(
+                        "unexpected data element of type {t} at byte {at}"
+                    )))
+                }
             };
             let var = entry_header(&map[start..end], compressed, big)
                 .map_err(|r| fmt(format!("variable at byte {at}: {r}")))?;
@@ -394,11 +414,7 @@ impl MatFile {
                 end,
                 compressed,
             });
-            at = if compressed {
-                end
-            } else {
-                end.div_ceil(8) * 8
-            };
+            at = if compressed { end } else { end.div_ceil(8) * 8 };
         }
         Ok(MatFile {
             path: path.to_path_buf(),
@@ -431,7 +447,8 @@ impl MatFile {
                     variables: self.variables(),
                 })?,
             None => {
-                let stacks: Vec<&Entry> = self.entries.iter().filter(|e| e.var.is_stack()).collect();
+                let stacks: Vec<&Entry> =
+                    self.entries.iter().filter(|e| e.var.is_stack()).collect();
                 if stacks.len() != 1 {
                     return Err(MatError::Ambiguous {
                         path: self.path.clone(),
@@ -539,7 +556,10 @@ fn entry_header(bytes: &[u8], compressed: bool, big: bool) -> Result<Variable, S
         };
         let t = e.tag()?;
         if t.ty != MI_MATRIX {
-            return Err(format!("compressed element of type {} (not a matrix)", t.ty));
+            return Err(format!(
+                "compressed element of type {} (not a matrix)",
+                t.ty
+            ));
         }
         e.matrix_header()
     } else {

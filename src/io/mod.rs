@@ -4,8 +4,8 @@
 //! (`outdir`: claim, lock, journal of what it wrote, completeness).
 
 pub mod atomic;
+pub mod mat;
 pub mod model;
 pub mod netcdf;
-pub mod mat;
 pub mod npy;
 pub mod outdir;
