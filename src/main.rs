@@ -399,7 +399,7 @@ fn real_main() -> Result<ExitCode> {
             opts.max_memory = max_memory;
             opts.fresh = fresh;
             opts.shard = shard_option(shards, shard)?;
-            let summary = scheduler::run(&plan, &opts)?;
+            let summary = isar_clutter::run::driver::run(&plan, &opts)?;
             for note in &summary.notes {
                 eprintln!("note: {note}");
             }
@@ -535,35 +535,12 @@ fn fit_command(
     Ok(())
 }
 
-/// Whether `path` starts like a `.npy` of complex64 (what `generate` writes), so that
+/// Whether `path` is a `.npy` of complex64 `[M, H, W]` (what `generate` writes), so that
 /// `generate` may replace it.
 fn is_samples_npy(path: &std::path::Path) -> bool {
-    use std::io::Read;
-    let mut head = [0u8; 128];
-    let n = std::fs::File::open(path)
-        .and_then(|mut f| f.read(&mut head))
-        .unwrap_or(0);
-    let head = &head[..n];
-    head.starts_with(b"\x93NUMPY") && head.windows(5).any(|w| w == b"'<c8'")
+    isar_clutter::io::npy::read_raw_header(path)
+        .is_ok_and(|h| h.descr == "<c8" && h.shape.len() == 3)
 }
-
-/// The files a model folder may hold: what `io::model::save` writes.
-const MODEL_FILES: &[&str] = &[
-    "model.json",
-    "mean.npy",
-    "std.npy",
-    "alpha_h.npy",
-    "alpha_v.npy",
-    "r_h.npy",
-    "r_v.npy",
-    "residual_h.npy",
-    "residual_v.npy",
-    "clamped.npy",
-    "deviations.npy",
-    "fleishman.npy",
-    "component_sd.npy",
-    "infeasible.npy",
-];
 
 /// Saves a model folder at `out`: refused if `out` is a file, or a folder that is neither
 /// empty nor a model folder holding only model files; written into a temporary folder beside
@@ -589,7 +566,7 @@ fn save_model(
             .iter()
             .filter(|e| {
                 let name = e.file_name();
-                !(e.path().is_file() && MODEL_FILES.iter().any(|f| name == **f))
+                !(e.path().is_file() && isar_clutter::io::model::FILES.iter().any(|f| name == **f))
             })
             .map(|e| e.file_name().to_string_lossy().into_owned())
             .collect();

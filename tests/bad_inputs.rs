@@ -194,6 +194,14 @@ fn every_saved_model_loads_back() {
         let m = saved_model(dir.path(), method.as_str(), method);
         let (loaded, info) = model::load(&m).unwrap();
         assert_eq!((loaded.method, info.height, info.width), (method, 16, 16));
+        // `fit --out` replaces a folder holding only these names: the list knows every file.
+        for e in std::fs::read_dir(&m).unwrap().flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            assert!(
+                model::FILES.contains(&name.as_str()),
+                "{name} not in model::FILES"
+            );
+        }
     }
 }
 

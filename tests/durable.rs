@@ -315,3 +315,80 @@ fn bad_shards_and_merges_are_refused() {
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("schema 99"), "{}", text(&o));
 }
+
+#[test]
+fn a_live_shard_blocks_a_merge_and_a_partial_merge_stays_incomplete() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("spec.yaml");
+    // Heavier jobs (about half a second each on one thread): the shard is still running when
+    // the merge and the whole run try the folder.
+    fs::write(&spec, SPEC.replace("samples: 400", "samples: 3000")).unwrap();
+    let out = dir.path().join("out");
+    let mut shard = Command::new(BIN)
+        .args([
+            "run",
+            spec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args([
+            "--no-report",
+            "--quiet",
+            "--jobs",
+            "1",
+            "--shards",
+            "2",
+            "--shard",
+            "0",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    // The shard holds its lock and has recorded its spec: it is running jobs.
+    while !(out.join(".isar-clutter/lock.shard-0").exists()
+        && out.join(".isar-clutter/plan.json").exists())
+    {
+        assert!(t.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let o = bin(&["merge", out.to_str().unwrap(), "--partial", "--no-report"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("shard") && text(&o).contains("still running"),
+        "{}",
+        text(&o)
+    );
+    let o = run(&spec, &out, &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("still running"), "{}", text(&o));
+    assert!(shard.wait().unwrap().success());
+    // Shard 1 never ran: a partial merge writes the tables, lists its jobs as failed and
+    // leaves the folder marked incomplete.
+    let o = bin(&["merge", out.to_str().unwrap(), "--partial", "--no-report"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("missing from the job store"),
+        "{}",
+        text(&o)
+    );
+    let o = bin(&["table", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("incomplete: merged with --partial while"),
+        "{}",
+        text(&o)
+    );
+    assert!(bin(&["table", out.to_str().unwrap(), "--allow-incomplete"])
+        .status
+        .success());
+    // Once shard 1 ran, a merge completes the folder.
+    assert!(run(&spec, &out, &["--shards", "2", "--shard", "1"])
+        .status
+        .success());
+    assert!(bin(&["merge", out.to_str().unwrap(), "--no-report"])
+        .status
+        .success());
+    assert!(bin(&["table", out.to_str().unwrap()]).status.success());
+}

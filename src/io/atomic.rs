@@ -90,13 +90,28 @@ fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
             "it exists and is not a regular file (nothing is renamed over a folder or a link)",
         ));
     }
+    if exchange(tmp, path)? {
+        // `tmp` now names the old file; a failure to remove it loses no result.
+        let _ = fs::remove_file(tmp);
+        return Ok(());
+    }
+    // No file at `path` yet (or no RENAME_EXCHANGE): a plain rename.
+    fs::rename(tmp, path)
+}
+
+/// Swaps the names `a` and `b` atomically (`renameat2` with `RENAME_EXCHANGE`, Linux with
+/// glibc); `Ok(false)` where that is impossible (`b` missing, another system or file system).
+///
+/// # Errors
+/// If a path holds a NUL byte.
+fn exchange(a: &Path, b: &Path) -> std::io::Result<bool> {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
         use std::ffi::CString;
         use std::os::unix::ffi::OsStrExt;
         let (a, b) = (
-            CString::new(tmp.as_os_str().as_bytes())?,
-            CString::new(path.as_os_str().as_bytes())?,
+            CString::new(a.as_os_str().as_bytes())?,
+            CString::new(b.as_os_str().as_bytes())?,
         );
         // SAFETY: both are valid NUL-terminated paths, relative to the working directory.
         let swapped = unsafe {
@@ -108,14 +123,13 @@ fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
                 libc::RENAME_EXCHANGE,
             )
         } == 0;
-        if swapped {
-            // `tmp` now names the old file; a failure to remove it loses no result.
-            let _ = fs::remove_file(tmp);
-            return Ok(());
-        }
-        // No file at `path` yet (or a file system without RENAME_EXCHANGE): a plain rename.
+        Ok(swapped)
     }
-    fs::rename(tmp, path)
+    #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+    {
+        let _ = (a, b);
+        Ok(false)
+    }
 }
 
 /// Moves the finished folder `tmp` to `path`: swapped with an existing `path` atomically
@@ -139,27 +153,8 @@ pub fn swap_in_dir(tmp: &Path, path: &Path) -> Result<bool> {
             .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
         return Ok(false);
     }
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    {
-        use std::ffi::CString;
-        use std::os::unix::ffi::OsStrExt;
-        let (a, b) = (
-            CString::new(tmp.as_os_str().as_bytes())?,
-            CString::new(path.as_os_str().as_bytes())?,
-        );
-        // SAFETY: both are valid NUL-terminated paths, relative to the working directory.
-        let swapped = unsafe {
-            libc::renameat2(
-                libc::AT_FDCWD,
-                a.as_ptr(),
-                libc::AT_FDCWD,
-                b.as_ptr(),
-                libc::RENAME_EXCHANGE,
-            )
-        } == 0;
-        if swapped {
-            return Ok(true);
-        }
+    if exchange(tmp, path)? {
+        return Ok(true);
     }
     // No exchange: move the old folder aside first, then the new one in.
     let aside = tmp.with_extension("old");

@@ -95,6 +95,24 @@ pub fn analysis_summary(a: &Analysis) -> serde_json::Value {
     serde_json::Value::Array(rows)
 }
 
+/// Every file a model folder may hold: what [`save`] writes for some method.
+pub const FILES: &[&str] = &[
+    "model.json",
+    "mean.npy",
+    "std.npy",
+    "alpha_h.npy",
+    "alpha_v.npy",
+    "r_h.npy",
+    "r_v.npy",
+    "residual_h.npy",
+    "residual_v.npy",
+    "clamped.npy",
+    "deviations.npy",
+    "fleishman.npy",
+    "component_sd.npy",
+    "infeasible.npy",
+];
+
 /// Saves `model` into the folder `dir` (created; files written atomically).
 ///
 /// # Errors

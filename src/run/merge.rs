@@ -203,7 +203,7 @@ pub fn merge_claimed(
         bail!("{}", missing_message(out, &merged.missing));
     }
     // The jobs over other jobs' rows (cheap): run now, from the merged rows.
-    let ran = scheduler::run_group_each(plan, jobs, keys, &outcomes, &second, opts);
+    let ran = scheduler::execute(plan, jobs, keys, &outcomes, &second, opts, &None, true);
     for (i, o) in ran {
         if let store::Entry::Done(d) = store::entry(out, &keys[i]) {
             done.push(d);
@@ -259,6 +259,17 @@ pub fn merge_claimed(
     if merged.missing.is_empty() {
         outdir.complete()?;
     } else {
+        let shown: Vec<&str> = merged.missing.iter().take(10).map(String::as_str).collect();
+        outdir.mark_incomplete(&format!(
+            "merged with --partial while {} job(s) were missing from the job store ({}{})",
+            merged.missing.len(),
+            shown.join(", "),
+            if merged.missing.len() > 10 {
+                ", ..."
+            } else {
+                ""
+            }
+        ))?;
         merged.notes.push(format!(
             "{} job(s) missing: the folder stays marked incomplete (`table` and `report` need \
              --allow-incomplete)",

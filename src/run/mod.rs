@@ -5,6 +5,7 @@
 //! shards), the merge of the store into the Parquet tables ([`merge`]), the manifest, and the
 //! Slurm scripts that run a spec's shards as an array job and merge them ([`slurm`]).
 
+pub mod driver;
 pub mod estimate;
 pub mod jobs;
 pub mod manifest;

@@ -1,18 +1,15 @@
-//! Runs a validated plan: every job through the one seam ([`JobKind`]), in parallel on a rayon
-//! pool of the requested size; jobs that read the same dataset run as one group (the stack
-//! materialised once when it is worth sharing); jobs that read other jobs' rows run after
-//! them. A progress bar on a terminal (plain lines otherwise); a failed or panicking job is
-//! recorded without stopping the others. Then the table assembly, the removal of the files an
-//! earlier run wrote and this one did not, and `manifest.json` last, all written atomically
-//! into the output folder, which the run claims first ([`OutDir`]: refused unless it is new,
-//! empty or the tool's own; locked; marked in progress until the manifest is written).
+//! Executes jobs: every job through the one seam ([`JobKind`]), in parallel on the installed
+//! rayon pool; jobs that read the same dataset run as one group (the stack materialised once
+//! when it is worth sharing); a job whose memory estimate exceeds the limit fails before it
+//! allocates; each finished job is saved in the job store at once ([`crate::run::store`]). A
+//! progress bar on a terminal (plain lines otherwise); a failed or panicking job is recorded
+//! without stopping the others. Also the options of a run, its summary, and writing the
+//! assembled tables. The order of a whole run is in [`crate::run::driver`].
 
 use crate::io::atomic::write_parquet;
-use crate::io::outdir::{OutDir, Purpose};
-use crate::run::jobs::all::AllJobs;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Rows, Status};
 use crate::run::plan::Plan;
-use crate::run::{merge, store, tables};
+use crate::run::{store, tables};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use polars::prelude::DataFrame;
@@ -96,104 +93,6 @@ fn threads_from(env: Option<&str>) -> usize {
         })
 }
 
-/// Runs the jobs of `plan` (all, or one shard's) into the job store of the output folder,
-/// skipping those whose result the store already holds (unless `fresh`), then, for a run that
-/// is not a shard, merges the store into the tables, the files and the manifest
-/// ([`crate::run::merge`]).
-///
-/// # Errors
-/// Only for failures outside the jobs (an output folder that is not the tool's or is locked,
-/// the store, tables, manifest); a failed job is recorded in the store, in `jobs.parquet` (or,
-/// for a job of the run as a whole, in the manifest) and in the returned summary. A run that
-/// stops with an error leaves its folder marked in progress, which `table` and `report` refuse.
-pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
-    let start = Instant::now();
-    let purpose = match opts.shard {
-        Some((index, _)) => Purpose::Shard { index },
-        None => Purpose::Run,
-    };
-    let outdir = OutDir::claim(&opts.out, Some(&plan.spec.name), purpose)?;
-    let mut notes = outdir.notes.clone();
-    merge::record_plan(&opts.out, plan, opts.shard.map(|(_, n)| n))?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads.max(1))
-        .build()?;
-    let all = AllJobs::new(plan);
-    let jobs = all.list();
-    let keys: Vec<String> = jobs
-        .iter()
-        .map(|j| store::key(*j, plan))
-        .collect::<Result<_>>()?;
-    // This run's jobs: a shard's share, or every job; jobs that read other jobs' rows run at
-    // the merge.
-    let mine: Vec<usize> = match opts.shard {
-        Some((index, shards)) => {
-            let assigned = store::assign(plan, &jobs, shards)?;
-            (0..jobs.len())
-                .filter(|&i| assigned[i] == Some(index))
-                .collect()
-        }
-        None => (0..jobs.len())
-            .filter(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)))
-            .collect(),
-    };
-    let (todo, skipped): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| {
-        opts.fresh || !matches!(store::entry(&opts.out, &keys[i]), store::Entry::Done(_))
-    });
-    if !skipped.is_empty() {
-        notes.push(format!(
-            "resumed: {} job(s) already done in the job store were skipped (--fresh redoes them)",
-            skipped.len()
-        ));
-    }
-    let bar = progress(todo.len(), opts);
-    let none: Vec<Option<Outcome>> = vec![];
-    let done: Vec<(usize, Outcome)> = pool.install(|| {
-        groups(&jobs, &todo)
-            .par_iter()
-            .flat_map_iter(|group| run_group(plan, &jobs, &keys, &none, group, opts, &bar, false))
-            .collect()
-    });
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
-    let mut failed: Vec<(String, String)> = done
-        .iter()
-        .filter_map(|(i, o)| {
-            o.rows
-                .as_ref()
-                .err()
-                .map(|e| (jobs[*i].id().to_string(), e.clone()))
-        })
-        .collect();
-    if opts.shard.is_some() {
-        // The folder stays in progress: `merge` writes the tables and the manifest.
-        return Ok(RunSummary {
-            total: mine.len(),
-            failed,
-            out: opts.out.clone(),
-            elapsed_s: start.elapsed().as_secs_f64(),
-            notes,
-            skipped: skipped.len(),
-            merged: false,
-        });
-    }
-    drop(done);
-    let merged =
-        pool.install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start))?;
-    notes.extend(merged.notes);
-    failed = merged.failed;
-    Ok(RunSummary {
-        total: jobs.len(),
-        failed,
-        out: opts.out.clone(),
-        elapsed_s: start.elapsed().as_secs_f64(),
-        notes,
-        skipped: skipped.len(),
-        merged: true,
-    })
-}
-
 /// The jobs of `wave` grouped by the dataset they read (its data seed), groups in order of
 /// first appearance, jobs in plan order; every other job is a group of its own.
 fn groups(jobs: &[&dyn JobKind], wave: &[usize]) -> Vec<Vec<usize>> {
@@ -211,19 +110,24 @@ fn groups(jobs: &[&dyn JobKind], wave: &[usize]) -> Vec<Vec<usize>> {
     groups.into_iter().map(|(_, g)| g).collect()
 }
 
-/// Runs the jobs `indices` (grouped as [`run`] groups them) with the outcomes of earlier jobs,
-/// keeping their rows; each is saved in the store too.
-pub(crate) fn run_group_each(
+/// Runs the jobs `indices` on the installed rayon pool, grouped by the dataset they read,
+/// with the outcomes of `earlier` jobs for those that read other jobs' rows; each job is saved
+/// in the job store as it finishes. `keep_rows`: return the rows (otherwise they are dropped
+/// once stored, so memory is bounded by the jobs in flight).
+#[allow(clippy::too_many_arguments)]
+pub fn execute(
     plan: &Plan,
     jobs: &[&dyn JobKind],
     keys: &[String],
     earlier: &[Option<Outcome>],
     indices: &[usize],
     opts: &RunOptions,
+    bar: &Option<ProgressBar>,
+    keep_rows: bool,
 ) -> Vec<(usize, Outcome)> {
     groups(jobs, indices)
         .par_iter()
-        .flat_map_iter(|g| run_group(plan, jobs, keys, earlier, g, opts, &None, true))
+        .flat_map_iter(|g| run_group(plan, jobs, keys, earlier, g, opts, bar, keep_rows))
         .collect()
 }
 
@@ -308,7 +212,7 @@ fn run_group(
 }
 
 /// Assembles the tables from every job's rows and status row and writes them, in parallel.
-pub(crate) fn write_tables(
+pub fn write_tables(
     plan: &Plan,
     jobs: &[&dyn JobKind],
     outcomes: &[Outcome],
@@ -337,7 +241,8 @@ pub(crate) fn write_tables(
     })
 }
 
-pub(crate) fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
+/// A progress bar over `n` jobs when stderr is a terminal and the run is not quiet.
+pub fn progress(n: usize, opts: &RunOptions) -> Option<ProgressBar> {
     (opts.progress_bar && !opts.quiet).then(|| {
         let bar = ProgressBar::new(n as u64);
         bar.set_style(

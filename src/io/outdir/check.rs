@@ -21,6 +21,13 @@ pub fn check_complete(root: &Path) -> Result<()> {
     let hint = "rerun the experiment into it, or pass --allow-incomplete to read what is there";
     let marker = root.join(STATE).join("in-progress");
     if let Ok(text) = fs::read_to_string(&marker) {
+        // A merge that knew what was missing says so.
+        let reason = serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| v["reason"].as_str().map(str::to_string));
+        if let Some(reason) = reason {
+            bail!("{} is incomplete: {reason}; {hint}", root.display());
+        }
         let who = serde_json::from_str::<Holder>(&text)
             .map(|h| {
                 let state = if h.is_dead() {

@@ -305,10 +305,23 @@ impl OutDir {
                 text.push('\n');
             }
         }
-        write_small(&state.join("owned"), text.as_bytes())?;
+        crate::io::atomic::atomic_write(&state.join("owned"), |w| {
+            Ok(w.write_all(text.as_bytes())?)
+        })?;
         fs::write(state.join("journal"), b"")
             .with_context(|| format!("cannot reset {}/{STATE}/journal", self.root.display()))?;
         Ok(())
+    }
+
+    /// Keeps the folder marked incomplete and says why (a merge with jobs missing): readers
+    /// refuse it with this reason.
+    ///
+    /// # Errors
+    /// If the marker cannot be written.
+    pub fn mark_incomplete(&self, reason: &str) -> Result<()> {
+        let mut v = serde_json::to_value(Holder::me("merge"))?;
+        v["reason"] = serde_json::Value::String(reason.into());
+        write_json(&self.root.join(STATE).join("in-progress"), &v)
     }
 
     /// Marks the run complete: called right after its manifest is written.
@@ -490,15 +503,7 @@ fn check_owner(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<()> 
 }
 
 fn write_json(path: &Path, v: &impl Serialize) -> Result<()> {
-    write_small(path, &serde_json::to_vec_pretty(v)?)
-}
-
-/// Writes a small state file through a temporary name and a rename (never half a file).
-fn write_small(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
-    fs::write(&tmp, bytes)
-        .and_then(|()| fs::rename(&tmp, path))
-        .with_context(|| format!("cannot write {}", path.display()))
+    crate::io::atomic::atomic_write(path, |w| Ok(serde_json::to_writer_pretty(w, v)?))
 }
 
 #[cfg(test)]

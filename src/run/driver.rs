@@ -1,0 +1,106 @@
+//! A run from start to end: claim the output folder, record the spec, key every job, skip
+//! those the job store already holds (resume), run the rest (all, or one shard's) with the
+//! scheduler, and, for a run that is not a shard, merge the store into the tables, files and
+//! manifest ([`crate::run::merge`]). `main`'s `run` command is this function.
+
+use crate::io::outdir::{OutDir, Purpose};
+use crate::run::jobs::all::AllJobs;
+use crate::run::jobs::{Inputs, Outcome};
+use crate::run::plan::Plan;
+use crate::run::scheduler::{self, RunOptions, RunSummary};
+use crate::run::{merge, store};
+use anyhow::Result;
+use std::time::Instant;
+
+/// Runs the jobs of `plan` (all, or one shard's) into the job store of the output folder,
+/// skipping those whose result the store already holds (unless `fresh`), then, for a run that
+/// is not a shard, merges the store into the tables, the files and the manifest
+/// ([`crate::run::merge`]).
+///
+/// # Errors
+/// Only for failures outside the jobs (an output folder that is not the tool's or is locked,
+/// the store, tables, manifest); a failed job is recorded in the store, in `jobs.parquet` (or,
+/// for a job of the run as a whole, in the manifest) and in the returned summary. A run that
+/// stops with an error leaves its folder marked in progress, which `table` and `report` refuse.
+pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
+    let start = Instant::now();
+    let purpose = match opts.shard {
+        Some((index, _)) => Purpose::Shard { index },
+        None => Purpose::Run,
+    };
+    let outdir = OutDir::claim(&opts.out, Some(&plan.spec.name), purpose)?;
+    let mut notes = outdir.notes.clone();
+    merge::record_plan(&opts.out, plan, opts.shard.map(|(_, n)| n))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads.max(1))
+        .build()?;
+    let all = AllJobs::new(plan);
+    let jobs = all.list();
+    let keys: Vec<String> = jobs
+        .iter()
+        .map(|j| store::key(*j, plan))
+        .collect::<Result<_>>()?;
+    // This run's jobs: a shard's share, or every job; jobs that read other jobs' rows run at
+    // the merge.
+    let mine: Vec<usize> = match opts.shard {
+        Some((index, shards)) => {
+            let assigned = store::assign(plan, &jobs, shards)?;
+            (0..jobs.len())
+                .filter(|&i| assigned[i] == Some(index))
+                .collect()
+        }
+        None => (0..jobs.len())
+            .filter(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)))
+            .collect(),
+    };
+    let (todo, skipped): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| {
+        opts.fresh || !matches!(store::entry(&opts.out, &keys[i]), store::Entry::Done(_))
+    });
+    if !skipped.is_empty() {
+        notes.push(format!(
+            "resumed: {} job(s) already done in the job store were skipped (--fresh redoes them)",
+            skipped.len()
+        ));
+    }
+    let bar = scheduler::progress(todo.len(), opts);
+    let done: Vec<(usize, Outcome)> =
+        pool.install(|| scheduler::execute(plan, &jobs, &keys, &[], &todo, opts, &bar, false));
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let mut failed: Vec<(String, String)> = done
+        .iter()
+        .filter_map(|(i, o)| {
+            o.rows
+                .as_ref()
+                .err()
+                .map(|e| (jobs[*i].id().to_string(), e.clone()))
+        })
+        .collect();
+    if opts.shard.is_some() {
+        // The folder stays in progress: `merge` writes the tables and the manifest.
+        return Ok(RunSummary {
+            total: mine.len(),
+            failed,
+            out: opts.out.clone(),
+            elapsed_s: start.elapsed().as_secs_f64(),
+            notes,
+            skipped: skipped.len(),
+            merged: false,
+        });
+    }
+    drop(done);
+    let merged =
+        pool.install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start))?;
+    notes.extend(merged.notes);
+    failed = merged.failed;
+    Ok(RunSummary {
+        total: jobs.len(),
+        failed,
+        out: opts.out.clone(),
+        elapsed_s: start.elapsed().as_secs_f64(),
+        notes,
+        skipped: skipped.len(),
+        merged: true,
+    })
+}
