@@ -37,14 +37,43 @@ pub fn atomic_write_durable(
     write_via_temporary(path, true, write)
 }
 
+/// [`atomic_write`] for a library that writes files by name (libhdf5): `write` creates and
+/// fills the temporary path it is given (in `path`'s folder, which exists), which is then
+/// renamed over `path`.
+///
+/// # Errors
+/// As [`atomic_write`]; the temporary file is removed.
+pub fn atomic_write_path(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let (dir, tmp) = temporary(path);
+    crate::io::outdir::note(path);
+    let result = (|| -> Result<()> {
+        fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        write(&tmp)?;
+        replace(&tmp, path)
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing {}", path.display()))
+}
+
+/// The folder of `path` and the temporary name beside it that a write goes through.
+fn temporary(path: &Path) -> (&Path, PathBuf) {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    (dir, dir.join(format!(".{name}.tmp-{}", std::process::id())))
+}
+
 fn write_via_temporary(
     path: &Path,
     durable: bool,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let (dir, tmp) = temporary(path);
     crate::io::outdir::note(path);
     let result = (|| -> Result<()> {
         // The folder is made only when it is missing (one failed open, not a mkdir per file).

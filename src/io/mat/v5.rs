@@ -1,145 +1,18 @@
-//! MATLAB MAT v5 input (`save -v6`/`-v7`, SciPy's `savemat`): a reader of the file's
-//! top-level variables that loads one numeric 3-D array (single or double, any integer class,
-//! real or complex; compressed (`miCOMPRESSED`) or not; little- or big-endian) as a complex
-//! stack in MATLAB's index order, `a[[i, j, k]] = x(i+1, j+1, k+1)`. Everything else is named
-//! in a clear error: a missing variable lists the file's variables, and structs, cells, char
-//! arrays, sparse matrices, objects and arrays that are not 3-D are refused with the file and
-//! the variable. Malformed input (truncated, corrupted, a v4 or v7.3 file) is an error, never
-//! a panic. The format is MathWorks' "MAT-File Format" (R2024a), chapter 1; the file is mapped
-//! read-only and a compressed variable is inflated only when it is the one being read (its
-//! header, to list it, is read from the first bytes of the stream).
+//! MAT v5 files (`save -v6`/`-v7`, SciPy's `savemat`): the reader of the file's top-level
+//! variables and of one numeric array's data (single or double, any integer class, real or
+//! complex; compressed (`miCOMPRESSED`) or not; little- or big-endian), and the tags the
+//! writer ([`super::write`]) shares. The format is MathWorks' "MAT-File Format" (R2024a),
+//! chapter 1; the file is mapped read-only and a compressed variable is inflated only when it
+//! is the one being read (its header, to list it, is read from the first bytes of the
+//! stream). Malformed bytes are errors, never panics.
 
-use crate::io::npy::Stack;
-use ndarray::Array3;
+use super::{MatError, Variable, CLASSES};
 use num_complex::Complex64;
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// Problems reading a `.mat` file; every variant names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum MatError {
-    /// The file cannot be opened or read.
-    #[error("cannot read {path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// The file is not a MAT v5 file this reader handles, or its bytes are malformed.
-    #[error("{path}: {reason}")]
-    Format {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        reason: String,
-    },
-    /// The requested variable is not in the file.
-    #[error("{path} has no variable {name:?}; it holds: {}", list(.variables))]
-    Missing {
-        /// The file.
-        path: PathBuf,
-        /// The requested name.
-        name: String,
-        /// What the file holds.
-        variables: Vec<Variable>,
-    },
-    /// No variable was named and the file does not hold exactly one numeric 3-D array.
-    #[error("{path} holds {count} numeric 3-D arrays, so name the variable to read; it holds: {}", list(.variables))]
-    Ambiguous {
-        /// The file.
-        path: PathBuf,
-        /// How many numeric 3-D arrays the file holds.
-        count: usize,
-        /// What the file holds.
-        variables: Vec<Variable>,
-    },
-    /// The variable exists but is not a numeric 3-D array.
-    #[error("{path}: variable {name:?} is {what}; a stack is a numeric 3-D array (H x W x N)")]
-    NotStack {
-        /// The file.
-        path: PathBuf,
-        /// The variable.
-        name: String,
-        /// What it is instead.
-        what: String,
-    },
-    /// A stack does not fit in memory.
-    #[error(transparent)]
-    Alloc(#[from] crate::alloc::AllocError),
-}
-
-fn list(v: &[Variable]) -> String {
-    if v.is_empty() {
-        return "no variables".into();
-    }
-    v.iter()
-        .map(|v| format!("{} ({})", v.name, v.describe()))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// A top-level variable of a MAT file, as listed without reading its data.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Variable {
-    /// Its name.
-    pub name: String,
-    /// MATLAB's class name (`double`, `single`, `int16`, `struct`, `cell`, `char`, `sparse`, ...).
-    pub class: &'static str,
-    /// Its dimensions (MATLAB order).
-    pub dims: Vec<usize>,
-    /// Whether it is complex.
-    pub complex: bool,
-    /// Whether it is a logical array.
-    pub logical: bool,
-}
-
-impl Variable {
-    /// Whether it is a numeric (not logical) array.
-    pub fn is_numeric(&self) -> bool {
-        numeric_class(self.class) && !self.logical
-    }
-
-    /// Whether it can be read as a stack.
-    pub fn is_stack(&self) -> bool {
-        self.is_numeric() && self.dims.len() == 3
-    }
-
-    /// `4x5x3 single complex`.
-    pub fn describe(&self) -> String {
-        let dims: Vec<String> = self.dims.iter().map(usize::to_string).collect();
-        let kind = if self.logical { "logical" } else { self.class };
-        let cx = if self.complex { " complex" } else { "" };
-        format!("{} {kind}{cx}", dims.join("x"))
-    }
-}
-
-const CLASSES: [&str; 18] = [
-    "unknown",
-    "cell",
-    "struct",
-    "object",
-    "char",
-    "sparse",
-    "double",
-    "single",
-    "int8",
-    "uint8",
-    "int16",
-    "uint16",
-    "int32",
-    "uint32",
-    "int64",
-    "uint64",
-    "function_handle",
-    "opaque",
-];
-
-fn numeric_class(c: &str) -> bool {
-    CLASSES[6..16].contains(&c)
-}
-
-const MI_MATRIX: u32 = 14;
+/// `miMATRIX`: a top-level array element.
+pub(crate) const MI_MATRIX: u32 = 14;
 const MI_COMPRESSED: u32 = 15;
 
 /// Bytes of one element of a MAT data type (`miINT8` .. `miDOUBLE`), `None` for others.
@@ -342,26 +215,25 @@ impl<R: Read> Elements<R> {
 
 /// One top-level element: where its payload lies and whether it is compressed.
 struct Entry {
-    var: Variable,
     start: usize,
     end: usize,
     compressed: bool,
 }
 
-/// A mapped MAT v5 file and the list of its top-level variables.
-pub struct MatFile {
-    path: PathBuf,
+/// A mapped MAT v5 file and where each top-level variable lies in it.
+pub struct V5File {
     map: memmap2::Mmap,
     big: bool,
     entries: Vec<Entry>,
 }
 
-impl MatFile {
-    /// Opens `path`, checks the header, and lists the variables (reading only their headers).
+impl V5File {
+    /// Maps `path` (whose 128-byte header said v5 of the byte order `big`) and lists its
+    /// variables, reading only their headers.
     ///
     /// # Errors
-    /// [`MatError`] if the file cannot be read or is not a well-formed MAT v5 file.
-    pub fn open(path: &Path) -> Result<MatFile, MatError> {
+    /// [`MatError`] if the file cannot be read or its elements are malformed.
+    pub fn open(path: &Path, big: bool) -> Result<(V5File, Vec<Variable>), MatError> {
         let io = |source| MatError::Io {
             path: path.to_path_buf(),
             source,
@@ -374,8 +246,14 @@ impl MatFile {
         // SAFETY: read-only private map; undefined only if another process truncates the
         // file while it is read (as for `.npy` stacks).
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
-        let big = header(&map).map_err(fmt)?;
+        if map.len() < 128 {
+            return Err(fmt(format!(
+                "not a MAT file: {} bytes, shorter than the 128-byte MAT header",
+                map.len()
+            )));
+        }
         let mut entries = Vec::new();
+        let mut variables = Vec::new();
         let mut at = 128;
         while at < map.len() {
             if map.len() - at < 8 {
@@ -408,88 +286,24 @@ impl MatFile {
             };
             let var = entry_header(&map[start..end], compressed, big)
                 .map_err(|r| fmt(format!("variable at byte {at}: {r}")))?;
+            variables.push(var);
             entries.push(Entry {
-                var,
                 start,
                 end,
                 compressed,
             });
             at = if compressed { end } else { end.div_ceil(8) * 8 };
         }
-        Ok(MatFile {
-            path: path.to_path_buf(),
-            map,
-            big,
-            entries,
-        })
+        Ok((V5File { map, big, entries }, variables))
     }
 
-    /// The file's top-level variables, in file order.
-    pub fn variables(&self) -> Vec<Variable> {
-        self.entries.iter().map(|e| e.var.clone()).collect()
-    }
-
-    /// Reads the variable `name` (or, when `None`, the only numeric 3-D array) as a complex
-    /// stack in MATLAB's index order (`[H, W, N]` for MATLAB's usual layout).
+    /// Reads the data of variable `index` (`v`, a numeric array) into `data`, column-major.
     ///
     /// # Errors
-    /// [`MatError`] if the variable is missing, ambiguous, not a numeric 3-D array, malformed,
-    /// or does not fit in memory.
-    pub fn read_stack(&self, name: Option<&str>) -> Result<Array3<Complex64>, MatError> {
-        let entry = match name {
-            Some(n) => self
-                .entries
-                .iter()
-                .find(|e| e.var.name == n)
-                .ok_or_else(|| MatError::Missing {
-                    path: self.path.clone(),
-                    name: n.to_string(),
-                    variables: self.variables(),
-                })?,
-            None => {
-                let stacks: Vec<&Entry> =
-                    self.entries.iter().filter(|e| e.var.is_stack()).collect();
-                if stacks.len() != 1 {
-                    return Err(MatError::Ambiguous {
-                        path: self.path.clone(),
-                        count: stacks.len(),
-                        variables: self.variables(),
-                    });
-                }
-                stacks[0]
-            }
-        };
-        let v = &entry.var;
-        if !v.is_stack() {
-            let what = match v.class {
-                "struct" => "a struct".to_string(),
-                "cell" => "a cell array".to_string(),
-                "char" => "a char array".to_string(),
-                "sparse" => "a sparse matrix".to_string(),
-                "object" | "opaque" | "function_handle" => format!("a MATLAB {} object", v.class),
-                _ if v.logical => "a logical array".to_string(),
-                _ if v.is_numeric() => format!("{}-D ({})", v.dims.len(), v.describe()),
-                _ => format!("of class {}", v.class),
-            };
-            return Err(MatError::NotStack {
-                path: self.path.clone(),
-                name: v.name.clone(),
-                what,
-            });
-        }
-        let fmt = |reason: String| MatError::Format {
-            path: self.path.clone(),
-            reason: format!("variable {:?}: {reason}", v.name),
-        };
-        let (d0, d1, d2) = (v.dims[0], v.dims[1], v.dims[2]);
-        let count = d0
-            .checked_mul(d1)
-            .and_then(|c| c.checked_mul(d2))
-            .ok_or_else(|| fmt("its size overflows".into()))?;
-        // Column-major (d0, d1, d2) is row-major (d2, d1, d0): fill linearly, then reverse.
-        let mut out: Array3<Complex64> =
-            crate::alloc::try_zeros((d2, d1, d0), "the MAT-file stack")?;
-        let data = out.as_slice_mut().expect("standard layout");
+    /// What is malformed, in words.
+    pub fn read(&self, index: usize, v: &Variable, data: &mut [Complex64]) -> Result<(), String> {
+        let entry = &self.entries[index];
+        let count = data.len();
         let bytes = &self.map[entry.start..entry.end];
         let mut read = |r: &mut dyn Read| -> Result<(), String> {
             let mut e = Elements { r, big: self.big };
@@ -511,39 +325,6 @@ impl MatFile {
         } else {
             read(&mut &bytes[..])
         }
-        .map_err(fmt)?;
-        Ok(out.reversed_axes())
-    }
-}
-
-/// Checks the 128-byte header; returns whether the file is big-endian.
-fn header(map: &[u8]) -> Result<bool, String> {
-    if map.starts_with(b"\x89HDF\r\n\x1a\n") {
-        return Err("an HDF5 file without a MATLAB header: not a MAT file".into());
-    }
-    if map.len() < 128 {
-        return Err(format!(
-            "not a MAT file: {} bytes, shorter than the 128-byte MAT v5 header",
-            map.len()
-        ));
-    }
-    let big = match &map[126..128] {
-        b"IM" => false,
-        b"MI" => true,
-        _ if map[..4].contains(&0) => {
-            return Err("not a MAT v5 file (a MAT v4 file? save it with -v7 or -v7.3)".into())
-        }
-        _ => return Err("not a MAT file: no endian indicator at byte 126".into()),
-    };
-    let version = if big {
-        u16::from_be_bytes([map[124], map[125]])
-    } else {
-        u16::from_le_bytes([map[124], map[125]])
-    };
-    match version {
-        0x0100 => Ok(big),
-        0x0200 => Err("a MAT v7.3 (HDF5) file: not read yet".into()),
-        v => Err(format!("unknown MAT version {v:#06x}")),
     }
 }
 
@@ -565,12 +346,4 @@ fn entry_header(bytes: &[u8], compressed: bool, big: bool) -> Result<Variable, S
     } else {
         Elements { r: bytes, big }.matrix_header()
     }
-}
-
-/// Loads a stack from a MAT v5 file (see [`MatFile::read_stack`]).
-///
-/// # Errors
-/// As for [`MatFile::open`] and [`MatFile::read_stack`].
-pub fn load_stack(path: &Path, variable: Option<&str>) -> Result<Stack, MatError> {
-    Ok(Stack::Generated(MatFile::open(path)?.read_stack(variable)?))
 }
