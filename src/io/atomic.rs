@@ -243,6 +243,31 @@ mod tests {
     use super::*;
 
     #[test]
+    fn atomic_write_path_hands_a_temporary_name_and_cleans_up_after_a_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("new/out.mat");
+        atomic_write_path(&path, |tmp| {
+            assert_eq!(tmp.parent(), path.parent());
+            assert!(!tmp.exists());
+            Ok(fs::write(tmp, b"first")?)
+        })
+        .unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"first");
+        let err = atomic_write_path(&path, |tmp| {
+            fs::write(tmp, b"partial")?;
+            anyhow::bail!("libhdf5 failed")
+        })
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("out.mat"), "{err:#}");
+        assert_eq!(fs::read(&path).unwrap(), b"first");
+        let names: Vec<_> = fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, ["out.mat"]);
+    }
+
+    #[test]
     fn atomic_write_makes_its_folder_and_replaces_an_existing_file() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a/b/out.bin");

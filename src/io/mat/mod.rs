@@ -170,19 +170,6 @@ fn numeric_class(c: &str) -> bool {
     CLASSES[6..16].contains(&c)
 }
 
-/// MATLAB's name for a class as a static string (`object` for a class this list lacks, such
-/// as `string`, `table` or a user's class).
-pub(crate) fn class_name(name: &str) -> &'static str {
-    match name {
-        "logical" => "uint8",
-        n => CLASSES
-            .iter()
-            .find(|c| **c == n)
-            .copied()
-            .unwrap_or("object"),
-    }
-}
-
 /// The `HDF5` signature that starts an HDF5 superblock.
 const HDF5_MAGIC: &[u8; 8] = b"\x89HDF\r\n\x1a\n";
 
@@ -445,9 +432,6 @@ mod tests {
 
     #[test]
     fn classes_are_named() {
-        assert_eq!(class_name("single"), "single");
-        assert_eq!(class_name("logical"), "uint8");
-        assert_eq!(class_name("table"), "object");
         let v = Variable {
             name: "s".into(),
             class: "struct",

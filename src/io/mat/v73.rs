@@ -10,7 +10,7 @@
 //! silenced by `hdf5-metno`.
 
 use super::write::{Blocks, Part};
-use super::{class_name, Variable};
+use super::{Variable, CLASSES};
 use anyhow::{Context, Result};
 use hdf5_metno::types::{CompoundField, CompoundType, FixedAscii, TypeDescriptor};
 use hdf5_metno::{H5Type, LocationType};
@@ -47,6 +47,19 @@ unsafe impl<T: H5Type> H5Type for Parts<T> {
 unsafe impl<T: bytemuck::Zeroable> bytemuck::Zeroable for Parts<T> {}
 // SAFETY: as above.
 unsafe impl<T: bytemuck::Pod> bytemuck::Pod for Parts<T> {}
+
+/// MATLAB's name for a class as a static string (`object` for a class this list lacks, such
+/// as `string`, `table` or a user's class).
+fn class_name(name: &str) -> &'static str {
+    match name {
+        "logical" => "uint8",
+        n => CLASSES
+            .iter()
+            .find(|c| **c == n)
+            .copied()
+            .unwrap_or("object"),
+    }
+}
 
 /// An open v7.3 file.
 pub struct V73File {
@@ -313,4 +326,65 @@ where
         Ok(())
     })
     .with_context(|| format!("writing the MAT v7.3 file {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn classes_are_named() {
+        assert_eq!(class_name("single"), "single");
+        assert_eq!(class_name("logical"), "uint8");
+        assert_eq!(class_name("table"), "object");
+        let c = |fields: &[(&str, TypeDescriptor)]| CompoundType {
+            fields: fields
+                .iter()
+                .enumerate()
+                .map(|(i, (n, t))| CompoundField::new(n, t.clone(), 8 * i, i))
+                .collect(),
+            size: 8 * fields.len(),
+        };
+        let f8 = TypeDescriptor::Float(hdf5_metno::types::FloatSize::U8);
+        assert!(is_complex(&c(&[
+            ("real", f8.clone()),
+            ("imag", f8.clone())
+        ])));
+        assert!(!is_complex(&c(&[("re", f8.clone()), ("im", f8.clone())])));
+        assert!(!is_complex(&c(&[
+            ("real", f8.clone()),
+            ("imag", TypeDescriptor::VarLenAscii)
+        ])));
+        assert_eq!(
+            inferred_class(&TypeDescriptor::Compound(c(&[
+                ("real", f8.clone()),
+                ("imag", f8)
+            ]))),
+            "double"
+        );
+        assert_eq!(
+            inferred_class(&TypeDescriptor::Integer(hdf5_metno::types::IntSize::U2)),
+            "int16"
+        );
+    }
+
+    #[test]
+    fn parts_are_the_layout_of_complex() {
+        let z = [num_complex::Complex64::new(1.5, -2.0)];
+        let p: &[Parts<f64>] = bytemuck::cast_slice(&z);
+        assert_eq!(
+            p[0],
+            Parts {
+                real: 1.5,
+                imag: -2.0
+            }
+        );
+        let TypeDescriptor::Compound(c) = Parts::<f32>::type_descriptor() else {
+            panic!("a compound")
+        };
+        assert_eq!(
+            (c.size, c.fields[1].name.as_str(), c.fields[1].offset),
+            (8, "imag", 4)
+        );
+    }
 }

@@ -189,26 +189,18 @@ pub fn is_ours(path: &Path) -> bool {
             .any(|w| w == MARK.as_bytes())
 }
 
-/// `Mon Nov 24 02:22:00 2025` (UTC) for `secs` since 1970 (Hinnant's `civil_from_days`).
+/// `Mon Nov 24 02:22:00 2025` (UTC) for `secs` since 1970, as MATLAB dates its headers.
 fn ctime(secs: u64) -> String {
     const DAYS: [&str; 7] = ["Thu", "Fri", "Sat", "Sun", "Mon", "Tue", "Wed"];
     const MONTHS: [&str; 12] = [
         "Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec",
     ];
     let (days, rest) = (secs / 86400, secs % 86400);
-    let z = days + 719_468;
-    let era = z / 146_097;
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + u64::from(month <= 2);
+    let (year, month, day) = crate::io::netcdf::time::civil_from_days(days as i64);
     format!(
         "{} {} {day:2} {:02}:{:02}:{:02} {year}",
         DAYS[(days % 7) as usize],
-        MONTHS[(month - 1) as usize],
+        MONTHS[month as usize - 1],
         rest / 3600,
         rest / 60 % 60,
         rest % 60
@@ -373,7 +365,7 @@ mod tests {
                 &h[124..],
                 &[code.to_le_bytes()[0], code.to_le_bytes()[1], b'I', b'M']
             );
-            assert_eq!(super::super::sniff(&h, 128).is_ok(), true);
+            assert!(super::super::sniff(&h, 128).is_ok());
         }
     }
 
@@ -391,12 +383,13 @@ mod tests {
             );
         }
         assert!(check_output(&out(MatVersion::V5, "samples"), (64, 64, 0)).is_err());
-        // 64 x 64 x 32767 single complex is 1.07 GB; x 65535 is over 2 GB.
-        assert!(check_output(&out(MatVersion::V5, "x"), (64, 64, 32767)).is_ok());
-        let e = check_output(&out(MatVersion::V5, "x"), (64, 64, 65535)).unwrap_err();
+        // 64 x 64 x 65535 single complex is 2^31 - 131072 bytes (and a header); x 65536 is
+        // 2^31 bytes of values, over the limit.
+        assert!(check_output(&out(MatVersion::V5, "x"), (64, 64, 65535)).is_ok());
+        let e = check_output(&out(MatVersion::V5, "x"), (64, 64, 65536)).unwrap_err();
         assert!(e.to_string().contains("at most 2 GB"), "{e}");
         assert_eq!(
-            check_output(&out(MatVersion::V73, "x"), (64, 64, 65535)).is_ok(),
+            check_output(&out(MatVersion::V73, "x"), (64, 64, 65536)).is_ok(),
             crate::io::mat::V73_SUPPORTED
         );
     }
