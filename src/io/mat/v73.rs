@@ -307,14 +307,9 @@ where
             .and_then(|a| a.write_scalar(&class))
             .context("writing MATLAB_class")?;
         blocks.each(|first, count, x| {
-            let parts: Vec<Parts<T>> = x
-                .iter()
-                .map(|z| Parts {
-                    real: z.re,
-                    imag: z.im,
-                })
-                .collect();
-            let view = ndarray::ArrayView3::from_shape((count, w, h), &parts)?;
+            // `Complex<T>` is `Parts<T>` byte for byte: no copy.
+            let parts: &[Parts<T>] = bytemuck::cast_slice(x);
+            let view = ndarray::ArrayView3::from_shape((count, w, h), parts)?;
             ds.write_slice(view, ndarray::s![first..first + count, .., ..])
                 .with_context(|| format!("writing samples {first}..{}", first + count))?;
             Ok(())
