@@ -379,45 +379,12 @@ fn real_main() -> Result<ExitCode> {
             var,
         } => {
             let mat = mat_output(&out, mat_version.as_deref(), mat_class, var)?;
-            match &mat {
-                Some(_) => isar_clutter::io::outdir::check_file_output(
-                    &out,
-                    "samples .mat",
-                    isar_clutter::io::mat::write::is_ours,
-                )?,
-                None => isar_clutter::io::outdir::check_file_output(
-                    &out,
-                    "samples .npy",
-                    is_samples_npy,
-                )?,
-            }
-            let (m, _) = isar_clutter::io::model::load(&model)?;
-            if let Some(mat) = &mat {
-                let (h, w) = m.shape();
-                isar_clutter::io::mat::write::check_output(mat, (h, w, samples))
-                    .with_context(|| format!("{} was not written", out.display()))?;
-            }
-            let bar = indicatif::ProgressBar::new(samples as u64);
-            if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-                bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-            }
-            let t = std::time::Instant::now();
-            let progress = |done: usize| bar.set_position(done as u64);
-            pool(jobs)?.install(|| match &mat {
-                Some(mat) => isar_clutter::io::model::generate_to_mat(
-                    &m, seed, samples, chunk, &out, mat, progress,
-                ),
-                None => isar_clutter::io::model::generate_to_npy(
-                    &m, seed, samples, chunk, &out, progress,
-                ),
-            })?;
-            bar.finish_and_clear();
-            let s = t.elapsed().as_secs_f64();
-            eprintln!(
-                "{samples} sample(s) -> {} in {s:.2} s ({:.0} samples/s)",
-                out.display(),
-                samples as f64 / s
-            );
+            let run = Generation {
+                seed,
+                samples,
+                chunk,
+            };
+            generate_command(&model, &out, mat.as_ref(), &run, jobs)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Run {
@@ -522,6 +489,72 @@ fn pool(jobs: Option<usize>) -> Result<rayon::ThreadPool> {
     Ok(rayon::ThreadPoolBuilder::new()
         .num_threads(jobs.unwrap_or_else(scheduler::default_threads))
         .build()?)
+}
+
+/// The seed, number and block size of a `generate`.
+struct Generation {
+    seed: u64,
+    samples: usize,
+    chunk: usize,
+}
+
+/// `generate`: check the output (a `.npy`, or the `.mat` `mat` describes), load the model,
+/// stream the samples into the file.
+fn generate_command(
+    model: &std::path::Path,
+    out: &std::path::Path,
+    mat: Option<&isar_clutter::io::mat::MatOutput>,
+    run: &Generation,
+    jobs: Option<usize>,
+) -> Result<()> {
+    match mat {
+        Some(_) => isar_clutter::io::outdir::check_file_output(
+            out,
+            "samples .mat",
+            isar_clutter::io::mat::write::is_ours,
+        )?,
+        None => isar_clutter::io::outdir::check_file_output(out, "samples .npy", is_samples_npy)?,
+    }
+    let (m, _) = isar_clutter::io::model::load(model)?;
+    if let Some(mat) = mat {
+        let (h, w) = m.shape();
+        isar_clutter::io::mat::write::check_output(mat, (h, w, run.samples))
+            .with_context(|| format!("{} was not written", out.display()))?;
+    }
+    let bar = indicatif::ProgressBar::new(run.samples as u64);
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let t = std::time::Instant::now();
+    let progress = |done: usize| bar.set_position(done as u64);
+    pool(jobs)?.install(|| match mat {
+        Some(mat) => isar_clutter::io::model::generate_to_mat(
+            &m,
+            run.seed,
+            run.samples,
+            run.chunk,
+            out,
+            mat,
+            progress,
+        ),
+        None => isar_clutter::io::model::generate_to_npy(
+            &m,
+            run.seed,
+            run.samples,
+            run.chunk,
+            out,
+            progress,
+        ),
+    })?;
+    bar.finish_and_clear();
+    let s = t.elapsed().as_secs_f64();
+    eprintln!(
+        "{} sample(s) -> {} in {s:.2} s ({:.0} samples/s)",
+        run.samples,
+        out.display(),
+        run.samples as f64 / s
+    );
+    Ok(())
 }
 
 /// The stack `fit` reads: a `.npy`, or a `.mat` variable; `layout` as given.

@@ -246,9 +246,13 @@ pub fn write_stack<T: Part>(
 
 /// The samples to write, `dims = (H, W, M)`, in blocks of at most `chunk`.
 pub(crate) struct Blocks<B, P> {
+    /// `(H, W, M)`.
     pub(crate) dims: (usize, usize, usize),
+    /// Samples per block (at least 1).
     pub(crate) chunk: usize,
+    /// `block(first, count)`: samples `first .. first + count` as `[count, H, W]`.
     pub(crate) block: B,
+    /// Hears the number of samples written so far.
     pub(crate) progress: P,
 }
 
