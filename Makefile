@@ -8,13 +8,17 @@ ARGS ?=
 BIN := $(CARGO_TARGET_DIR)/release/isar-clutter
 PYTHON ?= python3
 VENV := .venv
+# Cargo features: `mat73` reads and writes MATLAB v7.3 (HDF5) .mat files with the system's
+# libhdf5 (Debian's libhdf5-dev, installed by the `hdf5` target). `make FEATURES=` builds
+# without it: MAT v5 only, and a v7.3 file is a clear error.
+FEATURES ?= mat73
+CARGO_FEATURES := $(if $(strip $(FEATURES)),--features $(FEATURES))
 
-.PHONY: build run-experiment run-all compare validate test test-deps lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
+.PHONY: build run-experiment run-all compare validate test test-deps hdf5 lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
 
-## build: release build of the isar-clutter binary
-FEATURES ?=
-CARGO_FEATURES := $(if $(FEATURES),--features $(FEATURES))
-build:
+## build: release build of the isar-clutter binary (with FEATURES; add `cuda` for
+## `training: {device: cuda}`: make build FEATURES="mat73 cuda")
+build: hdf5
 	cargo build --release --locked $(CARGO_FEATURES)
 
 ## run-experiment: build and run SPEC (default: the Table 4 spec) into outputs/<name>/
@@ -39,12 +43,28 @@ validate: build
 
 ## test: every test, with the release profile (shares the release build's dependencies)
 test: test-deps
-	cargo test --release --locked
+	cargo test --release --locked $(CARGO_FEATURES)
 
-## test-deps: headless Chromium for the report's browser test (Debian's `chromium`; installed
-## with apt when running as root, otherwise a hint). Under CI=true the browser test fails
-## without it rather than skipping.
-test-deps:
+## hdf5: Debian's libhdf5-dev (and pkg-config) for the mat73 feature, installed with apt when
+## running as root, otherwise a hint; nothing when it is there or FEATURES leaves mat73 out
+hdf5:
+	@case " $(FEATURES) " in *" mat73 "*) ;; *) exit 0 ;; esac; \
+	if [ -f /usr/include/hdf5/serial/hdf5.h ] || [ -f /usr/include/hdf5.h ] || pkg-config --exists hdf5 2>/dev/null; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing libhdf5-dev for MATLAB v7.3 files (apt-get)"; \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends libhdf5-dev pkg-config >/dev/null; \
+	else \
+		echo "libhdf5-dev not found: install Debian's libhdf5-dev for MATLAB v7.3 files, or build without them: make FEATURES="; \
+	fi
+
+## test-deps: libhdf5-dev (`hdf5`); SciPy and h5py (pinned) in .venv for the MATLAB .mat tests;
+## headless Chromium for the report's browser test (Debian's `chromium`; installed with apt
+## when running as root, otherwise a hint). Under CI=true the browser and .mat tests fail
+## without them rather than skipping.
+test-deps: hdf5 $(VENV)/bin/python
+	@$(VENV)/bin/python -c 'import sys, scipy, h5py; sys.exit(scipy.__version__ != "1.15.3" or h5py.__version__ != "3.13.0")' 2>/dev/null || \
+	{ echo "installing scipy and h5py into $(VENV) for the .mat tests (pip)"; \
+	  $(VENV)/bin/pip install --quiet scipy==1.15.3 h5py==3.13.0; }
 	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || \
 	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 		echo "installing chromium for the browser test (apt-get)"; \
@@ -56,14 +76,18 @@ test-deps:
 ## lint: formatting and clippy with warnings as errors
 lint:
 	cargo fmt --all -- --check
+	cargo clippy --release --all-targets --locked $(CARGO_FEATURES) -- -D warnings
 	cargo clippy --release --all-targets --locked -- -D warnings
 
 fmt:
 	cargo fmt --all
 
-## bench-deps: a virtualenv with numpy for the side-by-side baselines
+## bench-deps: a virtualenv with numpy for the side-by-side baselines (and the tests' Python;
+## as root, Debian's python3-venv is installed when venv needs it)
 $(VENV)/bin/python:
-	$(PYTHON) -m venv $(VENV)
+	$(PYTHON) -m venv $(VENV) || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1 && \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null && \
+		rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(VENV)/bin/pip install --quiet numpy==2.3.5 pyarrow==21.0.0
 bench-deps: $(VENV)/bin/python
 

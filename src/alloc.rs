@@ -84,6 +84,13 @@ where
         .iter()
         .try_fold(1usize, |n, &d| n.checked_mul(d))
         .ok_or_else(error)?;
+    // ndarray also bounds the non-zero axes of an empty array (a forged file's `0 x 2^40 x
+    // 2^40`): an error here, not a panic below.
+    dims.iter()
+        .filter(|&&d| d != 0)
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .filter(|&n| n <= isize::MAX as usize)
+        .ok_or_else(error)?;
     let layout = Layout::array::<A>(len).map_err(|_| error())?;
     let data: Vec<A> = if layout.size() == 0 {
         (0..len).map(|_| A::zeroed()).collect()
@@ -316,5 +323,8 @@ mod try_zeros_tests {
         // A size past usize overflows before anything is asked of the allocator.
         let e = try_zeros::<Complex64, _>((1 << 40, 1 << 40, 16), "stack").unwrap_err();
         assert_eq!(e.shape, vec![1 << 40, 1 << 40, 16]);
+        // So does an empty array whose other axes ndarray cannot hold.
+        let e = try_zeros::<Complex64, _>((0, 1 << 40, 1 << 40), "stack").unwrap_err();
+        assert_eq!(e.shape, vec![0, 1 << 40, 1 << 40]);
     }
 }

@@ -156,12 +156,18 @@ enum Command {
     },
     /// Fit a synthesis model to a stack and save it as a model folder.
     Fit {
-        /// The stack: .npy of complex64, complex128 or real values, [N, H, W].
+        /// The stack: .npy of complex64, complex128 or real values, [N, H, W]; or a MATLAB
+        /// .mat file (v5, or v7.3 in a build with the mat73 feature) holding a numeric 3-D
+        /// array, H x W x N.
         #[arg(long)]
         input: PathBuf,
-        /// Axis order of the input: nhw (default) or hwn (MATLAB exports).
-        #[arg(long, default_value = "nhw")]
-        layout: String,
+        /// .mat input: the variable to read (default: the file's only numeric 3-D array).
+        #[arg(long, value_name = "NAME")]
+        var: Option<String>,
+        /// Axis order of the input: nhw or hwn (default: nhw for .npy, hwn, MATLAB's
+        /// H x W x N, for .mat).
+        #[arg(long)]
+        layout: Option<String>,
         /// method1, method2, full_covariance, uncorrelated or fourth_order.
         #[arg(long)]
         method: String,
@@ -178,7 +184,8 @@ enum Command {
         #[arg(long)]
         jobs: Option<usize>,
     },
-    /// Generate samples from a model folder into a [M, H, W] complex64 .npy, in constant memory.
+    /// Generate samples from a model folder into a [M, H, W] complex64 .npy, or a MATLAB .mat
+    /// holding an H x W x M single complex array, in constant memory.
     Generate {
         /// The model folder (from `fit` or a run's models/<job>).
         #[arg(long)]
@@ -189,9 +196,19 @@ enum Command {
         /// Seed of the generation (sample s draws from ChaCha20 stream s).
         #[arg(long)]
         seed: u64,
-        /// The .npy to write.
+        /// The .npy or .mat (by its extension) to write.
         #[arg(long)]
         out: PathBuf,
+        /// .mat output: the MAT version, 7.3 (default: HDF5, any size; needs the mat73
+        /// feature) or 5 (at most 2 GB).
+        #[arg(long, value_name = "VERSION", value_parser = ["7.3", "5"])]
+        mat_version: Option<String>,
+        /// .mat output: the class of the values (default single).
+        #[arg(long, value_enum, value_name = "CLASS")]
+        mat_class: Option<isar_clutter::io::mat::MatClass>,
+        /// .mat output: the name of the variable (default samples).
+        #[arg(long, value_name = "NAME")]
+        var: Option<String>,
         /// Samples generated per block (memory: one block).
         #[arg(long, default_value_t = 1024)]
         chunk: usize,
@@ -337,6 +354,7 @@ fn real_main() -> Result<ExitCode> {
         }
         Command::Fit {
             input,
+            var,
             layout,
             method,
             out,
@@ -344,8 +362,12 @@ fn real_main() -> Result<ExitCode> {
             levels,
             jobs,
         } => {
-            pool(jobs)?
-                .install(|| fit_command(&input, &layout, &method, &out, half_width, levels))?;
+            let input = Input {
+                path: &input,
+                var: var.as_deref(),
+                layout: layout.as_deref(),
+            };
+            pool(jobs)?.install(|| fit_command(&input, &method, &out, half_width, levels))?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Generate {
@@ -355,26 +377,17 @@ fn real_main() -> Result<ExitCode> {
             out,
             chunk,
             jobs,
+            mat_version,
+            mat_class,
+            var,
         } => {
-            isar_clutter::io::outdir::check_file_output(&out, "samples .npy", is_samples_npy)?;
-            let (m, _) = isar_clutter::io::model::load(&model)?;
-            let bar = indicatif::ProgressBar::new(samples as u64);
-            if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-                bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-            }
-            let t = std::time::Instant::now();
-            pool(jobs)?.install(|| {
-                isar_clutter::io::model::generate_to_npy(&m, seed, samples, chunk, &out, |done| {
-                    bar.set_position(done as u64)
-                })
-            })?;
-            bar.finish_and_clear();
-            let s = t.elapsed().as_secs_f64();
-            eprintln!(
-                "{samples} sample(s) -> {} in {s:.2} s ({:.0} samples/s)",
-                out.display(),
-                samples as f64 / s
-            );
+            let mat = mat_output(&out, mat_version.as_deref(), mat_class, var)?;
+            let run = Generation {
+                seed,
+                samples,
+                chunk,
+            };
+            generate_command(&model, &out, mat.as_ref(), &run, jobs)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Run {
@@ -481,10 +494,142 @@ fn pool(jobs: Option<usize>) -> Result<rayon::ThreadPool> {
         .build()?)
 }
 
+/// The seed, number and block size of a `generate`.
+struct Generation {
+    seed: u64,
+    samples: usize,
+    chunk: usize,
+}
+
+/// `generate`: check the output (a `.npy`, or the `.mat` `mat` describes), load the model,
+/// stream the samples into the file.
+fn generate_command(
+    model: &std::path::Path,
+    out: &std::path::Path,
+    mat: Option<&isar_clutter::io::mat::MatOutput>,
+    run: &Generation,
+    jobs: Option<usize>,
+) -> Result<()> {
+    match mat {
+        Some(_) => isar_clutter::io::outdir::check_file_output(
+            out,
+            "samples .mat",
+            isar_clutter::io::mat::write::is_ours,
+        )?,
+        None => isar_clutter::io::outdir::check_file_output(out, "samples .npy", is_samples_npy)?,
+    }
+    let (m, _) = isar_clutter::io::model::load(model)?;
+    if let Some(mat) = mat {
+        let (h, w) = m.shape();
+        isar_clutter::io::mat::write::check_output(mat, (h, w, run.samples))
+            .with_context(|| format!("{} was not written", out.display()))?;
+    }
+    let bar = indicatif::ProgressBar::new(run.samples as u64);
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let t = std::time::Instant::now();
+    let progress = |done: usize| bar.set_position(done as u64);
+    pool(jobs)?.install(|| match mat {
+        Some(mat) => isar_clutter::io::model::generate_to_mat(
+            &m,
+            run.seed,
+            run.samples,
+            run.chunk,
+            out,
+            mat,
+            progress,
+        ),
+        None => isar_clutter::io::model::generate_to_npy(
+            &m,
+            run.seed,
+            run.samples,
+            run.chunk,
+            out,
+            progress,
+        ),
+    })?;
+    bar.finish_and_clear();
+    let s = t.elapsed().as_secs_f64();
+    eprintln!(
+        "{} sample(s) -> {} in {s:.2} s ({:.0} samples/s)",
+        run.samples,
+        out.display(),
+        run.samples as f64 / s
+    );
+    Ok(())
+}
+
+/// The stack `fit` reads: a `.npy`, or a `.mat` variable; `layout` as given.
+struct Input<'a> {
+    path: &'a std::path::Path,
+    var: Option<&'a str>,
+    layout: Option<&'a str>,
+}
+
+impl Input<'_> {
+    /// The stack, whether its axes are `[H, W, N]`, and its name for the model's `source`.
+    fn load(&self) -> Result<(isar_clutter::io::npy::Stack, bool, String)> {
+        use isar_clutter::io::mat::{is_mat_path, MatFile};
+        let mat = is_mat_path(self.path);
+        let hwn = match self.layout {
+            None => mat,
+            Some("nhw") => false,
+            Some("hwn") => true,
+            Some(other) => anyhow::bail!("unknown layout {other:?}: nhw or hwn"),
+        };
+        if !mat {
+            if self.var.is_some() {
+                anyhow::bail!(
+                    "--var names a variable of a .mat input; {} is read as .npy",
+                    self.path.display()
+                );
+            }
+            let stack = isar_clutter::io::npy::Stack::load(self.path)?;
+            return Ok((stack, hwn, self.path.display().to_string()));
+        }
+        let file = MatFile::open(self.path)?;
+        let name = file.stack_variable(self.var)?.name.clone();
+        let stack = isar_clutter::io::npy::Stack::Generated(file.read_stack(Some(&name))?);
+        Ok((
+            stack,
+            hwn,
+            format!("{} (variable {name})", self.path.display()),
+        ))
+    }
+}
+
+/// The `.mat` output `generate` writes, from `--out`'s extension and the `.mat` options
+/// (`None`: a `.npy`, where no `.mat` option may be given).
+fn mat_output(
+    out: &std::path::Path,
+    version: Option<&str>,
+    class: Option<isar_clutter::io::mat::MatClass>,
+    var: Option<String>,
+) -> Result<Option<isar_clutter::io::mat::MatOutput>> {
+    use isar_clutter::io::mat::{is_mat_path, MatClass, MatOutput, MatVersion};
+    if !is_mat_path(out) {
+        if version.is_some() || class.is_some() || var.is_some() {
+            anyhow::bail!(
+                "--mat-version, --mat-class and --var apply to a .mat output; {} is written as                  .npy",
+                out.display()
+            );
+        }
+        return Ok(None);
+    }
+    Ok(Some(MatOutput {
+        version: match version {
+            Some("5") => MatVersion::V5,
+            _ => MatVersion::V73,
+        },
+        class: class.unwrap_or(MatClass::Single),
+        variable: var.unwrap_or_else(|| "samples".into()),
+    }))
+}
+
 /// `fit`: load, analyse, fit, save.
 fn fit_command(
-    input: &std::path::Path,
-    layout: &str,
+    input: &Input,
     method: &str,
     out: &std::path::Path,
     half_width: usize,
@@ -497,16 +642,11 @@ fn fit_command(
                 "unknown method {method:?}: method1, method2, full_covariance, uncorrelated or fourth_order"
             )
         })?;
-    let hwn = match layout {
-        "nhw" => false,
-        "hwn" => true,
-        other => anyhow::bail!("unknown layout {other:?}: nhw or hwn"),
-    };
-    let stack = isar_clutter::io::npy::Stack::load(input)?;
+    let (stack, hwn, source) = input.load()?;
     let depth = if method == Method::Method2 { levels } else { 1 };
     let analysis = stack
         .analyse(hwn, depth)
-        .with_context(|| format!("analysing {}", input.display()))?;
+        .with_context(|| format!("analysing {source}"))?;
     let full = matches!(method, Method::FullCovariance | Method::FourthOrder)
         .then(|| stack.to_complex128(hwn));
     let model = fit(
@@ -523,13 +663,12 @@ fn fit_command(
         &analysis,
         half_width,
         depth,
-        input.display().to_string(),
+        source.clone(),
     );
     save_model(&model, &info, out)?;
     eprintln!(
-        "{} fitted to {} ({} samples of {}x{}) -> {}",
+        "{} fitted to {source} ({} samples of {}x{}) -> {}",
         method.as_str(),
-        input.display(),
         info.samples_fitted,
         info.height,
         info.width,

@@ -1,5 +1,5 @@
 //! Materialises validated datasets into stacks: synthetic filtered noise (generated from the
-//! job's data seed) or a stack loaded from `.npy`.
+//! job's data seed) or a stack loaded from a file (`.npy`, `.mat`, NetCDF, k-space).
 //!
 //! Synthetic samples: a white complex circular seed (`E|z|^2 = 1`, real and imaginary parts
 //! `N(0, 1/2)`) on a grid padded by the half-width, filtered in 'valid' mode (no edge
@@ -28,6 +28,9 @@ pub enum DataError {
     /// A file cannot be read or decoded, or the imaging fails on its data.
     #[error(transparent)]
     Npy(#[from] NpyError),
+    /// A MATLAB file's variable cannot be read.
+    #[error(transparent)]
+    Mat(#[from] crate::io::mat::MatError),
     /// A stack does not fit in memory.
     #[error(transparent)]
     Alloc(#[from] AllocError),
@@ -112,7 +115,7 @@ pub fn generate(
 /// Loads or generates the stack of a dataset.
 ///
 /// # Errors
-/// [`DataError`] if an `.npy` stack cannot be read or a stack does not fit in memory.
+/// [`DataError`] if a file's stack cannot be read or a stack does not fit in memory.
 pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, DataError> {
     Ok(match dataset {
         Dataset::FilteredNoise(d) => {
@@ -195,6 +198,12 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Da
                 }
             })?),
             hwn: false,
+            truth: None,
+            kspace: None,
+        },
+        Dataset::Mat(m) => Materialised {
+            stack: crate::io::mat::load_stack(&m.path, Some(&m.variable))?,
+            hwn: m.layout == Layout::Hwn,
             truth: None,
             kspace: None,
         },

@@ -1,5 +1,6 @@
 //! The `datasets` section: a dataset as written (every kind's fields), and the validated
-//! dataset kinds it becomes (filtered noise, `.npy`, k-space, simulated plants, NetCDF).
+//! dataset kinds it becomes (filtered noise, `.npy`, MATLAB `.mat`, k-space, simulated plants,
+//! NetCDF).
 
 use super::*;
 
@@ -11,6 +12,9 @@ pub enum DatasetKind {
     FilteredNoise,
     /// A stack read from a `.npy` file.
     Npy,
+    /// A stack read from a variable of a MATLAB `.mat` file (v5, or v7.3 with the `mat73`
+    /// feature).
+    Mat,
     /// Two variables of a NetCDF-3 file combined as `u + i v` (geophysical fields).
     Netcdf,
     /// Simulated ISAR images of a wind-blown plant (the physical forward model).
@@ -29,14 +33,14 @@ pub enum Family {
     Dyadic,
 }
 
-/// Axis order of an `npy` stack.
+/// Axis order of an `npy` or `mat` stack.
 #[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Layout {
-    /// `[N, H, W]` (default).
+    /// `[N, H, W]` (the default of `npy`).
     #[default]
     Nhw,
-    /// `[H, W, N]` (MATLAB exports).
+    /// `[H, W, N]` (MATLAB's `H x W x N`, the default of `mat`).
     Hwn,
 }
 
@@ -86,12 +90,15 @@ pub struct DatasetSpec {
     /// [`FilteredNoise::texture_shape`]); absent: Gaussian.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture_shape: Option<f64>,
-    /// `npy`: path of the stack, relative to the spec file.
+    /// `npy`, `mat` (and `netcdf`, `kspace`): path of the file, relative to the spec file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path: Option<PathBuf>,
-    /// `npy`: axis order (`nhw` default, `hwn`).
+    /// `npy`: axis order (`nhw` default, `hwn`); `mat`: the same, `hwn` by default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layout: Option<Layout>,
+    /// `mat`: the variable holding the stack (default: the file's only numeric 3-D array).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub variable: Option<String>,
     /// `vegetation_isar`: plant preset `A`..`E`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub plant: Option<String>,
@@ -216,6 +223,34 @@ pub struct NpyDataset {
     pub header: NpyHeader,
 }
 
+/// A validated `mat` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatDataset {
+    /// Resolved path.
+    pub path: PathBuf,
+    /// The variable read (named in the spec, or the file's only numeric 3-D array).
+    pub variable: String,
+    /// Axis order of the variable's MATLAB dimensions.
+    pub layout: Layout,
+    /// The variable's MATLAB dimensions, e.g. `[H, W, N]`.
+    pub dims: [usize; 3],
+    /// Its MATLAB class (`single`, `double`, `int16`, ...).
+    pub class: &'static str,
+    /// Whether it is complex.
+    pub complex: bool,
+}
+
+impl MatDataset {
+    /// `(N, H, W)` after applying the layout.
+    pub fn stack_shape(&self) -> (usize, usize, usize) {
+        let [a, b, c] = self.dims;
+        match self.layout {
+            Layout::Nhw => (a, b, c),
+            Layout::Hwn => (c, a, b),
+        }
+    }
+}
+
 /// A validated dataset.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Dataset {
@@ -223,6 +258,8 @@ pub enum Dataset {
     FilteredNoise(Box<FilteredNoise>),
     /// A stack on disk.
     Npy(NpyDataset),
+    /// A variable of a MATLAB `.mat` file.
+    Mat(MatDataset),
     /// Two variables of a NetCDF-3 file.
     Netcdf(NetcdfDataset),
     /// Simulated ISAR images of a plant.
@@ -363,6 +400,7 @@ impl Dataset {
         match self {
             Dataset::FilteredNoise(f) => (f.samples, f.height, f.width),
             Dataset::Npy(n) => n.stack_shape(),
+            Dataset::Mat(m) => m.stack_shape(),
             Dataset::Netcdf(n) => n.shape,
             Dataset::Vegetation(v) => (v.samples, v.image_size, v.image_size),
             Dataset::Kspace(k) => (k.samples, k.image_size, k.image_size),
@@ -374,6 +412,7 @@ impl Dataset {
         match self {
             Dataset::FilteredNoise(_) => "filtered_noise",
             Dataset::Npy(_) => "npy",
+            Dataset::Mat(_) => "mat",
             Dataset::Netcdf(_) => "netcdf",
             Dataset::Vegetation(_) => "vegetation_isar",
             Dataset::Kspace(_) => "kspace",

@@ -26,6 +26,7 @@ impl DatasetSpec {
         ];
         match (self.kind, self.family) {
             (DatasetKind::Npy, _) => &["path", "layout"],
+            (DatasetKind::Mat, _) => &["path", "variable", "layout"],
             (DatasetKind::Netcdf, _) => &["path", "u", "v", "remove_monthly_mean"],
             (DatasetKind::Kspace, _) => &["path", "freqs", "azimuths_deg", "image_size"],
             (DatasetKind::VegetationIsar, _) => &[
@@ -74,6 +75,7 @@ impl DatasetSpec {
             ("texture_shape", self.texture_shape.is_some()),
             ("path", self.path.is_some()),
             ("layout", self.layout.is_some()),
+            ("variable", self.variable.is_some()),
             ("plant", self.plant.is_some()),
             ("wind", self.wind.is_some()),
             ("scene", self.scene.is_some()),
@@ -103,6 +105,7 @@ impl DatasetSpec {
         }
         let dataset = match self.kind {
             DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
+            DatasetKind::Mat => Dataset::Mat(self.check_mat(ctx, at)?),
             DatasetKind::Netcdf => Dataset::Netcdf(self.check_netcdf(ctx, at)?),
             DatasetKind::Kspace => Dataset::Kspace(Box::new(self.check_kspace(ctx, at)?)),
             DatasetKind::VegetationIsar => {
@@ -114,10 +117,10 @@ impl DatasetSpec {
         };
         let (n, h, w) = dataset.shape();
         if n < 2 {
-            let field = if self.kind == DatasetKind::Npy {
-                "path"
-            } else {
-                "samples"
+            let field = match self.kind {
+                DatasetKind::Npy => "path",
+                DatasetKind::Mat => "variable",
+                _ => "samples",
             };
             return Err(ctx.err(
                 format!("{at}.{field}"),
@@ -341,6 +344,36 @@ impl DatasetSpec {
             path,
             layout: self.layout.unwrap_or_default(),
             header,
+        })
+    }
+
+    /// Opens the `.mat` file and checks the variable (named, or the only numeric 3-D array)
+    /// from the variables' headers, without reading the data.
+    fn check_mat(&self, ctx: &Ctx, at: &str) -> Result<MatDataset, SpecError> {
+        use crate::io::mat::{MatError, MatFile};
+        let rel = self
+            .path
+            .as_ref()
+            .ok_or_else(|| ctx.err(format!("{at}.path"), "kind mat needs `path`"))?;
+        let path = ctx.resolve(rel);
+        let file =
+            MatFile::open(&path).map_err(|e| ctx.err(format!("{at}.path"), e.to_string()))?;
+        let v = file.stack_variable(self.variable.as_deref()).map_err(|e| {
+            let field = match e {
+                MatError::Missing { .. }
+                | MatError::Ambiguous { .. }
+                | MatError::NotStack { .. } => "variable",
+                _ => "path",
+            };
+            ctx.err(format!("{at}.{field}"), e.to_string())
+        })?;
+        Ok(MatDataset {
+            path,
+            variable: v.name.clone(),
+            layout: self.layout.unwrap_or(Layout::Hwn),
+            dims: [v.dims[0], v.dims[1], v.dims[2]],
+            class: v.class,
+            complex: v.complex,
         })
     }
 

@@ -37,14 +37,43 @@ pub fn atomic_write_durable(
     write_via_temporary(path, true, write)
 }
 
+/// [`atomic_write`] for a library that writes files by name (libhdf5): `write` creates and
+/// fills the temporary path it is given (in `path`'s folder, which exists), which is then
+/// renamed over `path`.
+///
+/// # Errors
+/// As [`atomic_write`]; the temporary file is removed.
+pub fn atomic_write_path(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let (dir, tmp) = temporary(path);
+    crate::io::outdir::note(path);
+    let result = (|| -> Result<()> {
+        fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        write(&tmp)?;
+        replace(&tmp, path)
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing {}", path.display()))
+}
+
+/// The folder of `path` and the temporary name beside it that a write goes through.
+fn temporary(path: &Path) -> (&Path, PathBuf) {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    (dir, dir.join(format!(".{name}.tmp-{}", std::process::id())))
+}
+
 fn write_via_temporary(
     path: &Path,
     durable: bool,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let (dir, tmp) = temporary(path);
     crate::io::outdir::note(path);
     let result = (|| -> Result<()> {
         // The folder is made only when it is missing (one failed open, not a mkdir per file).
@@ -212,6 +241,31 @@ pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn atomic_write_path_hands_a_temporary_name_and_cleans_up_after_a_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("new/out.mat");
+        atomic_write_path(&path, |tmp| {
+            assert_eq!(tmp.parent(), path.parent());
+            assert!(!tmp.exists());
+            Ok(fs::write(tmp, b"first")?)
+        })
+        .unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"first");
+        let err = atomic_write_path(&path, |tmp| {
+            fs::write(tmp, b"partial")?;
+            anyhow::bail!("libhdf5 failed")
+        })
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("out.mat"), "{err:#}");
+        assert_eq!(fs::read(&path).unwrap(), b"first");
+        let names: Vec<_> = fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, ["out.mat"]);
+    }
 
     #[test]
     fn atomic_write_makes_its_folder_and_replaces_an_existing_file() {

@@ -473,3 +473,43 @@ pub fn generate_to_npy(
         Ok(())
     })
 }
+
+/// Streams samples `0..samples` of the generation seeded by `seed` into the MAT file `path` as
+/// the variable `out.variable`, MATLAB `H x W x M` of `out.class` complex, `chunk` samples at
+/// a time (memory: one chunk; see [`crate::io::mat::write::write_stack`]). `single` values are
+/// those `generate_to_npy` writes; `double` values are the generator's own, unrounded.
+///
+/// # Errors
+/// If the output is refused ([`crate::io::mat::write::check_output`]), a block does not fit in
+/// memory, or the file cannot be written.
+pub fn generate_to_mat(
+    model: &Model,
+    seed: u64,
+    samples: usize,
+    chunk: usize,
+    path: &Path,
+    out: &crate::io::mat::MatOutput,
+    progress: impl FnMut(usize),
+) -> Result<()> {
+    use crate::io::mat::{write::write_stack, MatClass};
+    let (h, w) = model.shape();
+    let dims = (h, w, samples);
+    match out.class {
+        MatClass::Single => write_stack::<f32>(
+            path,
+            out,
+            dims,
+            chunk,
+            |first, count| Ok(model.try_generate_c64(seed, first, count)?),
+            progress,
+        ),
+        MatClass::Double => write_stack::<f64>(
+            path,
+            out,
+            dims,
+            chunk,
+            |first, count| Ok(model.try_generate(seed, first, count)?),
+            progress,
+        ),
+    }
+}

@@ -168,9 +168,26 @@ impl Model {
 
     /// Generates samples `first .. first + count` of the generation seeded by `seed`, in
     /// parallel on the caller's rayon pool.
+    ///
+    /// # Panics
+    /// If the samples do not fit in memory (see [`Model::try_generate`]).
     pub fn generate(&self, seed: u64, first: usize, count: usize) -> Array3<Complex64> {
+        self.try_generate(seed, first, count)
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// [`Model::generate`] with the output allocated fallibly.
+    ///
+    /// # Errors
+    /// [`AllocError`] if the `count x H x W` complex128 samples do not fit in memory.
+    pub fn try_generate(
+        &self,
+        seed: u64,
+        first: usize,
+        count: usize,
+    ) -> Result<Array3<Complex64>, AllocError> {
         let (h, w) = self.shape();
-        let mut out = Array3::zeros((count, h, w));
+        let mut out = try_zeros((count, h, w), "the generated samples")?;
         if let (None, Some(_)) = (&self.filter, &self.deviations) {
             out.as_slice_mut()
                 .expect("standard layout")
@@ -179,13 +196,13 @@ impl Model {
                 .for_each(|(b, block)| {
                     self.full_covariance_c128(seed, first + b * FULL_COVARIANCE_BATCH, block)
                 });
-            return out;
+            return Ok(out);
         }
         out.as_slice_mut()
             .expect("standard layout")
             .par_chunks_mut(h * w)
             .enumerate()
             .for_each(|(s, plane)| self.sample_into(seed, first + s, plane));
-        out
+        Ok(out)
     }
 }

@@ -79,3 +79,29 @@ pub fn run_spec(spec: &std::path::Path, out: &std::path::Path, extra: &[&str]) {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// The project's virtualenv Python (`.venv/bin/python`, what `make test-deps` fills) if it
+/// imports every module of `modules`; `None` (the caller skips, saying why) otherwise, except
+/// under `CI=true`, where a missing module fails the test.
+pub fn venv_python(modules: &[&str]) -> Option<std::path::PathBuf> {
+    let python = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python");
+    let import = format!("import {}", modules.join(", "));
+    let has = python.exists()
+        && std::process::Command::new(&python)
+            .args(["-c", &import])
+            .status()
+            .is_ok_and(|s| s.success());
+    if has {
+        return Some(python);
+    }
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "CI=true: this test needs {} in .venv (`make test-deps` installs them)",
+        modules.join(", ")
+    );
+    eprintln!(
+        "skipping: .venv lacks one of {} (`make test-deps` installs them)",
+        modules.join(", ")
+    );
+    None
+}

@@ -125,10 +125,11 @@ pub fn check_file_output(path: &Path, what: &str, ours: impl Fn(&Path) -> bool) 
     match fs::symlink_metadata(path) {
         Err(_) => Ok(()),
         Ok(m) if m.is_dir() => bail!(
-            "{} is a folder; --out names the {what} file to write (e.g. {}/samples.npy); \
+            "{} is a folder; --out names the {what} file to write (e.g. {}/samples.{}); \
              nothing was changed",
             path.display(),
-            path.display()
+            path.display(),
+            what.rsplit('.').next().unwrap_or("npy")
         ),
         Ok(m) if !m.is_file() => bail!(
             "{} exists and is not a regular file; nothing was changed",

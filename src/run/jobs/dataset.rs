@@ -71,6 +71,7 @@ impl JobKind for Job {
         use crate::experiment::Dataset;
         match &self.dataset {
             Dataset::Npy(d) => vec![d.path.clone()],
+            Dataset::Mat(d) => vec![d.path.clone()],
             Dataset::Netcdf(d) => vec![d.path.clone()],
             Dataset::Kspace(d) => vec![d.path.clone()],
             Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
@@ -147,12 +148,13 @@ fn timing(r: &JobResult) -> serde_json::Value {
 /// computed; above it `expected_correlation` is null (the pair sums grow as `4^L` per pixel).
 pub const MAX_EXACT_PIXELS: usize = 256 * 256;
 
-/// Datasets worth sharing between jobs: simulated or decoded ones (a mapped `.npy` is free and
-/// synthetic filtered noise cheap next to its jobs).
+/// Datasets worth sharing between jobs: simulated or decoded ones (`.mat` and NetCDF stacks are
+/// decoded into memory; a mapped `.npy` is free and synthetic filtered noise cheap next to its
+/// jobs).
 fn expensive(d: &Dataset) -> bool {
     matches!(
         d,
-        Dataset::Vegetation(_) | Dataset::Kspace(_) | Dataset::Netcdf(_)
+        Dataset::Vegetation(_) | Dataset::Kspace(_) | Dataset::Netcdf(_) | Dataset::Mat(_)
     )
 }
 
