@@ -75,7 +75,8 @@ enum Command {
     Table {
         /// The results folder of a run (outputs/<name>).
         results: PathBuf,
-        /// One table: rmse, cmd, kl, model_order or summary (default: every table with rows).
+        /// One table: rmse, cmd, kl, model_order, hypotheses, calibration, summary,
+        /// classification, classification_detail or location (default: every table with rows).
         #[arg(long)]
         table: Option<String>,
         /// text (aligned columns) or md (Markdown).
@@ -822,24 +823,17 @@ fn table_command(
     pivot: Option<&str>,
     filters: &[(String, Vec<String>)],
 ) -> Result<()> {
-    use isar_clutter::report::table::{render, standard};
+    use isar_clutter::report::table::{names, render_named};
     if !results.is_dir() {
         anyhow::bail!("{} is not a results folder", results.display());
     }
-    let defs = standard();
-    let chosen: Vec<_> = match name {
-        None => defs.iter().collect(),
-        Some(n) => {
-            let d = defs.iter().find(|d| d.name == n).with_context(|| {
-                let names: Vec<&str> = defs.iter().map(|d| d.name).collect();
-                format!("no table {n:?}; tables: {}", names.join(", "))
-            })?;
-            vec![d]
-        }
+    let chosen: Vec<&str> = match name {
+        None => names(),
+        Some(n) => vec![n],
     };
     let mut printed = 0;
-    for def in chosen {
-        if let Some(text) = render(results, def, filters, pivot, format, name.is_some())? {
+    for table in chosen {
+        if let Some(text) = render_named(results, table, filters, pivot, format, name.is_some())? {
             if printed > 0 {
                 println!();
             }

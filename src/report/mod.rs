@@ -4,6 +4,7 @@
 //! hold its numbers, the spec and the provenance from `manifest.json`. Everything is rebuilt
 //! from files, so `isar-clutter report DIR` regenerates it without rerunning anything.
 
+pub mod cnn;
 pub mod figures;
 mod page;
 pub mod table;
@@ -79,7 +80,9 @@ pub fn build(dir: &Path, allow_incomplete: bool) -> Result<Report> {
     let mut figures: Vec<Figure> = per_job.into_iter().flatten().collect();
     figures.extend(sweep_figures(dir)?);
     figures.extend(calibration_figures(dir)?);
-    let html = page(dir, &manifest, &figures)?;
+    let sections = cnn::sections(dir)?;
+    let html = page(dir, &manifest, &figures, &sections)?;
+    figures.extend(sections.into_iter().flat_map(|s| s.figures));
     let path = dir.join("report.html");
     crate::io::atomic::atomic_write(&path, |w| {
         use std::io::Write;

@@ -19,8 +19,47 @@ fn link(p: &Path) -> String {
     format!("<a href=\"{}\">{}</a>", escape(&s), escape(&s))
 }
 
-/// The HTML page.
-pub(super) fn page(dir: &Path, manifest: &Json, figures: &[Figure]) -> Result<String> {
+/// One figure with its caption and links.
+fn figure_html(f: &Figure) -> String {
+    let png = f.files[0].to_string_lossy();
+    let data: Vec<String> = f.data.iter().map(|d| link(d)).collect();
+    format!(
+        "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{} ({}; data: {})</figcaption></figure>",
+        escape(&png),
+        escape(&f.caption),
+        escape(&f.caption),
+        link(&f.files[1]),
+        data.join(", ")
+    )
+}
+
+/// The CNN applications' sections: heading, what it shows, tables, figures.
+fn sections_html(h: &mut String, sections: &[cnn::Section]) {
+    for s in sections {
+        let _ = writeln!(
+            h,
+            "<h2 id=\"{}\">{}</h2>\n<p>{}</p>",
+            s.id,
+            escape(s.title),
+            escape(&s.intro)
+        );
+        for t in &s.tables {
+            let _ = writeln!(h, "{t}");
+        }
+        for f in &s.figures {
+            let _ = writeln!(h, "{}", figure_html(f));
+        }
+    }
+}
+
+/// The HTML page: the standard tables, the CNN applications' sections, every job's and the
+/// run-wide figures, the spec and the provenance.
+pub(super) fn page(
+    dir: &Path,
+    manifest: &Json,
+    figures: &[Figure],
+    sections: &[cnn::Section],
+) -> Result<String> {
     let name = manifest["spec"]["name"].as_str().unwrap_or("results");
     let mut h = String::new();
     let _ = write!(
@@ -32,9 +71,13 @@ pub(super) fn page(dir: &Path, manifest: &Json, figures: &[Figure]) -> Result<St
     if let Some(d) = manifest["spec"]["description"].as_str() {
         let _ = writeln!(h, "<p>{}</p>", escape(d));
     }
+    let apps: String = sections
+        .iter()
+        .map(|s| format!("<a href=\"#{}\">{}</a>", s.id, escape(s.title)))
+        .collect();
     let _ = writeln!(
         h,
-        "<nav><a href=\"#tables\">Tables</a><a href=\"#figures\">Figures</a><a href=\"#spec\">Spec</a><a href=\"#provenance\">Provenance</a></nav>"
+        "<nav><a href=\"#tables\">Tables</a>{apps}<a href=\"#figures\">Figures</a><a href=\"#spec\">Spec</a><a href=\"#provenance\">Provenance</a></nav>"
     );
     let _ = writeln!(h, "<h2 id=\"tables\">Tables</h2>");
     let mut any = false;
@@ -47,6 +90,7 @@ pub(super) fn page(dir: &Path, manifest: &Json, figures: &[Figure]) -> Result<St
     if !any {
         let _ = writeln!(h, "<p>No tables with rows.</p>");
     }
+    sections_html(&mut h, sections);
     let _ = writeln!(h, "<h2 id=\"figures\">Figures</h2>");
     let mut current = None;
     for f in figures {
@@ -59,17 +103,7 @@ pub(super) fn page(dir: &Path, manifest: &Json, figures: &[Figure]) -> Result<St
             let _ = writeln!(h, "<h3>{}</h3>", escape(title));
             current = Some(&f.job);
         }
-        let png = f.files[0].to_string_lossy();
-        let data: Vec<String> = f.data.iter().map(|d| link(d)).collect();
-        let _ = writeln!(
-            h,
-            "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{} ({}; data: {})</figcaption></figure>",
-            escape(&png),
-            escape(&f.caption),
-            escape(&f.caption),
-            link(&f.files[1]),
-            data.join(", ")
-        );
+        let _ = writeln!(h, "{}", figure_html(f));
     }
     let spec_yaml = serde_yaml_ng::to_string(&manifest["spec"]).unwrap_or_default();
     let _ = writeln!(
@@ -159,6 +193,11 @@ pub(super) fn page(dir: &Path, manifest: &Json, figures: &[Figure]) -> Result<St
             "filter_correlation.parquet",
             "calibration.parquet",
             "calibration_summary.parquet",
+            "classification.parquet",
+            "location.parquet",
+            "location_summary.parquet",
+            "training_history.parquet",
+            "confusion.parquet",
         ]
         .iter()
         .filter(|f| dir.join(f).exists())

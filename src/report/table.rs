@@ -177,8 +177,40 @@ pub fn standard() -> Vec<TableDef> {
     ]
 }
 
+/// Names of every table `isar-clutter table` prints, in print order: the pivot tables of
+/// [`standard`], then the CNN tables of [`super::cnn::table`].
+pub fn names() -> Vec<&'static str> {
+    standard()
+        .iter()
+        .map(|d| d.name)
+        .chain(super::cnn::table::NAMES.iter().copied())
+        .collect()
+}
+
+/// Renders the table called `name` (one of [`names`]): a pivot table by [`render`], a CNN
+/// table by [`super::cnn::table::render`]. `Ok(None)` as they say.
+///
+/// # Errors
+/// If no table has that name, or as [`render`].
+pub fn render_named(
+    dir: &Path,
+    name: &str,
+    filters: &[(String, Vec<String>)],
+    pivot: Option<&str>,
+    format: Format,
+    strict: bool,
+) -> Result<Option<String>> {
+    match standard().iter().find(|d| d.name == name) {
+        Some(def) => render(dir, def, filters, pivot, format, strict),
+        None if super::cnn::table::NAMES.contains(&name) => {
+            super::cnn::table::render(dir, name, filters, pivot, format, strict)
+        }
+        None => bail!("no table {name:?}; tables: {}", names().join(", ")),
+    }
+}
+
 /// A column read as display strings (`None` for null).
-fn strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>> {
+pub(super) fn strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>> {
     let col = df
         .column(name)
         .with_context(|| format!("no column {name:?}"))?;
@@ -187,7 +219,7 @@ fn strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>> {
 }
 
 /// A column read as f64.
-fn floats(df: &DataFrame, name: &str) -> Result<Vec<Option<f64>>> {
+pub(super) fn floats(df: &DataFrame, name: &str) -> Result<Vec<Option<f64>>> {
     let col = df
         .column(name)
         .with_context(|| format!("no column {name:?}"))?;
@@ -231,30 +263,15 @@ pub fn render(
         .iter()
         .map(|s| s.to_string())
         .collect();
-    let mut keep = vec![true; df.height()];
-    let all_filters = def
+    let all_filters: Vec<(String, Vec<String>)> = def
         .filters
         .iter()
         .map(|(c, v)| (c.to_string(), v.iter().map(|s| s.to_string()).collect()))
-        .chain(filters.iter().cloned());
-    for (col, accepted) in all_filters {
-        if !names.contains(&col) {
-            if !strict {
-                return Ok(None);
-            }
-            bail!(
-                "{}: no column {col:?} to filter on (columns: {})",
-                path.display(),
-                names.join(", ")
-            );
-        }
-        for (k, v) in keep.iter_mut().zip(strings(&df, &col)?) {
-            *k &= v.is_some_and(|v| accepted.contains(&v));
-        }
-    }
-    if !keep.contains(&true) {
+        .chain(filters.iter().cloned())
+        .collect();
+    let Some(keep) = kept_rows(&df, &path, &all_filters, strict)? else {
         return Ok(None);
-    }
+    };
     let pivot = pivot.unwrap_or(def.pivot);
     if !names.iter().any(|n| n == pivot) {
         if !strict {
@@ -357,8 +374,50 @@ pub fn render(
     Ok(Some(layout(def.title, &header, &body, used.len(), format)))
 }
 
+/// Which rows of `df` (read from `path`) pass every filter `(column, accepted values)`, the
+/// values compared as display strings. `Ok(None)` when none does, and, unless `strict`, when a
+/// filter names a column `df` lacks.
+///
+/// # Errors
+/// If a column cannot be read, or (when `strict`) a filter names a column `df` lacks.
+pub(super) fn kept_rows(
+    df: &DataFrame,
+    path: &Path,
+    filters: &[(String, Vec<String>)],
+    strict: bool,
+) -> Result<Option<Vec<bool>>> {
+    let names: Vec<String> = df
+        .get_column_names()
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let mut keep = vec![true; df.height()];
+    for (col, accepted) in filters {
+        if !names.contains(col) {
+            if !strict {
+                return Ok(None);
+            }
+            bail!(
+                "{}: no column {col:?} to filter on (columns: {})",
+                path.display(),
+                names.join(", ")
+            );
+        }
+        for (k, v) in keep.iter_mut().zip(strings(df, col)?) {
+            *k &= v.is_some_and(|v| accepted.contains(&v));
+        }
+    }
+    Ok(keep.contains(&true).then_some(keep))
+}
+
 /// Lays out a header and rows; the first `keys` columns are left-aligned, values right-aligned.
-fn layout(title: &str, header: &[String], body: &[Vec<String>], keys: usize, f: Format) -> String {
+pub(super) fn layout(
+    title: &str,
+    header: &[String],
+    body: &[Vec<String>],
+    keys: usize,
+    f: Format,
+) -> String {
     let mut out = String::new();
     let widths: Vec<usize> = (0..header.len())
         .map(|c| {

@@ -231,11 +231,16 @@ fn emptiest_corner(pts: &[(f64, f64)], x: Range<f64>, y: Range<f64>) -> SeriesLa
     .map_or(SeriesLabelPosition::UpperRight, |c| c.0)
 }
 
+/// A curve's point: x, y and the half-length of its error bar (0: none).
+type Point = (f64, f64, f64);
+
 struct Curves<'s> {
     title: &'s str,
     x_label: &'s str,
     y_label: &'s str,
-    series: Vec<(&'s str, Vec<(f64, f64)>)>,
+    series: Vec<(&'s str, Vec<Point>)>,
+    /// Fixed y range (e.g. 0..100 %), else the points' range padded.
+    y_range: Option<Range<f64>>,
 }
 
 impl Figure for Curves<'_> {
@@ -250,20 +255,43 @@ impl Figure for Curves<'_> {
         let padded = |(lo, hi): (f64, f64), f: f64| (lo - f * (hi - lo))..(hi + f * (hi - lo));
         let points = || self.series.iter().flat_map(|(_, p)| p.iter());
         let x = padded(finite_range(points().map(|p| p.0)), 0.04);
-        let y = padded(finite_range(points().map(|p| p.1)), 0.06);
+        let y = self.y_range.clone().unwrap_or_else(|| {
+            padded(
+                finite_range(points().flat_map(|p| [p.1 - p.2, p.1 + p.2])),
+                0.06,
+            )
+        });
         let mut chart = chart(root, self.title, (x, self.x_label), (y, self.y_label), None)?;
         let mut occupied = Vec::new();
         for (k, (name, pts)) in self.series.iter().enumerate() {
             let c = PALETTE[k % PALETTE.len()];
+            let xy = || pts.iter().map(|p| (p.0, p.1));
             chart
-                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
+                .draw_series(LineSeries::new(xy(), c.stroke_width(2)))?
                 .label(*name)
                 .legend(move |(x, y)| {
                     EmptyElement::at((x, y))
                         + PathElement::new(vec![(0, 0), (20, 0)], c.stroke_width(2))
                         + Circle::new((10, 0), 4, c.filled())
                 });
-            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
+            chart.draw_series(xy().map(|p| Circle::new(p, 4, c.filled())))?;
+            // Error bars: a vertical line with 10-pixel caps.
+            let bars = || pts.iter().filter(|p| p.2 > 0.0);
+            chart.draw_series(bars().map(|&(x, y, e)| {
+                PathElement::new(vec![(x, y - e), (x, y + e)], c.stroke_width(2))
+            }))?;
+            chart.draw_series(bars().flat_map(|&(x, y, e)| {
+                [y - e, y + e].map(|v| {
+                    EmptyElement::at((x, v))
+                        + PathElement::new(vec![(-5, 0), (5, 0)], c.stroke_width(2))
+                })
+            }))?;
+            occupied.extend(
+                pts.iter()
+                    .filter(|p| p.2 > 0.0)
+                    .flat_map(|p| [(p.0, p.1 - p.2), (p.0, p.1 + p.2)]),
+            );
+            let pts: Vec<(f64, f64)> = xy().collect();
             for w in pts.windows(2) {
                 occupied.extend((0..8).map(|k| {
                     let f = f64::from(k) / 8.0;
@@ -291,17 +319,47 @@ pub fn curves(
     x_label: &str,
     y_label: &str,
 ) -> Result<[PathBuf; 2], FigureError> {
+    let series: Vec<(&str, Vec<Point>)> = series
+        .iter()
+        .map(|&(name, pts)| (name, pts.iter().map(|&(x, y)| (x, y, 0.0)).collect()))
+        .collect();
+    let refs: Vec<(&str, &[Point])> = series.iter().map(|(n, p)| (*n, p.as_slice())).collect();
+    error_curves(dir, stem, title, &refs, (x_label, y_label), None)
+}
+
+/// Like [`curves`], with an error bar on every point: `series` holds `(x, y, e)` and the bar
+/// runs from `y - e` to `y + e` (none where `e` is 0 or not finite), as for a mean and its
+/// standard deviation over repeats (Figs. 66-67). `y_range` fixes the y axis (e.g. `0.0..100.0`
+/// for accuracies in %); without it the axis spans the points and their bars. Points are sorted
+/// by x and those with a non-finite x or y dropped. Writes `<dir>/<stem>.png` and `.svg`.
+pub fn error_curves(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    series: &[(&str, &[(f64, f64, f64)])],
+    (x_label, y_label): (&str, &str),
+    y_range: Option<Range<f64>>,
+) -> Result<[PathBuf; 2], FigureError> {
     check_stem(dir, stem)?;
     if series.is_empty() {
         return Err(input_err(dir, stem, "no series"));
     }
+    if let Some(r) = &y_range {
+        if !(r.start.is_finite() && r.end.is_finite() && r.start < r.end) {
+            return Err(input_err(
+                dir,
+                stem,
+                "the y range must be finite and increasing",
+            ));
+        }
+    }
     let series = series
         .iter()
         .map(|&(name, pts)| {
-            let mut p: Vec<(f64, f64)> = pts
+            let mut p: Vec<Point> = pts
                 .iter()
-                .copied()
-                .filter(|(x, y)| x.is_finite() && y.is_finite())
+                .filter(|(x, y, _)| x.is_finite() && y.is_finite())
+                .map(|&(x, y, e)| (x, y, if e.is_finite() { e.abs() } else { 0.0 }))
                 .collect();
             p.sort_by(|a, b| a.0.total_cmp(&b.0));
             (name, p)
@@ -315,6 +373,7 @@ pub fn curves(
             x_label,
             y_label,
             series,
+            y_range,
         },
     )
 }

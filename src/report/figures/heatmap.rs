@@ -42,8 +42,38 @@ struct PanelGeo<'p, 'a> {
     y_label: bool,
 }
 
+/// Options of [`heatmap_grid_with`] beyond the panels and the scale.
+#[derive(Debug, Clone)]
+pub struct GridOptions<'o> {
+    /// Label under the panels of the bottom row (`"column"` in [`heatmap_grid`]).
+    pub x_label: &'o str,
+    /// Label left of the panels of the first column (`"row"` in [`heatmap_grid`]).
+    pub y_label: &'o str,
+    /// Write each cell's value in it (rounded to an integer; only for maps of at most 12 x 12
+    /// cells), e.g. the counts of a confusion matrix.
+    pub annotate: bool,
+    /// Rectangles outlined over the panels, by panel in row-major order (missing entries: none):
+    /// `[first row, first column, rows, columns]` in cells, e.g. a target's footprint.
+    pub boxes: Vec<Vec<[usize; 4]>>,
+}
+
+impl Default for GridOptions<'_> {
+    fn default() -> Self {
+        Self {
+            x_label: "column",
+            y_label: "row",
+            annotate: false,
+            boxes: vec![],
+        }
+    }
+}
+
+/// Largest map side whose cells [`GridOptions::annotate`] writes values into.
+const ANNOTATE_MAX: usize = 12;
+
 struct HeatGrid<'p, 'a> {
     title: &'p str,
+    options: &'p GridOptions<'p>,
     bar_label: &'p str,
     geo: Vec<PanelGeo<'p, 'a>>,
     nrows: usize,
@@ -60,6 +90,57 @@ impl HeatGrid<'_, '_> {
             HEAD + PAD_T,
             self.nrows as u32 * CELL_H - PAD_T - PAD_B,
         )
+    }
+}
+
+impl HeatGrid<'_, '_> {
+    /// Draws panel `i`'s boxes and, when asked, its cell values.
+    fn overlay<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        i: usize,
+        g: &PanelGeo,
+    ) -> DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        let (rows, cols) = g.panel.map.dim();
+        let px =
+            |c: usize, n: usize, len: u32| (c as f64 * f64::from(len) / n as f64).round() as i32;
+        let (x, y) = (g.x as i32, g.y as i32);
+        for b in self.options.boxes.get(i).into_iter().flatten() {
+            let (r0, c0) = (b[0].min(rows), b[1].min(cols));
+            let (r1, c1) = ((b[0] + b[2]).min(rows), (b[1] + b[3]).min(cols));
+            let corner = |r: usize, c: usize| (x + px(c, cols, g.w), y + px(r, rows, g.h));
+            let (a, z) = (corner(r0, c0), corner(r1, c1));
+            for (width, colour) in [(3, WHITE), (1, BLACK)] {
+                root.draw(&Rectangle::new(
+                    [a, (z.0 - 1, z.1 - 1)],
+                    colour.stroke_width(width),
+                ))?;
+            }
+        }
+        if !self.options.annotate || rows > ANNOTATE_MAX || cols > ANNOTATE_MAX {
+            return Ok(());
+        }
+        for ((r, c), &v) in g.panel.map.indexed_iter() {
+            if !v.is_finite() {
+                continue;
+            }
+            let (cr, cg, cb) = self.cmap.rgb(v);
+            let light = 0.299 * f64::from(cr) + 0.587 * f64::from(cg) + 0.114 * f64::from(cb);
+            let colour = if light > 140.0 { BLACK } else { WHITE };
+            let centre = (
+                x + (px(2 * c + 1, 2 * cols, g.w)),
+                y + (px(2 * r + 1, 2 * rows, g.h)),
+            );
+            root.draw(&Text::new(
+                format!("{v:.0}"),
+                centre,
+                text(14.0, HPos::Center, VPos::Center).color(&colour),
+            ))?;
+        }
+        Ok(())
     }
 }
 
@@ -119,7 +200,7 @@ impl Figure for HeatGrid<'_, '_> {
         let frame = |x: i32, y: i32, w: i32, h: i32| {
             Rectangle::new([(x - 1, y - 1), (x + w, y + h)], BLACK)
         };
-        for g in &self.geo {
+        for (i, g) in self.geo.iter().enumerate() {
             let (x, y, w, h) = (g.x as i32, g.y as i32, g.w as i32, g.h as i32);
             root.draw(&Text::new(
                 g.panel.title.as_str(),
@@ -127,6 +208,7 @@ impl Figure for HeatGrid<'_, '_> {
                 text(17.0, HPos::Center, VPos::Bottom),
             ))?;
             root.draw(&frame(x, y, w, h))?;
+            self.overlay(root, i, g)?;
             let (rows, cols) = g.panel.map.dim();
             let centre = |i: usize, n: usize, len: i32| {
                 ((i as f64 + 0.5) * f64::from(len) / n as f64) as i32
@@ -151,13 +233,17 @@ impl Figure for HeatGrid<'_, '_> {
             }
             if g.x_label {
                 root.draw(&Text::new(
-                    "column",
+                    self.options.x_label,
                     (x + w / 2, y + h + 24),
                     text(16.0, HPos::Center, VPos::Top),
                 ))?;
             }
             if g.y_label {
-                root.draw(&Text::new("row", (x - 46, y + h / 2), vtext(16.0)))?;
+                root.draw(&Text::new(
+                    self.options.y_label,
+                    (x - 46, y + h / 2),
+                    vtext(16.0),
+                ))?;
             }
         }
         let (bx, by, bh) = self.bar();
@@ -220,6 +306,21 @@ pub fn heatmap_grid(
     scale: Scale,
     bar_label: &str,
 ) -> Result<[PathBuf; 2], FigureError> {
+    let options = GridOptions::default();
+    heatmap_grid_with(dir, stem, title, panels, (scale, bar_label), &options)
+}
+
+/// [`heatmap_grid`] with axis labels of one's own, cell values written in (confusion
+/// matrices) and rectangles outlined over the panels (a target's footprint, Fig. 72): see
+/// [`GridOptions`]. Boxes are drawn white with a black core, so they show on every colour.
+pub fn heatmap_grid_with(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    panels: &[Vec<Panel>],
+    (scale, bar_label): (Scale, &str),
+    options: &GridOptions,
+) -> Result<[PathBuf; 2], FigureError> {
     check_stem(dir, stem)?;
     let (nrows, ncols) = (panels.len(), panels.iter().map(Vec::len).max().unwrap_or(0));
     if ncols == 0 {
@@ -279,6 +380,7 @@ pub fn heatmap_grid(
         stem,
         &HeatGrid {
             title,
+            options,
             bar_label,
             geo,
             nrows,

@@ -234,6 +234,88 @@ fn histograms_and_curves_write_files() {
 }
 
 #[test]
+fn error_bars_are_drawn_in_their_series_colour() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let pts = [(100.0, 50.0, 0.0), (250.0, 70.0, 0.0), (500.0, 80.0, 0.0)];
+    let bars = [(100.0, 50.0, 20.0), (250.0, 70.0, 10.0), (500.0, 80.0, 5.0)];
+    let draw = |stem: &str, p: &[(f64, f64, f64)]| {
+        let [png, svg] = error_curves(
+            dir.path(),
+            stem,
+            "Accuracy vs N",
+            &[("method1", p)],
+            ("training size N", "accuracy (%)"),
+            Some(0.0..100.0),
+        )
+        .expect("error curves");
+        // The fixed y range shows its ends although the points span 45-85 %.
+        let text = fs::read_to_string(&svg).expect("svg");
+        for tick in ["0.0", "100.0"] {
+            assert!(text.lines().any(|l| l.trim() == tick), "no y tick {tick}");
+        }
+        decode(&png)
+    };
+    let (plain, barred) = (draw("plain", &pts), draw("bars", &bars));
+    assert_eq!((plain.0, plain.1), CHART_SIZE);
+    // The bars add pixels of the series' colour (tab10's first): three bars of 40, 20 and 10 %
+    // of a plot about 400 px high, 2 px wide, less what the line already covers.
+    let blue = |img: &(u32, u32, Vec<u8>)| {
+        img.2
+            .chunks(3)
+            .filter(|p| dist((p[0], p[1], p[2]), (31, 119, 180)) < 40.0)
+            .count()
+    };
+    let added = blue(&barred) as i64 - blue(&plain) as i64;
+    assert!(added > 300, "{added} blue pixels added");
+    let bad = error_curves(
+        dir.path(),
+        "bad",
+        "t",
+        &[("m", &pts)],
+        ("x", "y"),
+        Some(1.0..0.0),
+    );
+    assert!(bad.is_err());
+}
+
+#[test]
+fn boxes_outline_cells_and_labels_are_ours() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let map = Array2::from_elem((8, 8), 0.0);
+    let panels = vec![vec![Panel {
+        title: "p".into(),
+        map: map.view(),
+    }]];
+    let options = GridOptions {
+        x_label: "predicted class",
+        y_label: "true class",
+        annotate: false,
+        boxes: vec![vec![[2, 2, 2, 2]]],
+    };
+    let [png, svg] = heatmap_grid_with(
+        dir.path(),
+        "boxed",
+        "Boxed",
+        &panels,
+        (Scale::Diverging { lo: -1.0, hi: 1.0 }, "v"),
+        &options,
+    )
+    .expect("render");
+    let text = fs::read_to_string(&svg).expect("svg");
+    assert!(text.contains("predicted class") && text.contains("true class"));
+    let img = decode(&png);
+    // 8 cells on 224 px: 28 px a cell, so the box spans pixels 56..112 of the panel; its black
+    // core is on the edge, white beside it, the inside keeps the map's colour.
+    let (x0, y0, _, _) = panel_square();
+    let at = |dx: u32, dy: u32| pixels(&img, x0 + dx, y0 + dy, x0 + dx + 1, y0 + dy + 1)[0];
+    assert!(dist(at(56, 84), (0, 0, 0)) < 60.0, "{:?}", at(56, 84));
+    assert!(dist(at(57, 84), (255, 255, 255)) < 30.0, "{:?}", at(57, 84));
+    let inside = diverging_rgb(0.0, -1.0, 1.0);
+    assert!(dist(at(84, 84), inside) < 10.0, "{:?}", at(84, 84));
+    assert!(dist(at(20, 84), inside) < 10.0, "outside: {:?}", at(20, 84));
+}
+
+#[test]
 fn bad_input_names_the_file() {
     let dir = tempfile::tempdir().expect("tempdir");
     let err =
