@@ -27,7 +27,60 @@ use burn::backend::flex::FlexTensor;
 use burn::backend::{Autodiff, Flex};
 use burn::tensor::{Tensor, TensorData, TensorPrimitive};
 use rayon::prelude::*;
-use std::sync::Arc;
+use std::cell::RefCell;
+use std::sync::{Arc, Mutex};
+
+/// Large buffers (convolution outputs, BN gradients) kept between training steps: a fresh
+/// block of that size is mapped from the kernel and zeroed page by page on every step
+/// otherwise (a sixth of the time in the profile).
+static POOL: Mutex<Vec<Vec<f32>>> = Mutex::new(Vec::new());
+/// Most buffers [`POOL`] keeps.
+const POOL_MAX: usize = 8;
+
+thread_local! {
+    /// Per-thread scratch (im2col matrices and their products), kept between calls.
+    static SCRATCH: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
+}
+
+/// A buffer of `len` values from [`POOL`] (stale values: callers overwrite or fill it).
+fn take(len: usize) -> Vec<f32> {
+    let mut pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
+    let best = pool
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.len() >= len && v.len() <= 2 * len)
+        .min_by_key(|(_, v)| v.len())
+        .map(|(i, _)| i);
+    match best {
+        Some(i) => {
+            let mut v = pool.swap_remove(i);
+            v.truncate(len);
+            v
+        }
+        None => vec![0.0; len],
+    }
+}
+
+/// Gives a buffer back to [`POOL`].
+fn give(v: Vec<f32>) {
+    if v.len() < 1 << 16 {
+        return;
+    }
+    let mut pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
+    if pool.len() < POOL_MAX {
+        pool.push(v);
+    }
+}
+
+/// Runs `f` on this thread's scratch buffer resized to `len` values.
+fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f32]) -> R) -> R {
+    SCRATCH.with_borrow_mut(|s| {
+        if s.len() < len {
+            s.resize(len, 0.0);
+        }
+        f(&mut s[..len])
+    })
+}
 
 /// burn's CPU backend with autodiff, the type the fast training path runs on.
 pub type FlexTrain = Autodiff<Flex>;
@@ -255,27 +308,28 @@ fn lane_sum(v: &[f32], f: impl Fn(f32) -> f32) -> f64 {
 /// The convolution with bias: `[n, f, oh, ow]` from `x` `[n, c, h, w]`, `w` `[f, c, k, k]`.
 pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> Vec<f32> {
     let (p, kk, s) = (g.p(), g.kk(), g.chunk());
-    let mut z = vec![0.0f32; g.n * g.f * p];
-    z.par_chunks_mut(s * g.f * p).enumerate().for_each_init(
-        Vec::new,
-        |scratch: &mut Vec<f32>, (ci, zc)| {
+    let mut z = take(g.n * g.f * p);
+    z.par_chunks_mut(s * g.f * p)
+        .enumerate()
+        .for_each(|(ci, zc)| {
             let n0 = ci * s;
             let sn = zc.len() / (g.f * p);
             let sp = sn * p;
-            scratch.resize(kk * sp + g.f * sp, 0.0);
-            let (col, tmp) = scratch.split_at_mut(kk * sp);
-            im2col(g, x, n0, sn, col);
-            for (row, &b) in tmp.chunks_exact_mut(sp).zip(bias) {
-                row.fill(b);
-            }
-            matmul(g.f, sp, kk, tmp, true, w, (kk, 1), col, (sp, 1));
-            for si in 0..sn {
-                for fi in 0..g.f {
-                    zc[(si * g.f + fi) * p..][..p].copy_from_slice(&tmp[fi * sp + si * p..][..p]);
+            with_scratch(kk * sp + g.f * sp, |scratch| {
+                let (col, tmp) = scratch.split_at_mut(kk * sp);
+                im2col(g, x, n0, sn, col);
+                for (row, &b) in tmp.chunks_exact_mut(sp).zip(bias) {
+                    row.fill(b);
                 }
-            }
-        },
-    );
+                matmul(g.f, sp, kk, tmp, true, w, (kk, 1), col, (sp, 1));
+                for si in 0..sn {
+                    for fi in 0..g.f {
+                        zc[(si * g.f + fi) * p..][..p]
+                            .copy_from_slice(&tmp[fi * sp + si * p..][..p]);
+                    }
+                }
+            })
+        });
     z
 }
 
@@ -391,6 +445,12 @@ pub struct BlockTape {
     pub shift: Vec<f32>,
 }
 
+impl Drop for BlockTape {
+    fn drop(&mut self) {
+        give(std::mem::take(&mut self.z));
+    }
+}
+
 /// Gradients of a block's inputs.
 #[derive(Debug, Clone)]
 pub struct BlockGrads {
@@ -459,7 +519,8 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
     let meanf: Vec<f32> = t.mean.iter().map(|&v| v as f32).collect();
     let inv_f: Vec<f32> = t.inv_std.iter().map(|&v| v as f32).collect();
     // Phase 1: the gradient `da` of the BN output (through pooling and ReLU) and its sums.
-    let mut da = vec![0.0f32; g.n * f * p];
+    let mut da = take(g.n * f * p);
+    da.fill(0.0);
     let sums: Vec<Vec<(f64, f64)>> = da
         .par_chunks_mut(f * p)
         .enumerate()
@@ -533,40 +594,42 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
     let partials: Vec<(Vec<f32>, Vec<f64>)> = dx
         .par_chunks_mut(dx_chunk)
         .enumerate()
-        .map_init(Vec::new, |scratch: &mut Vec<f32>, (ci, dxc)| {
+        .map(|(ci, dxc)| {
             let n0 = ci * s;
             let sn = (g.n - n0).min(s);
             let sp = sn * p;
-            scratch.resize(2 * kk * sp + f * sp, 0.0);
-            let (col, rest) = scratch.split_at_mut(kk * sp);
-            let (dz, dcol) = rest.split_at_mut(f * sp);
-            let mut db = vec![0.0f64; f];
-            for si in 0..sn {
-                let ni = n0 + si;
-                for fi in 0..f {
-                    let zp = &t.z[(ni * f + fi) * p..][..p];
-                    let dp = &da[(ni * f + fi) * p..][..p];
-                    let out = &mut dz[fi * sp + si * p..][..p];
-                    let (sc, mu, a2, a3) = (t.scale[fi], meanf[fi], c2[fi], c3[fi]);
-                    for ((o, &d), &v) in out.iter_mut().zip(dp).zip(zp) {
-                        *o = sc * (d - a2 - (v - mu) * a3);
+            with_scratch(2 * kk * sp + f * sp, |scratch| {
+                let (col, rest) = scratch.split_at_mut(kk * sp);
+                let (dz, dcol) = rest.split_at_mut(f * sp);
+                let mut db = vec![0.0f64; f];
+                for si in 0..sn {
+                    let ni = n0 + si;
+                    for fi in 0..f {
+                        let zp = &t.z[(ni * f + fi) * p..][..p];
+                        let dp = &da[(ni * f + fi) * p..][..p];
+                        let out = &mut dz[fi * sp + si * p..][..p];
+                        let (sc, mu, a2, a3) = (t.scale[fi], meanf[fi], c2[fi], c3[fi]);
+                        for ((o, &d), &v) in out.iter_mut().zip(dp).zip(zp) {
+                            *o = sc * (d - a2 - (v - mu) * a3);
+                        }
+                        db[fi] += lane_sum(out, |v| v);
                     }
-                    db[fi] += lane_sum(out, |v| v);
                 }
-            }
-            im2col(g, x, n0, sn, col);
-            let mut dw = vec![0.0f32; f * kk];
-            // dw[f, kk] = dz[f, sp] col[kk, sp]^T
-            matmul(f, kk, sp, &mut dw, false, dz, (sp, 1), col, (1, sp));
-            if want_dx {
-                // dcol[kk, sp] = w[f, kk]^T dz[f, sp]
-                let dcol = &mut dcol[..kk * sp];
-                matmul(kk, sp, f, dcol, false, &t.w, (1, kk), dz, (sp, 1));
-                col2im(g, dcol, sn, dxc);
-            }
-            (dw, db)
+                im2col(g, x, n0, sn, col);
+                let mut dw = vec![0.0f32; f * kk];
+                // dw[f, kk] = dz[f, sp] col[kk, sp]^T
+                matmul(f, kk, sp, &mut dw, false, dz, (sp, 1), col, (1, sp));
+                if want_dx {
+                    // dcol[kk, sp] = w[f, kk]^T dz[f, sp]
+                    let dcol = &mut dcol[..kk * sp];
+                    matmul(kk, sp, f, dcol, false, &t.w, (1, kk), dz, (sp, 1));
+                    col2im(g, dcol, sn, dxc);
+                }
+                (dw, db)
+            })
         })
         .collect();
+    give(da);
     let mut dw = vec![0.0f32; f * kk];
     let mut db = vec![0.0f64; f];
     for (pw_, pb) in &partials {
@@ -725,5 +788,6 @@ pub fn block_infer(
         .map(|((&b, &mu), &sc)| (f64::from(b) - f64::from(mu) * f64::from(sc)) as f32)
         .collect();
     let (out, _) = affine_relu_pool(g, &z, &scale, &shift, false);
+    give(z);
     Tensor::from_primitive(TensorPrimitive::Float(flex_tensor(out, &g.out_shape())))
 }
