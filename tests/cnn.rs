@@ -4,7 +4,7 @@
 //! against its formula, a finite-difference gradient check on a tiny input, a trivially
 //! separable toy set learnt to > 95 %, and the saved network predicting as before.
 
-use burn::module::Param;
+use burn::module::{AutodiffModule, Param};
 use burn::tensor::{Tensor, TensorData};
 use isar_clutter::apps::cnn::net::{same_padding, Arch, NetConfig};
 use isar_clutter::apps::cnn::train::{train, Cpu, CpuTrain, Labelled, TrainingOptions};
@@ -377,4 +377,362 @@ fn a_trivially_separable_toy_set_is_learnt() {
     // The same seed trains the same network.
     let t2 = train(&c, &opts, &tr, &va, 7);
     assert_eq!(t2.epochs, t.epochs);
+}
+
+/// Seeded standard-normal values.
+fn normals(n: usize, seed: u64) -> Vec<f32> {
+    let mut rng = ChaCha20Rng::seed_from_u64(seed);
+    (0..n)
+        .map(|_| {
+            let z: f64 = StandardNormal.sample(&mut rng);
+            z as f32
+        })
+        .collect()
+}
+
+/// The oracle of a block, in f64 with plain loops: direct convolution with bias, batch
+/// normalisation with the batch's statistics, ReLU and (if asked) 2x2 max pooling; returns
+/// `sum(output * r)` (a scalar whose gradient is the backward pass given `r`) and the output.
+#[allow(clippy::too_many_arguments)]
+fn block_oracle(
+    g: &isar_clutter::apps::cnn::fast::BlockGeom,
+    x: &[f64],
+    w: &[f64],
+    bias: &[f64],
+    gamma: &[f64],
+    beta: &[f64],
+    r: &[f64],
+) -> (f64, Vec<f64>) {
+    let (n, c, h, wd, f, k) = (g.n, g.c, g.h, g.w, g.f, g.k);
+    let (oh, ow) = (g.oh, g.ow);
+    let mut z = vec![0.0f64; n * f * oh * ow];
+    for s in 0..n {
+        for o in 0..f {
+            for i in 0..oh {
+                for j in 0..ow {
+                    let mut acc = bias[o];
+                    for ci in 0..c {
+                        for a in 0..k {
+                            for b in 0..k {
+                                let ih = (i * g.stride + a) as isize - g.top as isize;
+                                let iw = (j * g.stride + b) as isize - g.left as isize;
+                                if ih >= 0 && iw >= 0 && (ih as usize) < h && (iw as usize) < wd {
+                                    acc += w[((o * c + ci) * k + a) * k + b]
+                                        * x[((s * c + ci) * h + ih as usize) * wd + iw as usize];
+                                }
+                            }
+                        }
+                    }
+                    z[((s * f + o) * oh + i) * ow + j] = acc;
+                }
+            }
+        }
+    }
+    let m = (n * oh * ow) as f64;
+    let mut y = z.clone();
+    for o in 0..f {
+        let vals = || (0..n).flat_map(|s| z[(s * f + o) * oh * ow..][..oh * ow].iter());
+        let mean = vals().sum::<f64>() / m;
+        let var = vals().map(|v| (v - mean) * (v - mean)).sum::<f64>() / m;
+        for s in 0..n {
+            for v in &mut y[(s * f + o) * oh * ow..][..oh * ow] {
+                *v = ((*v - mean) / (var + 1e-5).sqrt() * gamma[o] + beta[o]).max(0.0);
+            }
+        }
+    }
+    let out = if g.pool {
+        let (ph, pw) = (oh / 2, ow / 2);
+        let mut p = vec![0.0f64; n * f * ph * pw];
+        for sf in 0..n * f {
+            for i in 0..ph {
+                for j in 0..pw {
+                    let at = |a: usize, b: usize| y[(sf * oh + 2 * i + a) * ow + 2 * j + b];
+                    p[(sf * ph + i) * pw + j] = at(0, 0).max(at(0, 1)).max(at(1, 0)).max(at(1, 1));
+                }
+            }
+        }
+        p
+    } else {
+        y
+    };
+    (out.iter().zip(r).map(|(a, b)| a * b).sum(), out)
+}
+
+/// Every hand-written block kernel ([`isar_clutter::apps::cnn::fast`]) against the f64 oracle
+/// on seeded random input: the forward output, and the gradients of the input, weights, bias,
+/// BN scale and offset against central differences of the oracle (stride 1 and 2, 'same'
+/// padding split unevenly, with and without pooling, odd sides).
+#[test]
+fn fast_blocks_match_the_plain_loop_oracle_forward_and_gradients() {
+    use isar_clutter::apps::cnn::fast::{block_train, BlockGeom, FlexTrain};
+    let geoms = [
+        // conv1 in space-to-depth form: stride 1, no padding, pooling.
+        (3, 5, 7, 7, 4, 4, 1, 0, 0, 4, 4, true),
+        // conv2: 4x4 stride 2 'same' on an odd side (padding 1 above, 2 below), pooling.
+        (3, 3, 9, 9, 4, 4, 2, 1, 1, 5, 5, true),
+        // conv3: 2x2 stride 2 'same', no pooling.
+        (4, 3, 5, 4, 5, 2, 2, 0, 0, 3, 2, false),
+    ];
+    let dev = Default::default();
+    for (case, &(n, c, h, w, f, k, stride, top, left, oh, ow, pool)) in geoms.iter().enumerate() {
+        let g = BlockGeom {
+            n,
+            c,
+            h,
+            w,
+            f,
+            k,
+            stride,
+            top,
+            left,
+            oh,
+            ow,
+            pool,
+        };
+        let seed = 100 * case as u64;
+        let x = normals(n * c * h * w, seed + 1);
+        let wt = normals(f * c * k * k, seed + 2);
+        let bias = normals(f, seed + 3);
+        let gamma: Vec<f32> = normals(f, seed + 4).iter().map(|v| 1.0 + 0.3 * v).collect();
+        let beta = normals(f, seed + 5);
+        let [on, of, oh2, ow2] = g.out_shape();
+        let r = normals(on * of * oh2 * ow2, seed + 6);
+        let t4 = |v: &[f32], shape: [usize; 4]| {
+            Tensor::<FlexTrain, 4>::from_data(TensorData::new(v.to_vec(), shape), &dev)
+        };
+        let t1 = |v: &[f32]| {
+            Tensor::<FlexTrain, 1>::from_data(TensorData::new(v.to_vec(), [v.len()]), &dev)
+                .require_grad()
+        };
+        let xt = t4(&x, [n, c, h, w]).require_grad();
+        let wt_t = t4(&wt, [f, c, k, k]).require_grad();
+        let (bt, gt, betat) = (t1(&bias), t1(&gamma), t1(&beta));
+        let (out, _, _) = block_train(
+            &g,
+            xt.clone(),
+            wt_t.clone(),
+            bt.clone(),
+            gt.clone(),
+            betat.clone(),
+            1e-5,
+        );
+        let rt = t4(&r, [on, of, oh2, ow2]);
+        let grads = (out.clone() * rt).sum().backward();
+        let got: Vec<f32> = out.inner().into_data().to_vec().unwrap();
+        let f64s = |v: &[f32]| v.iter().map(|&a| f64::from(a)).collect::<Vec<f64>>();
+        let mut params = [f64s(&x), f64s(&wt), f64s(&bias), f64s(&gamma), f64s(&beta)];
+        let r64 = f64s(&r);
+        let eval = |p: &[Vec<f64>; 5]| block_oracle(&g, &p[0], &p[1], &p[2], &p[3], &p[4], &r64);
+        let (_, want) = eval(&params);
+        let scale = want.iter().fold(1.0f64, |a, b| a.max(b.abs()));
+        for (a, b) in got.iter().zip(&want) {
+            assert!(
+                (f64::from(*a) - b).abs() < 1e-4 * scale,
+                "case {case}: forward {a} vs {b}"
+            );
+        }
+        let fast_grads: [Vec<f32>; 5] = [
+            xt.grad(&grads).unwrap().into_data().to_vec().unwrap(),
+            wt_t.grad(&grads).unwrap().into_data().to_vec().unwrap(),
+            bt.grad(&grads).unwrap().into_data().to_vec().unwrap(),
+            gt.grad(&grads).unwrap().into_data().to_vec().unwrap(),
+            betat.grad(&grads).unwrap().into_data().to_vec().unwrap(),
+        ];
+        for (pi, name) in ["x", "w", "bias", "gamma", "beta"].iter().enumerate() {
+            let mut fd = vec![0.0f64; params[pi].len()];
+            for i in 0..fd.len() {
+                let h = 1e-6;
+                let v0 = params[pi][i];
+                params[pi][i] = v0 + h;
+                let up = eval(&params).0;
+                params[pi][i] = v0 - h;
+                let down = eval(&params).0;
+                params[pi][i] = v0;
+                fd[i] = (up - down) / (2.0 * h);
+            }
+            let gscale = fd.iter().fold(1e-3f64, |a, b| a.max(b.abs()));
+            for (i, (a, b)) in fast_grads[pi].iter().zip(&fd).enumerate() {
+                assert!(
+                    (f64::from(*a) - b).abs() < 1e-3 * gscale,
+                    "case {case}: d{name}[{i}]: fast {a}, oracle {b} (scale {gscale})"
+                );
+            }
+        }
+    }
+}
+
+/// The whole network with the fast kernels (`Autodiff<Flex>`) against the same network as a
+/// chain of stock burn operations (`Autodiff<Flex, BalancedCheckpointing>`, a backend the fast
+/// path does not take): logits, loss and every parameter's gradient, on both tables' nets.
+#[test]
+fn fast_network_matches_the_stock_burn_network() {
+    use burn::backend::autodiff::checkpoint::strategy::BalancedCheckpointing;
+    type Stock = burn::backend::Autodiff<Cpu, BalancedCheckpointing>;
+    for (arch, classes) in [(Arch::Table18, 4), (Arch::Table23, 25)] {
+        let c = NetConfig {
+            arch,
+            height: 32,
+            width: 37,
+            classes,
+        };
+        let n = 6;
+        let x = normals(n * c.prepared_len(), 17);
+        let labels: Vec<usize> = (0..n).map(|i| i % classes).collect();
+        let [pc, ph, pw] = c.prepared_shape();
+        let dev = Default::default();
+        let fast = c.init::<CpuTrain>(21, &dev);
+        let stock = c.init::<Stock>(21, &dev);
+        let lf = isar_clutter::apps::cnn::train::loss(
+            fast.logits(Tensor::from_data(
+                TensorData::new(x.clone(), [n, pc, ph, pw]),
+                &dev,
+            )),
+            &labels,
+            classes,
+            &dev,
+        );
+        let ls = isar_clutter::apps::cnn::train::loss(
+            stock.logits(Tensor::from_data(
+                TensorData::new(x.clone(), [n, pc, ph, pw]),
+                &dev,
+            )),
+            &labels,
+            classes,
+            &dev,
+        );
+        let gf = lf.backward();
+        let gs = ls.backward();
+        let close = |name: &str, a: Vec<f32>, b: Vec<f32>| {
+            assert_eq!(a.len(), b.len());
+            // The conv biases' gradients are zero up to rounding (BN follows): an absolute floor.
+            let scale = b.iter().fold(1e-4f32, |m, v| m.max(v.abs()));
+            for (i, (p, q)) in a.iter().zip(&b).enumerate() {
+                assert!(
+                    (p - q).abs() <= 2e-3 * scale,
+                    "{arch:?} {name}[{i}]: fast {p}, stock {q} (scale {scale})"
+                );
+            }
+        };
+        macro_rules! grad {
+            ($($f:ident).+) => {
+                close(
+                    stringify!($($f).+),
+                    fast.$($f).+.val().grad(&gf).unwrap().into_data().to_vec().unwrap(),
+                    stock.$($f).+.val().grad(&gs).unwrap().into_data().to_vec().unwrap(),
+                )
+            };
+        }
+        close(
+            "loss",
+            lf.into_data().to_vec().unwrap(),
+            ls.into_data().to_vec().unwrap(),
+        );
+        grad!(w1);
+        grad!(b1);
+        grad!(bn1.gamma);
+        grad!(bn1.beta);
+        grad!(w2);
+        grad!(b2);
+        grad!(bn2.gamma);
+        grad!(bn2.beta);
+        grad!(w3);
+        grad!(b3);
+        grad!(bn3.gamma);
+        grad!(bn3.beta);
+        grad!(fc_w);
+        grad!(fc_b);
+        // The running statistics were updated alike.
+        close(
+            "bn1.running_var",
+            fast.bn1
+                .running_var
+                .value()
+                .inner()
+                .into_data()
+                .to_vec()
+                .unwrap(),
+            stock
+                .bn1
+                .running_var
+                .value()
+                .inner()
+                .into_data()
+                .to_vec()
+                .unwrap(),
+        );
+        close(
+            "bn3.running_mean",
+            fast.bn3
+                .running_mean
+                .value()
+                .inner()
+                .into_data()
+                .to_vec()
+                .unwrap(),
+            stock
+                .bn3
+                .running_mean
+                .value()
+                .inner()
+                .into_data()
+                .to_vec()
+                .unwrap(),
+        );
+        // Inference (running statistics) agrees too.
+        let fi = fast.valid();
+        let si = stock.valid();
+        let xi = || Tensor::<Cpu, 4>::from_data(TensorData::new(x.clone(), [n, pc, ph, pw]), &dev);
+        close(
+            "inference logits",
+            fi.logits(xi()).into_data().to_vec().unwrap(),
+            si.logits(xi()).into_data().to_vec().unwrap(),
+        );
+    }
+}
+
+/// A training on a rayon pool of 1 thread and one on a pool of 2 threads give bit-identical
+/// epochs, accuracies and weights.
+#[test]
+fn training_is_bit_identical_on_1_and_2_threads() {
+    let c = NetConfig {
+        arch: Arch::Table23,
+        height: 32,
+        width: 32,
+        classes: 3,
+    };
+    let mut set = Labelled::default();
+    let mut val = Labelled::default();
+    let v = normals(2 * 30 * 32 * 32, 5);
+    for (k, img) in v.chunks_exact(2 * 32 * 32).enumerate() {
+        let img: Vec<Complex32> = img
+            .chunks_exact(2)
+            .map(|p| Complex32::new(p[0], p[1]))
+            .collect();
+        if k < 24 {
+            set.push(&img, k % 3);
+        } else {
+            val.push(&img, k % 3);
+        }
+    }
+    let opts = TrainingOptions {
+        batch_size: 8,
+        epochs: 2,
+        ..TrainingOptions::default()
+    };
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| train(&c, &opts, &set, &val, 3))
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.epochs, b.epochs);
+    assert_eq!(a.train_accuracy.to_bits(), b.train_accuracy.to_bits());
+    let wa: Vec<f32> = a.net.w1.val().into_data().to_vec().unwrap();
+    let wb: Vec<f32> = b.net.w1.val().into_data().to_vec().unwrap();
+    assert_eq!(wa, wb);
+    let fa: Vec<f32> = a.net.fc_w.val().into_data().to_vec().unwrap();
+    let fb: Vec<f32> = b.net.fc_w.val().into_data().to_vec().unwrap();
+    assert_eq!(fa, fb);
 }

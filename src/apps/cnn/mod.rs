@@ -3,9 +3,11 @@
 //! networks of Tables 18 and 23, [`train`] the training loop (MATLAB's `sgdm` defaults) on
 //! burn's pure-Rust CPU backend, [`classification`] and [`location`] the two applications'
 //! data sets (splits, normalisation, the mix of generated and original samples, targets and
-//! signal-to-clutter ratio), and [`store`] saving and loading trained networks.
+//! signal-to-clutter ratio), [`store`] saving and loading trained networks, and [`fast`] the hand-written CPU kernels of
+//! the convolution blocks.
 
 pub mod classification;
+pub mod fast;
 pub mod location;
 pub mod net;
 pub mod store;

@@ -12,8 +12,13 @@
 //!   8x8 weights rearranged to match; the input side of that rearrangement is done once per
 //!   sample by [`NetConfig::prepare`], the weight side in every forward pass;
 //! - batch normalisation reduces and scales on the `[N * C, H * W]` view instead of
-//!   broadcasting `[1, C, 1, 1]`.
+//!   broadcasting `[1, C, 1, 1]`;
+//! - on burn's `flex` backend (with or without autodiff), each convolution block (convolution,
+//!   BN, ReLU, pooling) runs as one hand-written kernel with its own backward pass
+//!   ([`super::fast`]); other backends run the chain of burn operations below.
 
+use super::fast::{self, BlockGeom, FlexTrain};
+use burn::backend::Flex;
 use burn::module::{Module, Param, RunningState};
 use burn::tensor::activation::relu;
 use burn::tensor::backend::Backend;
@@ -24,6 +29,7 @@ use num_complex::Complex32;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha20Rng;
 use serde::{Deserialize, Serialize};
+use std::any::{Any, TypeId};
 
 /// Batch normalisation's epsilon (MATLAB's default).
 pub const BN_EPSILON: f64 = 1e-5;
@@ -459,21 +465,96 @@ impl<B: Backend> Net<B> {
     /// space-to-depth form: the 8x8 stride-2 kernels `[F, 2, 8, 8]` rearranged into 4x4
     /// stride-1 kernels over the 8 block channels.
     pub fn conv1_output(&self, x: Tensor<B, 4>) -> Tensor<B, 4> {
+        let opts = PaddedConvOptions::asymmetric([1, 1], [0, 0], [0, 0], [1, 1], 1);
+        conv2d(x, self.w1_blocks(), Some(self.b1.val()), opts)
+    }
+
+    /// conv1's weights `[F, 2, 8, 8]` as 4x4 kernels over the 8 block channels.
+    fn w1_blocks(&self) -> Tensor<B, 4> {
         let w = self.w1.val();
         let [f, c, k, _] = w.dims();
         let w: Tensor<B, 6> = w.reshape([f, c, k / 2, 2, k / 2, 2]);
-        let w = w
-            .permute([0, 1, 3, 5, 2, 4])
-            .reshape([f, 4 * c, k / 2, k / 2]);
-        let opts = PaddedConvOptions::asymmetric([1, 1], [0, 0], [0, 0], [1, 1], 1);
-        conv2d(x, w, Some(self.b1.val()), opts)
+        w.permute([0, 1, 3, 5, 2, 4])
+            .reshape([f, 4 * c, k / 2, k / 2])
     }
 
     /// conv1, BN, ReLU and pooling.
     fn block1(&self, x: Tensor<B, 4>) -> Tensor<B, 4> {
-        let y = self.conv1_output(x);
-        let y = relu(self.bn1.forward(y));
-        max_pool2d(y, [2, 2], [2, 2], [0, 0], [1, 1], false)
+        let [n, c, h, w] = x.dims();
+        let w1 = self.w1_blocks();
+        let k = w1.dims()[2];
+        let g = BlockGeom {
+            n,
+            c,
+            h,
+            w,
+            f: w1.dims()[0],
+            k,
+            stride: 1,
+            top: 0,
+            left: 0,
+            oh: h + 1 - k,
+            ow: w + 1 - k,
+            pool: true,
+        };
+        match self.fast_block(&g, x, w1, &self.b1, &self.bn1) {
+            Ok(y) => y,
+            Err((x, _)) => {
+                let y = self.conv1_output(x);
+                let y = relu(self.bn1.forward(y));
+                max_pool2d(y, [2, 2], [2, 2], [0, 0], [1, 1], false)
+            }
+        }
+    }
+
+    /// The block `g` through [`fast`] when `B` is flex (with or without autodiff); gives `x`
+    /// and `w` back otherwise.
+    #[allow(clippy::type_complexity)]
+    fn fast_block(
+        &self,
+        g: &BlockGeom,
+        x: Tensor<B, 4>,
+        w: Tensor<B, 4>,
+        b: &Param<Tensor<B, 1>>,
+        bn: &Bn<B>,
+    ) -> Result<Tensor<B, 4>, (Tensor<B, 4>, Tensor<B, 4>)> {
+        if TypeId::of::<B>() == TypeId::of::<FlexTrain>() {
+            let device = x.device();
+            let (y, mean, var) = fast::block_train(
+                g,
+                cast(x),
+                cast(w),
+                cast(b.val()),
+                cast(bn.gamma.val()),
+                cast(bn.beta.val()),
+                BN_EPSILON,
+            );
+            let c = g.f;
+            let update = |state: &RunningState<Tensor<B, 1>>, batch: Vec<f32>| {
+                let old = state.value_sync();
+                let batch = Tensor::<B, 1>::from_data(TensorData::new(batch, [c]), &device);
+                let new = old.mul_scalar(1.0 - BN_DECAY) + batch.mul_scalar(BN_DECAY);
+                state.update(new.detach());
+            };
+            update(&bn.running_mean, mean);
+            update(&bn.running_var, var);
+            Ok(cast(y))
+        } else if TypeId::of::<B>() == TypeId::of::<Flex>() {
+            let y = fast::block_infer(
+                g,
+                cast(x),
+                cast(w),
+                cast(b.val()),
+                cast(bn.gamma.val()),
+                cast(bn.beta.val()),
+                cast(bn.running_mean.value()),
+                cast(bn.running_var.value()),
+                BN_EPSILON,
+            );
+            Ok(cast(y))
+        } else {
+            Err((x, w))
+        }
     }
 
     /// A convolution block: 'same' stride-2 convolution, BN, ReLU and (if `pool`) 2x2 max
@@ -487,9 +568,27 @@ impl<B: Backend> Net<B> {
         k: usize,
         pool: bool,
     ) -> Tensor<B, 4> {
-        let [_, _, h, wd] = x.dims();
-        let (_, top, bottom) = same_padding(h, k, STRIDE);
-        let (_, left, right) = same_padding(wd, k, STRIDE);
+        let [n, c, h, wd] = x.dims();
+        let (oh, top, bottom) = same_padding(h, k, STRIDE);
+        let (ow, left, right) = same_padding(wd, k, STRIDE);
+        let g = BlockGeom {
+            n,
+            c,
+            h,
+            w: wd,
+            f: w.dims()[0],
+            k,
+            stride: STRIDE,
+            top,
+            left,
+            oh,
+            ow,
+            pool,
+        };
+        let x = match self.fast_block(&g, x, w.val(), b, bn) {
+            Ok(y) => return y,
+            Err((x, _)) => x,
+        };
         let opts = PaddedConvOptions::asymmetric(
             [STRIDE, STRIDE],
             [top, left],
@@ -504,4 +603,13 @@ impl<B: Backend> Net<B> {
             y
         }
     }
+}
+
+/// `t` as the type `U`, which it is (checked by the caller through `TypeId`).
+fn cast<T: 'static, U: 'static>(t: T) -> U {
+    let mut slot = Some(t);
+    (&mut slot as &mut dyn Any)
+        .downcast_mut::<Option<U>>()
+        .and_then(Option::take)
+        .expect("the same type")
 }

@@ -1,0 +1,793 @@
+//! Hand-written CPU kernels for the networks' convolution blocks (convolution with bias, batch
+//! normalisation, ReLU and an optional 2x2 stride-2 max pooling), forward and backward, used by
+//! [`super::net::Net`] when it runs on burn's `flex` backend (with or without autodiff); every
+//! other backend runs the same block as a chain of burn operations.
+//!
+//! Why: on flex, a block is a dozen separate operations, each reading and writing the whole
+//! activation (32 MiB for Table 23's first block at batch 128), the convolution's weight
+//! gradient goes through a generic im2col, and the batch statistics broadcast through slow
+//! paths. Here a convolution is an explicit im2col plus one `gemm` call per chunk of samples
+//! (the `gemm` crate that flex itself uses, single-threaded per call), and normalisation, ReLU
+//! and pooling are one pass forward and two passes backward. The block is one node of burn's
+//! autodiff graph ([`Backward`]): burn still owns the graph, the other layers, the loss and the
+//! optimiser.
+//!
+//! Determinism: work is split into chunks of samples whose size depends only on the shapes,
+//! never on the number of threads; each chunk is computed by one thread in a fixed order, and
+//! partial sums (batch statistics, weight and bias gradients) are added chunk after chunk in
+//! order. Results are therefore bit-identical on a rayon pool of any size.
+//!
+//! `tests/cnn.rs` checks every kernel against plain loops in f64 (forward and all gradients).
+
+use burn::backend::autodiff::checkpoint::base::Checkpointer;
+use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
+use burn::backend::autodiff::grads::Gradients;
+use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
+use burn::backend::flex::FlexTensor;
+use burn::backend::{Autodiff, Flex};
+use burn::tensor::{Tensor, TensorData, TensorPrimitive};
+use rayon::prelude::*;
+use std::cell::RefCell;
+use std::sync::{Arc, Mutex};
+
+/// Large buffers (convolution outputs, BN gradients) kept between training steps: a fresh
+/// block of that size is mapped from the kernel and zeroed page by page on every step
+/// otherwise (a sixth of the time in the profile).
+static POOL: Mutex<Vec<Vec<f32>>> = Mutex::new(Vec::new());
+/// Most buffers [`POOL`] keeps.
+const POOL_MAX: usize = 8;
+
+thread_local! {
+    /// Per-thread scratch (im2col matrices and their products), kept between calls.
+    static SCRATCH: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
+}
+
+/// A buffer of `len` values from [`POOL`] (stale values: callers overwrite or fill it).
+fn take(len: usize) -> Vec<f32> {
+    let mut pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
+    let best = pool
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.len() >= len && v.len() <= 2 * len)
+        .min_by_key(|(_, v)| v.len())
+        .map(|(i, _)| i);
+    match best {
+        Some(i) => {
+            let mut v = pool.swap_remove(i);
+            v.truncate(len);
+            v
+        }
+        None => vec![0.0; len],
+    }
+}
+
+/// Gives a buffer back to [`POOL`].
+fn give(v: Vec<f32>) {
+    if v.len() < 1 << 16 {
+        return;
+    }
+    let mut pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
+    if pool.len() < POOL_MAX {
+        pool.push(v);
+    }
+}
+
+/// Runs `f` on this thread's scratch buffer resized to `len` values.
+fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f32]) -> R) -> R {
+    SCRATCH.with_borrow_mut(|s| {
+        if s.len() < len {
+            s.resize(len, 0.0);
+        }
+        f(&mut s[..len])
+    })
+}
+
+/// burn's CPU backend with autodiff, the type the fast training path runs on.
+pub type FlexTrain = Autodiff<Flex>;
+
+/// Geometry of one block: input `[n, c, h, w]`, `f` filters of `k x k` with `stride` and
+/// padding `top`/`left` (the bottom and right padding follow from the output size
+/// `oh x ow`), then, if `pool`, a 2x2 stride-2 max pooling (floor).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BlockGeom {
+    /// Samples.
+    pub n: usize,
+    /// Input channels.
+    pub c: usize,
+    /// Input height.
+    pub h: usize,
+    /// Input width.
+    pub w: usize,
+    /// Filters (output channels).
+    pub f: usize,
+    /// Kernel side.
+    pub k: usize,
+    /// Convolution stride.
+    pub stride: usize,
+    /// Padding above.
+    pub top: usize,
+    /// Padding on the left.
+    pub left: usize,
+    /// Convolution output height.
+    pub oh: usize,
+    /// Convolution output width.
+    pub ow: usize,
+    /// Whether a 2x2 stride-2 max pooling follows the ReLU.
+    pub pool: bool,
+}
+
+impl BlockGeom {
+    /// Values per filter (`c * k * k`): the inner dimension of the convolution's matrix product.
+    fn kk(&self) -> usize {
+        self.c * self.k * self.k
+    }
+
+    /// Output pixels of the convolution per sample and filter.
+    fn p(&self) -> usize {
+        self.oh * self.ow
+    }
+
+    /// Samples per chunk: about 2048 output pixels per chunk, at least 4 chunks per batch
+    /// (for two threads), a function of the shapes only.
+    fn chunk(&self) -> usize {
+        (2048 / self.p()).clamp(1, (self.n / 4).max(1))
+    }
+
+    /// Side lengths of the block's output.
+    pub fn out_hw(&self) -> (usize, usize) {
+        if self.pool {
+            (self.oh / 2, self.ow / 2)
+        } else {
+            (self.oh, self.ow)
+        }
+    }
+
+    /// Shape of the block's output `[n, f, H, W]`.
+    pub fn out_shape(&self) -> [usize; 4] {
+        let (h, w) = self.out_hw();
+        [self.n, self.f, h, w]
+    }
+}
+
+/// `c = (if acc { c } else { 0 }) + a b` for an `m x k` matrix `a` (strides `a_rs`, `a_cs`),
+/// a `k x n` matrix `b` (strides `b_rs`, `b_cs`) and a row-major `m x n` matrix `c`, on the
+/// calling thread.
+#[allow(clippy::too_many_arguments)]
+fn matmul(
+    m: usize,
+    n: usize,
+    k: usize,
+    c: &mut [f32],
+    acc: bool,
+    a: &[f32],
+    (a_rs, a_cs): (usize, usize),
+    b: &[f32],
+    (b_rs, b_cs): (usize, usize),
+) {
+    if m == 0 || n == 0 {
+        return;
+    }
+    if k == 0 {
+        if !acc {
+            c[..m * n].fill(0.0);
+        }
+        return;
+    }
+    assert!(c.len() >= m * n);
+    assert!(a.len() > (m - 1) * a_rs + (k - 1) * a_cs);
+    assert!(b.len() > (k - 1) * b_rs + (n - 1) * b_cs);
+    // SAFETY: the asserts above keep every index of the three matrices inside their slices,
+    // and `c` does not alias `a` or `b` (a unique borrow).
+    unsafe {
+        gemm::gemm(
+            m,
+            n,
+            k,
+            c.as_mut_ptr(),
+            1,
+            n as isize,
+            acc,
+            a.as_ptr(),
+            a_cs as isize,
+            a_rs as isize,
+            b.as_ptr(),
+            b_cs as isize,
+            b_rs as isize,
+            1.0f32,
+            1.0f32,
+            false,
+            false,
+            false,
+            gemm::Parallelism::None,
+        );
+    }
+}
+
+/// The im2col matrix `[c k k, s p]` of samples `n0 .. n0 + s` of `x`: row `(ci, a, b)`,
+/// column `(sample, i, j)` holds `x[n0 + sample, ci, i stride + a - top, j stride + b - left]`
+/// (zero outside the image).
+fn im2col(g: &BlockGeom, x: &[f32], n0: usize, s: usize, col: &mut [f32]) {
+    let (p, sp, hw) = (g.p(), s * g.p(), g.h * g.w);
+    for ci in 0..g.c {
+        for a in 0..g.k {
+            for b in 0..g.k {
+                let r = (ci * g.k + a) * g.k + b;
+                let row = &mut col[r * sp..(r + 1) * sp];
+                let (j0, j1) = valid_range(g.ow, g.stride, b, g.left, g.w);
+                for si in 0..s {
+                    let img = &x[((n0 + si) * g.c + ci) * hw..][..hw];
+                    for i in 0..g.oh {
+                        let out = &mut row[si * p + i * g.ow..][..g.ow];
+                        let ih = (i * g.stride + a) as isize - g.top as isize;
+                        if ih < 0 || ih >= g.h as isize || j0 >= j1 {
+                            out.fill(0.0);
+                            continue;
+                        }
+                        let src = &img[ih as usize * g.w..][..g.w];
+                        out[..j0].fill(0.0);
+                        out[j1..].fill(0.0);
+                        let first = j0 * g.stride + b - g.left;
+                        if g.stride == 1 {
+                            out[j0..j1].copy_from_slice(&src[first..first + (j1 - j0)]);
+                        } else {
+                            for (o, v) in out[j0..j1]
+                                .iter_mut()
+                                .zip(src[first..].iter().step_by(g.stride))
+                            {
+                                *o = *v;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Adds the im2col-shaped `col` (`[c k k, s p]`) back onto the images `dx` of samples
+/// `n0 .. n0 + s` (`dx` starts at sample `n0`): the adjoint of [`im2col`].
+fn col2im(g: &BlockGeom, col: &[f32], s: usize, dx: &mut [f32]) {
+    let (p, sp, hw) = (g.p(), s * g.p(), g.h * g.w);
+    for ci in 0..g.c {
+        for a in 0..g.k {
+            for b in 0..g.k {
+                let r = (ci * g.k + a) * g.k + b;
+                let row = &col[r * sp..(r + 1) * sp];
+                let (j0, j1) = valid_range(g.ow, g.stride, b, g.left, g.w);
+                if j0 >= j1 {
+                    continue;
+                }
+                for si in 0..s {
+                    let img = &mut dx[(si * g.c + ci) * hw..][..hw];
+                    for i in 0..g.oh {
+                        let ih = (i * g.stride + a) as isize - g.top as isize;
+                        if ih < 0 || ih >= g.h as isize {
+                            continue;
+                        }
+                        let src = &row[si * p + i * g.ow..][..g.ow];
+                        let dst = &mut img[ih as usize * g.w..][..g.w];
+                        let first = j0 * g.stride + b - g.left;
+                        for (o, v) in dst[first..].iter_mut().step_by(g.stride).zip(&src[j0..j1]) {
+                            *o += *v;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The output columns `j0 .. j1` whose input column `j stride + b - left` lies in `0 .. w`.
+fn valid_range(ow: usize, stride: usize, b: usize, left: usize, w: usize) -> (usize, usize) {
+    let j0 = left.saturating_sub(b).div_ceil(stride).min(ow);
+    // j stride + b - left <= w - 1  <=>  j <= (w - 1 + left - b) / stride
+    let j1 = if w + left > b {
+        ((w - 1 + left - b) / stride + 1).min(ow)
+    } else {
+        0
+    };
+    (j0, j1.max(j0))
+}
+
+/// Sum of `v` in eight interleaved f32 lanes (vectorisable, a fixed order), then in f64.
+fn lane_sum(v: &[f32], f: impl Fn(f32) -> f32) -> f64 {
+    let mut lanes = [0.0f32; 8];
+    let mut it = v.chunks_exact(8);
+    for ch in &mut it {
+        for (l, x) in lanes.iter_mut().zip(ch) {
+            *l += f(*x);
+        }
+    }
+    let mut s: f64 = lanes.iter().map(|&l| f64::from(l)).sum();
+    for x in it.remainder() {
+        s += f64::from(f(*x));
+    }
+    s
+}
+
+/// The convolution with bias: `[n, f, oh, ow]` from `x` `[n, c, h, w]`, `w` `[f, c, k, k]`.
+pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> Vec<f32> {
+    let (p, kk, s) = (g.p(), g.kk(), g.chunk());
+    let mut z = take(g.n * g.f * p);
+    z.par_chunks_mut(s * g.f * p)
+        .enumerate()
+        .for_each(|(ci, zc)| {
+            let n0 = ci * s;
+            let sn = zc.len() / (g.f * p);
+            let sp = sn * p;
+            with_scratch(kk * sp + g.f * sp, |scratch| {
+                let (col, tmp) = scratch.split_at_mut(kk * sp);
+                im2col(g, x, n0, sn, col);
+                for (row, &b) in tmp.chunks_exact_mut(sp).zip(bias) {
+                    row.fill(b);
+                }
+                matmul(g.f, sp, kk, tmp, true, w, (kk, 1), col, (sp, 1));
+                for si in 0..sn {
+                    for fi in 0..g.f {
+                        zc[(si * g.f + fi) * p..][..p]
+                            .copy_from_slice(&tmp[fi * sp + si * p..][..p]);
+                    }
+                }
+            })
+        });
+    z
+}
+
+/// Per-channel mean and biased variance of `z` `[n, f, p]` (two passes, f64 between samples).
+pub fn batch_stats(g: &BlockGeom, z: &[f32]) -> (Vec<f64>, Vec<f64>) {
+    let (p, f) = (g.p(), g.f);
+    let m = (g.n * p) as f64;
+    let sums: Vec<Vec<f64>> = z
+        .par_chunks(f * p)
+        .map(|zs| zs.chunks_exact(p).map(|pl| lane_sum(pl, |v| v)).collect())
+        .collect();
+    let mean: Vec<f64> = (0..f)
+        .map(|fi| sums.iter().map(|s| s[fi]).sum::<f64>() / m)
+        .collect();
+    let meanf: Vec<f32> = mean.iter().map(|&v| v as f32).collect();
+    let sq: Vec<Vec<f64>> = z
+        .par_chunks(f * p)
+        .map(|zs| {
+            zs.chunks_exact(p)
+                .zip(&meanf)
+                .map(|(pl, &mu)| lane_sum(pl, |v| (v - mu) * (v - mu)))
+                .collect()
+        })
+        .collect();
+    let var: Vec<f64> = (0..f)
+        .map(|fi| sq.iter().map(|s| s[fi]).sum::<f64>() / m)
+        .collect();
+    (mean, var)
+}
+
+/// `relu(z scale + shift)` per channel, then the pooling: the output `[n, f, H, W]` and, when
+/// pooling, the position (0..4, row-major in the 2x2 window) of each window's maximum (the
+/// first on ties).
+pub fn affine_relu_pool(
+    g: &BlockGeom,
+    z: &[f32],
+    scale: &[f32],
+    shift: &[f32],
+    want_arg: bool,
+) -> (Vec<f32>, Vec<u8>) {
+    let (p, f) = (g.p(), g.f);
+    let (ph, pw) = g.out_hw();
+    let q = ph * pw;
+    let mut out = vec![0.0f32; g.n * f * q];
+    let mut arg = vec![0u8; if want_arg && g.pool { g.n * f * q } else { 0 }];
+    let write_arg = !arg.is_empty();
+    let arg_chunk = if write_arg { f * q } else { 1 };
+    let mut dummy = vec![0u8; g.n];
+    let args: &mut [u8] = if arg.is_empty() { &mut dummy } else { &mut arg };
+    out.par_chunks_mut(f * q)
+        .zip(args.par_chunks_mut(arg_chunk))
+        .zip(z.par_chunks(f * p))
+        .for_each_init(Vec::new, |row: &mut Vec<f32>, ((os, ars), zs)| {
+            row.resize(p, 0.0);
+            for fi in 0..f {
+                let (sc, sh) = (scale[fi], shift[fi]);
+                let zp = &zs[fi * p..][..p];
+                let op = &mut os[fi * q..][..q];
+                if !g.pool {
+                    for (o, &v) in op.iter_mut().zip(zp) {
+                        *o = (v * sc + sh).max(0.0);
+                    }
+                    continue;
+                }
+                for (r, &v) in row.iter_mut().zip(zp) {
+                    *r = (v * sc + sh).max(0.0);
+                }
+                for i in 0..ph {
+                    let (r0, r1) = (&row[2 * i * g.ow..], &row[(2 * i + 1) * g.ow..]);
+                    for j in 0..pw {
+                        let c = [r0[2 * j], r0[2 * j + 1], r1[2 * j], r1[2 * j + 1]];
+                        let mut best = 0;
+                        for (t, &v) in c.iter().enumerate().skip(1) {
+                            if v > c[best] {
+                                best = t;
+                            }
+                        }
+                        op[i * pw + j] = c[best];
+                        if write_arg {
+                            ars[fi * q + i * pw + j] = best as u8;
+                        }
+                    }
+                }
+            }
+        });
+    (out, arg)
+}
+
+/// What the backward pass of a training block needs from its forward pass.
+#[derive(Debug)]
+pub struct BlockTape {
+    /// Geometry.
+    pub g: BlockGeom,
+    /// The block's input `[n, c, h, w]`.
+    pub x: FlexTensor,
+    /// The weights `[f, c, k, k]`.
+    pub w: Vec<f32>,
+    /// The convolution's output with bias `[n, f, oh, ow]`.
+    pub z: Vec<f32>,
+    /// Pooling positions (empty without pooling).
+    pub arg: Vec<u8>,
+    /// Batch mean per channel.
+    pub mean: Vec<f64>,
+    /// Batch (biased) variance per channel.
+    pub var: Vec<f64>,
+    /// `1 / sqrt(var + eps)` per channel.
+    pub inv_std: Vec<f64>,
+    /// BN scale `gamma`.
+    pub gamma: Vec<f32>,
+    /// Per-channel `gamma / sqrt(var + eps)` (as used forward).
+    pub scale: Vec<f32>,
+    /// Per-channel `beta - mean scale` (as used forward).
+    pub shift: Vec<f32>,
+}
+
+impl Drop for BlockTape {
+    fn drop(&mut self) {
+        give(std::mem::take(&mut self.z));
+    }
+}
+
+/// Gradients of a block's inputs.
+#[derive(Debug, Clone)]
+pub struct BlockGrads {
+    /// Of the input `x` (when asked for).
+    pub x: Option<Vec<f32>>,
+    /// Of the weights.
+    pub w: Vec<f32>,
+    /// Of the convolution's bias.
+    pub bias: Vec<f32>,
+    /// Of the BN scale.
+    pub gamma: Vec<f32>,
+    /// Of the BN offset.
+    pub beta: Vec<f32>,
+}
+
+/// The training forward pass (batch statistics): output, batch mean and biased variance, and
+/// the tape for [`block_backward`].
+#[allow(clippy::too_many_arguments)]
+pub fn block_forward_train(
+    g: &BlockGeom,
+    x: FlexTensor,
+    w: &[f32],
+    bias: &[f32],
+    gamma: &[f32],
+    beta: &[f32],
+    eps: f64,
+) -> (Vec<f32>, BlockTape) {
+    let z = conv_forward(g, flex_slice(&x), w, bias);
+    let (mean, var) = batch_stats(g, &z);
+    let inv_std: Vec<f64> = var.iter().map(|&v| 1.0 / (v + eps).sqrt()).collect();
+    let scale: Vec<f32> = gamma
+        .iter()
+        .zip(&inv_std)
+        .map(|(&gm, &is)| (f64::from(gm) * is) as f32)
+        .collect();
+    let shift: Vec<f32> = beta
+        .iter()
+        .zip(&mean)
+        .zip(&scale)
+        .map(|((&b, &mu), &sc)| (f64::from(b) - mu * f64::from(sc)) as f32)
+        .collect();
+    let (out, arg) = affine_relu_pool(g, &z, &scale, &shift, true);
+    let tape = BlockTape {
+        g: *g,
+        x,
+        w: w.to_vec(),
+        z,
+        arg,
+        mean,
+        var,
+        inv_std,
+        gamma: gamma.to_vec(),
+        scale,
+        shift,
+    };
+    (out, tape)
+}
+
+/// The backward pass of a training block from the gradient `dout` of its output.
+pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads {
+    let g = &t.g;
+    let (p, f, kk, s) = (g.p(), g.f, g.kk(), g.chunk());
+    let (ph, pw) = g.out_hw();
+    let q = ph * pw;
+    let m = (g.n * p) as f64;
+    let meanf: Vec<f32> = t.mean.iter().map(|&v| v as f32).collect();
+    let inv_f: Vec<f32> = t.inv_std.iter().map(|&v| v as f32).collect();
+    // Phase 1: the gradient `da` of the BN output (through pooling and ReLU) and its sums.
+    let mut da = take(g.n * f * p);
+    da.fill(0.0);
+    let sums: Vec<Vec<(f64, f64)>> = da
+        .par_chunks_mut(f * p)
+        .enumerate()
+        .map(|(ni, das)| {
+            let zs = &t.z[ni * f * p..][..f * p];
+            let ds = &dout[ni * f * q..][..f * q];
+            (0..f)
+                .map(|fi| {
+                    let (sc, sh) = (t.scale[fi], t.shift[fi]);
+                    let zp = &zs[fi * p..][..p];
+                    let dp = &mut das[fi * p..][..p];
+                    let gp = &ds[fi * q..][..q];
+                    if g.pool {
+                        let ap = &t.arg[(ni * f + fi) * q..][..q];
+                        for i in 0..ph {
+                            for j in 0..pw {
+                                let a = ap[i * pw + j] as usize;
+                                let pos = (2 * i + a / 2) * g.ow + 2 * j + a % 2;
+                                if zp[pos] * sc + sh > 0.0 {
+                                    dp[pos] = gp[i * pw + j];
+                                }
+                            }
+                        }
+                    } else {
+                        for ((d, &v), &gv) in dp.iter_mut().zip(zp).zip(gp) {
+                            if v * sc + sh > 0.0 {
+                                *d = gv;
+                            }
+                        }
+                    }
+                    let (mu, is) = (meanf[fi], inv_f[fi]);
+                    let dbeta = lane_sum(dp, |v| v);
+                    let mut lanes = [0.0f32; 8];
+                    let mut itd = dp.chunks_exact(8);
+                    let mut itz = zp.chunks_exact(8);
+                    for (cd, cz) in (&mut itd).zip(&mut itz) {
+                        for l in 0..8 {
+                            lanes[l] += cd[l] * ((cz[l] - mu) * is);
+                        }
+                    }
+                    let mut dgamma: f64 = lanes.iter().map(|&l| f64::from(l)).sum();
+                    for (d, v) in itd.remainder().iter().zip(itz.remainder()) {
+                        dgamma += f64::from(d * ((v - mu) * is));
+                    }
+                    (dbeta, dgamma)
+                })
+                .collect()
+        })
+        .collect();
+    let dbeta: Vec<f64> = (0..f)
+        .map(|fi| sums.iter().map(|s| s[fi].0).sum())
+        .collect();
+    let dgamma: Vec<f64> = (0..f)
+        .map(|fi| sums.iter().map(|s| s[fi].1).sum())
+        .collect();
+    // dz = scale (da - dbeta / m - xhat dgamma / m), xhat = (z - mean) inv_std.
+    let c2: Vec<f32> = dbeta.iter().map(|&v| (v / m) as f32).collect();
+    let c3: Vec<f32> = dgamma
+        .iter()
+        .zip(&t.inv_std)
+        .map(|(&dg, &is)| (dg / m * is) as f32)
+        .collect();
+    // Phase 2, per chunk: dz, the bias and weight gradients' partial sums, and dx.
+    let x = flex_slice(&t.x);
+    let mut dx = if want_dx {
+        vec![0.0f32; g.n * g.c * g.h * g.w]
+    } else {
+        vec![0.0f32; g.n]
+    };
+    let dx_chunk = if want_dx { s * g.c * g.h * g.w } else { s };
+    let partials: Vec<(Vec<f32>, Vec<f64>)> = dx
+        .par_chunks_mut(dx_chunk)
+        .enumerate()
+        .map(|(ci, dxc)| {
+            let n0 = ci * s;
+            let sn = (g.n - n0).min(s);
+            let sp = sn * p;
+            with_scratch(2 * kk * sp + f * sp, |scratch| {
+                let (col, rest) = scratch.split_at_mut(kk * sp);
+                let (dz, dcol) = rest.split_at_mut(f * sp);
+                let mut db = vec![0.0f64; f];
+                for si in 0..sn {
+                    let ni = n0 + si;
+                    for fi in 0..f {
+                        let zp = &t.z[(ni * f + fi) * p..][..p];
+                        let dp = &da[(ni * f + fi) * p..][..p];
+                        let out = &mut dz[fi * sp + si * p..][..p];
+                        let (sc, mu, a2, a3) = (t.scale[fi], meanf[fi], c2[fi], c3[fi]);
+                        for ((o, &d), &v) in out.iter_mut().zip(dp).zip(zp) {
+                            *o = sc * (d - a2 - (v - mu) * a3);
+                        }
+                        db[fi] += lane_sum(out, |v| v);
+                    }
+                }
+                im2col(g, x, n0, sn, col);
+                let mut dw = vec![0.0f32; f * kk];
+                // dw[f, kk] = dz[f, sp] col[kk, sp]^T
+                matmul(f, kk, sp, &mut dw, false, dz, (sp, 1), col, (1, sp));
+                if want_dx {
+                    // dcol[kk, sp] = w[f, kk]^T dz[f, sp]
+                    let dcol = &mut dcol[..kk * sp];
+                    matmul(kk, sp, f, dcol, false, &t.w, (1, kk), dz, (sp, 1));
+                    col2im(g, dcol, sn, dxc);
+                }
+                (dw, db)
+            })
+        })
+        .collect();
+    give(da);
+    let mut dw = vec![0.0f32; f * kk];
+    let mut db = vec![0.0f64; f];
+    for (pw_, pb) in &partials {
+        for (a, b) in dw.iter_mut().zip(pw_) {
+            *a += *b;
+        }
+        for (a, b) in db.iter_mut().zip(pb) {
+            *a += *b;
+        }
+    }
+    BlockGrads {
+        x: want_dx.then_some(dx),
+        w: dw,
+        bias: db.iter().map(|&v| v as f32).collect(),
+        gamma: dgamma.iter().map(|&v| v as f32).collect(),
+        beta: dbeta.iter().map(|&v| v as f32).collect(),
+    }
+}
+
+/// The values of a flex tensor in row-major order (it must be contiguous f32, see
+/// [`contiguous`]).
+fn flex_slice(t: &FlexTensor) -> &[f32] {
+    let n = t.layout().num_elements();
+    &t.storage::<f32>()[..n]
+}
+
+/// A contiguous copy of a flex tensor (the same buffer when it already is).
+fn contiguous(t: FlexTensor) -> FlexTensor {
+    t.to_contiguous()
+}
+
+/// A flex tensor of `shape` holding `v`.
+fn flex_tensor(v: Vec<f32>, shape: &[usize]) -> FlexTensor {
+    FlexTensor::from_data(TensorData::new(v, shape.to_vec()))
+}
+
+/// The values of a flex tensor (autodiff or not) as a `Vec`.
+fn values<B: burn::tensor::backend::Backend, const D: usize>(t: Tensor<B, D>) -> Vec<f32> {
+    t.into_data().convert::<f32>().to_vec().expect("f32 tensor")
+}
+
+/// The block as one autodiff operation (parents: `x`, `w`, `bias`, `gamma`, `beta`).
+#[derive(Debug)]
+struct BlockOp;
+
+impl Backward<Flex, 5> for BlockOp {
+    type State = Arc<BlockTape>;
+
+    fn backward(
+        self,
+        ops: Ops<Self::State, 5>,
+        grads: &mut Gradients,
+        _checkpointer: &mut Checkpointer,
+    ) {
+        let [nx, nw, nb, ng, nbeta] = ops.parents;
+        let dout = contiguous(grads.consume::<Flex>(&ops.node));
+        let t = ops.state;
+        let gr = block_backward(&t, flex_slice(&dout), nx.is_some());
+        let g = t.g;
+        if let (Some(node), Some(dx)) = (nx, gr.x) {
+            grads.register::<Flex>(node.id, flex_tensor(dx, &[g.n, g.c, g.h, g.w]));
+        }
+        if let Some(node) = nw {
+            grads.register::<Flex>(node.id, flex_tensor(gr.w, &[g.f, g.c, g.k, g.k]));
+        }
+        for (node, v) in [(nb, gr.bias), (ng, gr.gamma), (nbeta, gr.beta)] {
+            if let Some(node) = node {
+                grads.register::<Flex>(node.id, flex_tensor(v, &[g.f]));
+            }
+        }
+    }
+}
+
+/// A training block on `Autodiff<Flex>`: the output (a node of the autodiff graph) and the
+/// batch's per-channel mean and biased variance (for the running statistics).
+#[allow(clippy::too_many_arguments)]
+pub fn block_train(
+    g: &BlockGeom,
+    x: Tensor<FlexTrain, 4>,
+    w: Tensor<FlexTrain, 4>,
+    bias: Tensor<FlexTrain, 1>,
+    gamma: Tensor<FlexTrain, 1>,
+    beta: Tensor<FlexTrain, 1>,
+    eps: f64,
+) -> (Tensor<FlexTrain, 4>, Vec<f32>, Vec<f32>) {
+    let wv = values(w.clone().inner());
+    let bv = values(bias.clone().inner());
+    let gv = values(gamma.clone().inner());
+    let betav = values(beta.clone().inner());
+    let x = x.into_primitive().tensor();
+    let (w, bias, gamma, beta) = (
+        w.into_primitive().tensor(),
+        bias.into_primitive().tensor(),
+        gamma.into_primitive().tensor(),
+        beta.into_primitive().tensor(),
+    );
+    let xin = contiguous(x.primitive.clone());
+    let (out, tape) = block_forward_train(g, xin, &wv, &bv, &gv, &betav, eps);
+    let mean: Vec<f32> = tape.mean.iter().map(|&v| v as f32).collect();
+    let var: Vec<f32> = tape.var.iter().map(|&v| v as f32).collect();
+    let out = flex_tensor(out, &g.out_shape());
+    let nodes = [
+        x.node.clone(),
+        w.node.clone(),
+        bias.node.clone(),
+        gamma.node.clone(),
+        beta.node.clone(),
+    ];
+    let result = match BlockOp
+        .prepare::<NoCheckpointing>(nodes)
+        .compute_bound()
+        .stateful()
+    {
+        OpsKind::Tracked(prep) => prep.finish(Arc::new(tape), out),
+        OpsKind::UnTracked(prep) => prep.finish(out),
+    };
+    (
+        Tensor::from_primitive(TensorPrimitive::Float(result)),
+        mean,
+        var,
+    )
+}
+
+/// An inference block on `Flex` with BN's running statistics.
+#[allow(clippy::too_many_arguments)]
+pub fn block_infer(
+    g: &BlockGeom,
+    x: Tensor<Flex, 4>,
+    w: Tensor<Flex, 4>,
+    bias: Tensor<Flex, 1>,
+    gamma: Tensor<Flex, 1>,
+    beta: Tensor<Flex, 1>,
+    mean: Tensor<Flex, 1>,
+    var: Tensor<Flex, 1>,
+    eps: f64,
+) -> Tensor<Flex, 4> {
+    let (wv, bv, gv, betav, mv, vv) = (
+        values(w),
+        values(bias),
+        values(gamma),
+        values(beta),
+        values(mean),
+        values(var),
+    );
+    let x = contiguous(x.into_primitive().tensor());
+    let z = conv_forward(g, flex_slice(&x), &wv, &bv);
+    let scale: Vec<f32> = gv
+        .iter()
+        .zip(&vv)
+        .map(|(&gm, &v)| (f64::from(gm) / (f64::from(v) + eps).sqrt()) as f32)
+        .collect();
+    let shift: Vec<f32> = betav
+        .iter()
+        .zip(&mv)
+        .zip(&scale)
+        .map(|((&b, &mu), &sc)| (f64::from(b) - f64::from(mu) * f64::from(sc)) as f32)
+        .collect();
+    let (out, _) = affine_relu_pool(g, &z, &scale, &shift, false);
+    give(z);
+    Tensor::from_primitive(TensorPrimitive::Float(flex_tensor(out, &g.out_shape())))
+}
