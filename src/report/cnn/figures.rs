@@ -5,8 +5,9 @@
 //! accuracy by epoch; and the location's example training images, `|x|` in dB with the 8x8
 //! target outlined (Fig. 72). Everything is drawn from the run's files, in a fixed order.
 
+use super::super::figures::charts::{self, Point};
 use super::super::figures::heatmap::{heatmap_grid_with, GridOptions};
-use super::super::figures::{charts, Panel, Scale};
+use super::super::figures::{Panel, Scale};
 use super::super::{rel, Figure};
 use super::{App, Group, Representative};
 use crate::apps::cnn::location::{centre, GRID, TARGET};
@@ -25,6 +26,29 @@ fn safe(s: &str) -> String {
     s.chars()
         .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
         .collect()
+}
+
+/// Draws named curves of accuracies in % (y from 0 to 100) into `figures/<stem>`.
+fn plot(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    curves: &[(String, Vec<Point>)],
+    labels: (&str, &str),
+) -> Result<[PathBuf; 2]> {
+    let refs: Vec<(&str, &[Point])> = curves
+        .iter()
+        .map(|(m, c)| (m.as_str(), c.as_slice()))
+        .collect();
+    charts::error_curves(
+        &dir.join("figures"),
+        stem,
+        title,
+        &refs,
+        labels,
+        Some(0.0..100.0),
+    )
+    .with_context(|| format!("drawing {stem}"))
 }
 
 /// Records a figure drawn into `figures/`.
@@ -158,7 +182,7 @@ fn accuracy(
     (title, caption): (&str, String),
     (x_label, app): (&str, App),
 ) -> Result<Option<Figure>> {
-    let curves: Vec<(String, Vec<(f64, f64, f64)>)> = g
+    let curves: Vec<(String, Vec<Point>)> = g
         .methods
         .iter()
         .map(|m| (m.clone(), g.curve(m)))
@@ -167,19 +191,7 @@ fn accuracy(
     if curves.is_empty() {
         return Ok(None);
     }
-    let refs: Vec<(&str, &[(f64, f64, f64)])> = curves
-        .iter()
-        .map(|(m, c)| (m.as_str(), c.as_slice()))
-        .collect();
-    let files = charts::error_curves(
-        &dir.join("figures"),
-        stem,
-        title,
-        &refs,
-        (x_label, "test accuracy (%)"),
-        Some(0.0..100.0),
-    )
-    .with_context(|| format!("drawing {stem}"))?;
+    let files = plot(dir, stem, title, &curves, (x_label, "test accuracy (%)"))?;
     Ok(Some(figure(dir, caption, files, &[app.file()])))
 }
 
@@ -310,14 +322,14 @@ fn training_curves(
         floats(df, "epoch")?,
         floats(df, "validation_accuracy")?,
     );
-    let mut series: Vec<(String, Vec<(f64, f64)>)> = vec![];
+    let mut series: Vec<(String, Vec<Point>)> = vec![];
     for m in &g.methods {
         let Some(r) = g.at(m, rep.x).find(|r| r.repeat == rep.repeat) else {
             continue;
         };
-        let pts: Vec<(f64, f64)> = (0..df.height())
+        let pts: Vec<Point> = (0..df.height())
             .filter(|&i| jobs[i].as_deref() == Some(r.job.as_str()))
-            .filter_map(|i| Some((epoch[i]?, 100.0 * val[i]?)))
+            .filter_map(|i| Some((epoch[i]?, 100.0 * val[i]?, 0.0)))
             .collect();
         if !pts.is_empty() {
             series.push((m.clone(), pts));
@@ -326,23 +338,8 @@ fn training_curves(
     if series.is_empty() {
         return Ok(None);
     }
-    let points: Vec<(String, Vec<(f64, f64, f64)>)> = series
-        .into_iter()
-        .map(|(m, p)| (m, p.into_iter().map(|(x, y)| (x, y, 0.0)).collect()))
-        .collect();
-    let refs: Vec<(&str, &[(f64, f64, f64)])> = points
-        .iter()
-        .map(|(m, p)| (m.as_str(), p.as_slice()))
-        .collect();
-    let files = charts::error_curves(
-        &dir.join("figures"),
-        stem,
-        &title,
-        &refs,
-        ("epoch", "validation accuracy (%)"),
-        Some(0.0..100.0),
-    )
-    .with_context(|| format!("drawing {stem}"))?;
+    let labels = ("epoch", "validation accuracy (%)");
+    let files = plot(dir, stem, &title, &series, labels)?;
     Ok(Some(figure(
         dir,
         caption,

@@ -232,7 +232,7 @@ fn emptiest_corner(pts: &[(f64, f64)], x: Range<f64>, y: Range<f64>) -> SeriesLa
 }
 
 /// A curve's point: x, y and the half-length of its error bar (0: none).
-type Point = (f64, f64, f64);
+pub type Point = (f64, f64, f64);
 
 struct Curves<'s> {
     title: &'s str,
@@ -336,7 +336,7 @@ pub fn error_curves(
     dir: &Path,
     stem: &str,
     title: &str,
-    series: &[(&str, &[(f64, f64, f64)])],
+    series: &[(&str, &[Point])],
     (x_label, y_label): (&str, &str),
     y_range: Option<Range<f64>>,
 ) -> Result<[PathBuf; 2], FigureError> {
