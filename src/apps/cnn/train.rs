@@ -350,7 +350,7 @@ mod cuda {
         _: u64,
     ) -> anyhow::Result<Trained> {
         anyhow::bail!(
-            "training.device is cuda, but this binary was built without CUDA: rebuild with `make build FEATURES="mat73 cuda"`"
+            "training.device is cuda, but this binary was built without CUDA: rebuild with `make build FEATURES='mat73 cuda'`"
         )
     }
 }

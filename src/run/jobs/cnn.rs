@@ -158,17 +158,26 @@ fn nan_none(x: f64) -> Option<f64> {
     (!x.is_nan()).then_some(x)
 }
 
-/// A row of `jobs.parquet` for a training (the columns that apply; the others are null).
-fn training_status(
-    id: &str,
-    kind: &str,
-    dataset: &str,
-    method: &str,
+/// What a training's row of `jobs.parquet` says about it.
+struct TrainingRow<'a> {
+    id: &'a str,
+    kind: &'a str,
+    dataset: &'a str,
+    method: &'a str,
     seed: u64,
     samples: usize,
-    net: &NetConfig,
-    status: &Status,
-) -> Result<DataFrame> {
+}
+
+/// A row of `jobs.parquet` for a training (the columns that apply; the others are null).
+fn training_status(row: TrainingRow, net: &NetConfig, status: &Status) -> Result<DataFrame> {
+    let TrainingRow {
+        id,
+        kind,
+        dataset,
+        method,
+        seed,
+        samples,
+    } = row;
     Ok(DataFrame::new_infer_height(vec![
         Column::new("job".into(), [id]),
         Column::new("dataset".into(), [dataset]),
@@ -436,12 +445,14 @@ impl JobKind for ClassificationJob {
         let cp = plan.classification.as_ref()?;
         let names: Vec<&str> = self.classes.iter().map(|c| c.id.as_str()).collect();
         Some(training_status(
-            &self.id,
-            "classification",
-            &names.join(","),
-            self.source.as_str(),
-            self.seed,
-            self.train_size,
+            TrainingRow {
+                id: &self.id,
+                kind: "classification",
+                dataset: &names.join(","),
+                method: self.source.as_str(),
+                seed: self.seed,
+                samples: self.train_size,
+            },
             &cp.net,
             status,
         ))
@@ -754,14 +765,16 @@ impl JobKind for LocationJob {
     fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>> {
         let lp = plan.location.as_ref()?;
         Some(training_status(
-            &self.id,
-            "location",
-            &self.clutter[0].id,
-            self.source.as_str(),
-            self.seed,
-            match self.source {
-                Source::Original => lp.spec.fit_samples / 2,
-                Source::Generated(_) => lp.spec.generated_samples / 2,
+            TrainingRow {
+                id: &self.id,
+                kind: "location",
+                dataset: &self.clutter[0].id,
+                method: self.source.as_str(),
+                seed: self.seed,
+                samples: match self.source {
+                    Source::Original => lp.spec.fit_samples / 2,
+                    Source::Generated(_) => lp.spec.generated_samples / 2,
+                },
             },
             &lp.net,
             status,
@@ -830,14 +843,31 @@ impl JobKind for LocationSummaryJob {
     }
 }
 
+/// One row of the location summary: target, method, SCR at 50 % and 90 %, best mean
+/// accuracy, SCR points.
+type SummaryRow = (String, String, Option<f64>, Option<f64>, f64, usize);
+
+/// Mean accuracies by SCR of one (target, method): `(scr_db, accuracies over repeats)`.
+type ByScr = Vec<(f64, Vec<f64>)>;
+
 /// The summary of `location` rows (see [`LocationSummaryJob`]).
 ///
 /// # Errors
 /// If the rows lack a column.
 pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
     use std::collections::BTreeMap;
-    // (target, method) -> scr (as bits for ordering) -> accuracies
-    let mut acc: BTreeMap<(String, String), Vec<(f64, Vec<f64>)>> = BTreeMap::new();
+    /// Accuracies by SCR of one (target, method).
+    type BySnr = Vec<(f64, Vec<f64>)>;
+    /// One summary row.
+    struct Summary {
+        target: String,
+        method: String,
+        at50: Option<f64>,
+        at90: Option<f64>,
+        best: f64,
+        points: usize,
+    }
+    let mut acc: BTreeMap<(String, String), BySnr> = BTreeMap::new();
     let mut order: Vec<(String, String)> = vec![];
     for df in frames {
         let t = df.column("target")?.str()?.clone();
@@ -860,7 +890,7 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
             }
         }
     }
-    let mut rows: Vec<(String, String, Option<f64>, Option<f64>, f64, usize)> = vec![];
+    let mut rows: Vec<Summary> = vec![];
     for key in &order {
         let mut pts: Vec<(f64, f64)> = acc[key]
             .iter()
@@ -877,19 +907,16 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
             pts.len(),
         ));
     }
-    let gain =
-        |target: &str,
-         x: Option<f64>,
-         pick: fn(&(String, String, Option<f64>, Option<f64>, f64, usize)) -> Option<f64>| {
-            let base = rows
-                .iter()
-                .find(|r| r.0 == target && r.1 == "original")
-                .and_then(pick);
-            match (base, x) {
-                (Some(b), Some(x)) => Some(b - x),
-                _ => None,
-            }
-        };
+    let gain = |target: &str, x: Option<f64>, pick: fn(&SummaryRow) -> Option<f64>| {
+        let base = rows
+            .iter()
+            .find(|r| r.0 == target && r.1 == "original")
+            .and_then(pick);
+        match (base, x) {
+            (Some(b), Some(x)) => Some(b - x),
+            _ => None,
+        }
+    };
     let g50: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.2, |r| r.2)).collect();
     let g90: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.3, |r| r.3)).collect();
     Ok(DataFrame::new_infer_height(vec![
