@@ -856,18 +856,7 @@ type ByScr = Vec<(f64, Vec<f64>)>;
 /// If the rows lack a column.
 pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
     use std::collections::BTreeMap;
-    /// Accuracies by SCR of one (target, method).
-    type BySnr = Vec<(f64, Vec<f64>)>;
-    /// One summary row.
-    struct Summary {
-        target: String,
-        method: String,
-        at50: Option<f64>,
-        at90: Option<f64>,
-        best: f64,
-        points: usize,
-    }
-    let mut acc: BTreeMap<(String, String), BySnr> = BTreeMap::new();
+    let mut acc: BTreeMap<(String, String), ByScr> = BTreeMap::new();
     let mut order: Vec<(String, String)> = vec![];
     for df in frames {
         let t = df.column("target")?.str()?.clone();
@@ -890,7 +879,7 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
             }
         }
     }
-    let mut rows: Vec<Summary> = vec![];
+    let mut rows: Vec<SummaryRow> = vec![];
     for key in &order {
         let mut pts: Vec<(f64, f64)> = acc[key]
             .iter()
