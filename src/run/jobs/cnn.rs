@@ -476,6 +476,7 @@ fn dataset_files(d: &crate::experiment::Dataset) -> Vec<std::path::PathBuf> {
         Dataset::Npy(d) => vec![d.path.clone()],
         Dataset::Netcdf(d) => vec![d.path.clone()],
         Dataset::Kspace(d) => vec![d.path.clone()],
+        Dataset::Mat(d) => vec![d.path.clone()],
         Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
     }
 }
