@@ -115,7 +115,7 @@ bench-cnn-torch: bench-torch-deps
 ## bench-cnn: CNN training throughput side by side in one run: burn (cargo bench --bench cnn:
 ## 1 and 2 threads, two trainings side by side) and PyTorch (1 and 2 threads)
 bench-cnn: bench-torch-deps
-	cargo bench --locked --bench cnn
+	cargo bench --locked $(CARGO_FEATURES) --bench cnn
 	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 1
 	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 2
 
