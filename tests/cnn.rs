@@ -736,3 +736,52 @@ fn training_is_bit_identical_on_1_and_2_threads() {
     let fb: Vec<f32> = b.net.fc_w.val().into_data().to_vec().unwrap();
     assert_eq!(fa, fb);
 }
+
+/// Clutter of small power trained with few mini-batches (one per epoch, as a 100-sample
+/// training does) still predicts in inference mode: the running BN statistics average the
+/// batches seen instead of keeping most of their initial variance of 1 (which made every
+/// prediction one class when the data's variance is 1e-6).
+#[test]
+fn few_updates_on_small_power_data_still_predict() {
+    let c = NetConfig {
+        arch: Arch::Table18,
+        height: 32,
+        width: 32,
+        classes: 2,
+    };
+    let mut rng = ChaCha20Rng::seed_from_u64(4);
+    let mut make = |n: usize| {
+        let mut set = Labelled::default();
+        for k in 0..n {
+            let label = k % 2;
+            let img: Vec<Complex32> = (0..32 * 32)
+                .map(|p| {
+                    let (a, b): (f64, f64) = (
+                        StandardNormal.sample(&mut rng),
+                        StandardNormal.sample(&mut rng),
+                    );
+                    let bright = if (p / 32 < 16) == (label == 0) {
+                        3.0
+                    } else {
+                        0.0
+                    };
+                    Complex32::new(((a + bright) * 1e-3) as f32, (b * 1e-3) as f32)
+                })
+                .collect();
+            set.push(&img, label);
+        }
+        set
+    };
+    let (tr, va) = (make(32), make(32));
+    let opts = TrainingOptions {
+        batch_size: 32,
+        epochs: 6,
+        ..TrainingOptions::default()
+    };
+    let t = train(&c, &opts, &tr, &va, 9);
+    assert!(
+        t.validation_accuracy > 0.9,
+        "validation accuracy {}",
+        t.validation_accuracy
+    );
+}

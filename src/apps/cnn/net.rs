@@ -320,9 +320,25 @@ pub struct Bn<B: Backend> {
     pub running_mean: RunningState<Tensor<B, 1>>,
     /// Running (biased) variance, for inference.
     pub running_var: RunningState<Tensor<B, 1>>,
+    /// Running-statistics updates so far: update `k` (from 0) gives the newest batch the
+    /// weight `max(BN_DECAY, 1 / (k + 1))`, so the first updates average the batches seen
+    /// instead of leaning on the initial 0 and 1 (with 30 updates, as a 100-sample training
+    /// makes, 0.9^30 = 4 % of the initial variance of 1 would remain: wrong by orders of
+    /// magnitude for clutter of small power).
+    #[module(skip)]
+    pub updates: std::sync::Arc<std::sync::atomic::AtomicUsize>,
 }
 
 impl<B: Backend> Bn<B> {
+    /// The weight of the newest batch in the next running-statistics update (see
+    /// [`Bn::updates`]), counting the update.
+    pub fn next_decay(&self) -> f64 {
+        let k = self
+            .updates
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        BN_DECAY.max(1.0 / (k + 1) as f64)
+    }
+
     /// A copy on another backend (values through host memory).
     pub fn to_backend<B2: Backend>(&self, device: &B2::Device) -> Bn<B2> {
         Bn {
@@ -330,6 +346,9 @@ impl<B: Backend> Bn<B> {
             beta: param(&self.beta, device),
             running_mean: RunningState::new(move_tensor(self.running_mean.value(), device)),
             running_var: RunningState::new(move_tensor(self.running_var.value(), device)),
+            updates: std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(
+                self.updates.load(std::sync::atomic::Ordering::Relaxed),
+            )),
         }
     }
 
@@ -339,6 +358,7 @@ impl<B: Backend> Bn<B> {
             beta: Param::from_tensor(Tensor::zeros([c], device)),
             running_mean: RunningState::new(Tensor::zeros([c], device)),
             running_var: RunningState::new(Tensor::ones([c], device)),
+            updates: Default::default(),
         }
     }
 
@@ -351,10 +371,11 @@ impl<B: Backend> Bn<B> {
             let mean = rows.clone().mean_dim(1).reshape([n, c]).mean_dim(0); // [1, C]
             let centred = rows.clone() - per_row(mean.clone(), n, c);
             let var = centred.square().mean_dim(1).reshape([n, c]).mean_dim(0); // [1, C]
+            let decay = self.next_decay();
             let update = |state: &RunningState<Tensor<B, 1>>, batch: &Tensor<B, 2>| {
                 let old = state.value_sync();
-                let new = old.mul_scalar(1.0 - BN_DECAY)
-                    + batch.clone().detach().reshape([c]).mul_scalar(BN_DECAY);
+                let new = old.mul_scalar(1.0 - decay)
+                    + batch.clone().detach().reshape([c]).mul_scalar(decay);
                 state.update(new.detach());
             };
             update(&self.running_mean, &mean);
@@ -530,10 +551,11 @@ impl<B: Backend> Net<B> {
                 BN_EPSILON,
             );
             let c = g.f;
+            let decay = bn.next_decay();
             let update = |state: &RunningState<Tensor<B, 1>>, batch: Vec<f32>| {
                 let old = state.value_sync();
                 let batch = Tensor::<B, 1>::from_data(TensorData::new(batch, [c]), &device);
-                let new = old.mul_scalar(1.0 - BN_DECAY) + batch.mul_scalar(BN_DECAY);
+                let new = old.mul_scalar(1.0 - decay) + batch.mul_scalar(decay);
                 state.update(new.detach());
             };
             update(&bn.running_mean, mean);

@@ -195,6 +195,7 @@ pub fn load(dir: &Path) -> Result<Loaded> {
             beta: Param::from_tensor(vec1(take)),
             running_mean: RunningState::new(vec1(take)),
             running_var: RunningState::new(vec1(take)),
+            updates: Default::default(),
         };
         (w, b, bn)
     };
