@@ -142,6 +142,12 @@ impl TrainingOptions {
                 format!("must be in 1..=10000, got {}", self.epochs),
             ));
         }
+        if self.device == Device::Cuda && !cfg!(feature = "cuda") {
+            return Err((
+                "device",
+                "this binary was built without CUDA: rebuild with `make build FEATURES='mat73 cuda'` (or use `device: cpu`)".into(),
+            ));
+        }
         Ok(())
     }
 }
