@@ -395,6 +395,17 @@ pub struct NetcdfDataset {
 }
 
 impl Dataset {
+    /// The files the dataset reads (their content hashes go into its jobs' store keys).
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        match self {
+            Dataset::Npy(d) => vec![d.path.clone()],
+            Dataset::Mat(d) => vec![d.path.clone()],
+            Dataset::Netcdf(d) => vec![d.path.clone()],
+            Dataset::Kspace(d) => vec![d.path.clone()],
+            Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
+        }
+    }
+
     /// `(N, H, W)` of the stack this dataset yields.
     pub fn shape(&self) -> (usize, usize, usize) {
         match self {

@@ -320,7 +320,7 @@ impl JobKind for ClassificationJob {
     fn input_files(&self) -> Vec<std::path::PathBuf> {
         self.classes
             .iter()
-            .flat_map(|c| dataset_files(&c.dataset))
+            .flat_map(|c| c.dataset.input_files())
             .collect()
     }
 
@@ -469,18 +469,6 @@ impl JobKind for ClassificationJob {
     }
 }
 
-/// Files a dataset reads (their hashes go into the key).
-fn dataset_files(d: &crate::experiment::Dataset) -> Vec<std::path::PathBuf> {
-    use crate::experiment::Dataset;
-    match d {
-        Dataset::Npy(d) => vec![d.path.clone()],
-        Dataset::Netcdf(d) => vec![d.path.clone()],
-        Dataset::Kspace(d) => vec![d.path.clone()],
-        Dataset::Mat(d) => vec![d.path.clone()],
-        Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
-    }
-}
-
 /// One location training.
 #[derive(Debug, Clone)]
 pub struct LocationJob {
@@ -602,7 +590,7 @@ impl JobKind for LocationJob {
     }
 
     fn input_files(&self) -> Vec<std::path::PathBuf> {
-        dataset_files(&self.clutter[0].dataset)
+        self.clutter[0].dataset.input_files()
     }
 
     fn materialise(&self) -> Result<Materialised> {

@@ -68,14 +68,7 @@ impl JobKind for Job {
     }
 
     fn input_files(&self) -> Vec<std::path::PathBuf> {
-        use crate::experiment::Dataset;
-        match &self.dataset {
-            Dataset::Npy(d) => vec![d.path.clone()],
-            Dataset::Mat(d) => vec![d.path.clone()],
-            Dataset::Netcdf(d) => vec![d.path.clone()],
-            Dataset::Kspace(d) => vec![d.path.clone()],
-            Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
-        }
+        self.dataset.input_files()
     }
 
     fn materialise(&self) -> Result<Materialised> {
