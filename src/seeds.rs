@@ -10,6 +10,8 @@ use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 use sha2::{Digest, Sha256};
 
+pub mod normal;
+
 /// Derives a 64-bit seed from the master seed, a domain and a canonical identity
 /// (first 8 bytes, little endian, of SHA-256 over `isar-clutter/v1/<domain>/<master>/<identity>`).
 pub fn derive_seed(master: u64, domain: &str, identity: &str) -> u64 {

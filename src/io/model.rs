@@ -3,7 +3,8 @@
 //! any number of samples to a `[M, H, W]` complex64 `.npy` in constant memory.
 //!
 //! Folder layout (format `isar-clutter-model/1`): `model.json` (format, method, image size,
-//! half-width, dyadic levels, samples fitted, unreachable-target counts, provenance and the
+//! half-width, dyadic levels, samples fitted, unreachable-target counts, provenance, the sample
+//! format (absent: 1; see [`crate::synthesis::SAMPLE_FORMAT`]) and the
 //! fitted data's multiscale summary), `mean.npy` (complex128 `[H, W]`), `std.npy` (float64
 //! `[H, W]`); Method 1: `alpha_h.npy`, `alpha_v.npy` (float64, level-1 cell grid); Method 2:
 //! `r_h.npy`, `r_v.npy` (float64 `[L, rows, cols]`); Methods 1 and 2: `residual_h.npy`,
@@ -50,6 +51,15 @@ pub struct ModelInfo {
     /// Mean correlation of the fitted data per level and direction (`level`, `direction`,
     /// `mean_correlation`, `nan_cells`).
     pub analysis: serde_json::Value,
+    /// How samples are drawn from a seed ([`crate::synthesis::SAMPLE_FORMAT`]); absent in
+    /// models written before it was recorded, which are format 1.
+    #[serde(default = "format_one")]
+    pub sample_format: u32,
+}
+
+/// The sample format of a `model.json` that does not record one.
+fn format_one() -> u32 {
+    1
 }
 
 impl ModelInfo {
@@ -76,6 +86,7 @@ impl ModelInfo {
                 .map_or(0, |f| f.clamped.iter().map(|&c| c as u64).sum()),
             source,
             analysis: analysis_summary(analysis),
+            sample_format: model.sample_format,
         }
     }
 }
@@ -268,6 +279,13 @@ fn check_info(info: &ModelInfo) -> Result<()> {
     if h == 0 || w == 0 {
         bail!("height {h} and width {w} must be at least 1");
     }
+    if !crate::synthesis::SAMPLE_FORMATS.contains(&info.sample_format) {
+        bail!(
+            "sample_format {}: this version generates formats {:?}",
+            info.sample_format,
+            crate::synthesis::SAMPLE_FORMATS
+        );
+    }
     if !matches!(info.method, Method::Method1 | Method::Method2) {
         return Ok(());
     }
@@ -358,7 +376,9 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
             filter,
             deviations,
             fourth,
+            sample_format: info.sample_format,
             packed: Default::default(),
+            fast: Default::default(),
         },
         info,
     ))
@@ -444,11 +464,12 @@ pub fn npy_header_c64(m: usize, h: usize, w: usize) -> Vec<u8> {
 }
 
 /// Streams samples `0..samples` of the generation seeded by `seed` into a `[M, H, W]`
-/// complex64 `.npy` at `path`, `chunk` samples at a time (memory: one chunk), calling
-/// `progress` with the number of samples written so far. Written atomically.
+/// complex64 `.npy` at `path`, `chunk` samples at a time (memory: two chunks, one being
+/// generated while the other is written), calling `progress` with the number of samples
+/// generated so far. Written atomically.
 ///
 /// # Errors
-/// If the file cannot be written.
+/// If the blocks do not fit in memory or the file cannot be written.
 pub fn generate_to_npy(
     model: &Model,
     seed: u64,
@@ -458,19 +479,46 @@ pub fn generate_to_npy(
     progress: impl Fn(usize),
 ) -> Result<()> {
     let (h, w) = model.shape();
+    let plane = h * w;
+    let chunk = chunk.max(1).min(samples.max(1));
     atomic_write(path, |out| {
         out.write_all(&npy_header_c64(samples, h, w))?;
-        let mut done = 0;
-        while done < samples {
-            let count = chunk.max(1).min(samples - done);
-            let block = model.generate_c64(seed, done, count);
-            out.write_all(bytemuck::cast_slice(
-                block.as_slice().expect("standard layout"),
-            ))?;
-            done += count;
-            progress(done);
+        // Two blocks in turn: the caller's pool fills one while this thread's helper writes the
+        // other, so generation and the kernel's copy into the page cache overlap, and the
+        // blocks' memory is touched once (fresh memory costs a page fault per 4 KiB here).
+        type Block = Array3<num_complex::Complex32>;
+        let blocks = samples.div_ceil(chunk).min(2);
+        let (to_writer, written) = std::sync::mpsc::sync_channel::<(Block, usize)>(1);
+        let (to_generator, free) = std::sync::mpsc::channel::<Block>();
+        for _ in 0..blocks {
+            let b = crate::alloc::try_zeros((chunk, h, w), "a block of generated samples")?;
+            to_generator.send(b).expect("the receiver is alive");
         }
-        Ok(())
+        std::thread::scope(|scope| -> Result<()> {
+            let writer = scope.spawn(move || -> Result<()> {
+                for (block, count) in written {
+                    let values = block.as_slice().expect("standard layout");
+                    out.write_all(bytemuck::cast_slice(&values[..count * plane]))?;
+                    // The generator may have stopped (an error): nothing to return to.
+                    let _ = to_generator.send(block);
+                }
+                Ok(())
+            });
+            let mut done = 0;
+            while done < samples {
+                let count = chunk.min(samples - done);
+                let Ok(mut block) = free.recv() else { break };
+                let values = block.as_slice_mut().expect("standard layout");
+                model.generate_c64_into(seed, done, &mut values[..count * plane]);
+                if to_writer.send((block, count)).is_err() {
+                    break;
+                }
+                done += count;
+                progress(done);
+            }
+            drop(to_writer);
+            writer.join().expect("the writer does not panic")
+        })
     })
 }
 

@@ -280,7 +280,9 @@ pub fn fit(
         filter: None,
         deviations: None,
         fourth: None,
+        sample_format: SAMPLE_FORMAT,
         packed: Default::default(),
+        fast: Default::default(),
     };
     match method {
         Method::Uncorrelated => {}

@@ -12,8 +12,13 @@
 //!   without forming the `P x P` matrix;
 //! - `uncorrelated`: mean and variance only.
 //!
-//! Sample `s` of a generation with seed `seed` draws from ChaCha20 seeded with `seed` on
-//! stream `s`, so any sample can be regenerated alone and output never depends on threads.
+//! Sample `s` of a generation with seed `seed` draws from its own stream of the seed (stream
+//! `s`), so any sample can be regenerated alone and output never depends on threads. How the
+//! stream becomes a sample is the model's *sample format* ([`SAMPLE_FORMAT`]): format 1
+//! (models written before it was recorded) draws ChaCha20 normals by ziggurat in `f64`;
+//! format 2 draws ChaCha8 words turned into normals by the Box-Muller transform of
+//! [`crate::seeds::normal`] and filters in `f32` ([`kernel`]). Both give samples with the
+//! model's statistics; format 2 is several times faster.
 
 use crate::stats::analysis::{Analysis, Direction};
 use crate::stats::filters::{
@@ -29,6 +34,7 @@ use serde::{Deserialize, Serialize};
 
 mod fit;
 mod generate;
+pub mod kernel;
 
 pub use fit::*;
 
@@ -168,9 +174,21 @@ pub struct Model {
     pub deviations: Option<Array3<Complex64>>,
     /// Fourth order: Fleishman coefficients.
     pub fourth: Option<FourthOrderModel>,
+    /// How samples are drawn from a seed (1 or 2, see the module documentation); models
+    /// fitted now use [`SAMPLE_FORMAT`].
+    pub sample_format: u32,
     /// Full covariance: `deviations` packed for the sampler's kernel, made on first use.
     pub(crate) packed: std::sync::OnceLock<crate::stats::lowrank::Panels>,
+    /// Methods 1 and 2 in format 2: the bank prepared for the kernel, made on first use.
+    pub(crate) fast: std::sync::OnceLock<kernel::FastFilter>,
 }
+
+/// The sample format of newly fitted models: 2 (ChaCha8 words, `f32` Box-Muller normals and
+/// `f32` filtering; see the module documentation).
+pub const SAMPLE_FORMAT: u32 = 2;
+
+/// The sample formats this version generates.
+pub const SAMPLE_FORMATS: [u32; 2] = [1, 2];
 
 /// The fourth-order model's per-pixel parameters.
 #[derive(Debug, Clone, PartialEq)]
