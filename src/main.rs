@@ -194,9 +194,13 @@ enum Command {
         /// Number of samples M.
         #[arg(long)]
         samples: usize,
-        /// Seed of the generation (sample s draws from ChaCha20 stream s).
+        /// Seed of the generation (sample s draws from stream s of the seed).
         #[arg(long)]
         seed: u64,
+        /// How samples are drawn from the seed: 2 (ChaCha8 and f32, the format of models fitted
+        /// by this version) or 1 (ChaCha20 and f64, earlier models). Default: the model's.
+        #[arg(long, value_name = "FORMAT", value_parser = clap::value_parser!(u32).range(1..=2))]
+        sample_format: Option<u32>,
         /// The .npy or .mat (by its extension) to write.
         #[arg(long)]
         out: PathBuf,
@@ -210,9 +214,14 @@ enum Command {
         /// .mat output: the name of the variable (default samples).
         #[arg(long, value_name = "NAME")]
         var: Option<String>,
-        /// Samples generated per block (memory: one block).
-        #[arg(long, default_value_t = 1024)]
+        /// Samples generated per block (memory: two blocks, one generated while the other is
+        /// written).
+        #[arg(long, default_value_t = 256)]
         chunk: usize,
+        /// .npy output: write through the page cache instead of with direct I/O (O_DIRECT,
+        /// used where the file system allows it: the bytes go to the disk without a copy).
+        #[arg(long)]
+        buffered: bool,
         /// Worker threads (default: RAYON_NUM_THREADS, else all cores). The file does not
         /// depend on it.
         #[arg(long)]
@@ -381,12 +390,16 @@ fn real_main() -> Result<ExitCode> {
             mat_version,
             mat_class,
             var,
+            sample_format,
+            buffered,
         } => {
             let mat = mat_output(&out, mat_version.as_deref(), mat_class, var)?;
             let run = Generation {
                 seed,
                 samples,
                 chunk,
+                sample_format,
+                buffered,
             };
             generate_command(&model, &out, mat.as_ref(), &run, jobs)?;
             Ok(ExitCode::SUCCESS)
@@ -495,11 +508,15 @@ fn pool(jobs: Option<usize>) -> Result<rayon::ThreadPool> {
         .build()?)
 }
 
-/// The seed, number and block size of a `generate`.
+/// The seed, number, block size and sample format of a `generate`.
 struct Generation {
     seed: u64,
     samples: usize,
     chunk: usize,
+    /// `--sample-format`, overriding the model's.
+    sample_format: Option<u32>,
+    /// `--buffered`: write the `.npy` through the page cache, not with direct I/O.
+    buffered: bool,
 }
 
 /// `generate`: check the output (a `.npy`, or the `.mat` `mat` describes), load the model,
@@ -519,7 +536,10 @@ fn generate_command(
         )?,
         None => isar_clutter::io::outdir::check_file_output(out, "samples .npy", is_samples_npy)?,
     }
-    let (m, _) = isar_clutter::io::model::load(model)?;
+    let (mut m, _) = isar_clutter::io::model::load(model)?;
+    if let Some(format) = run.sample_format {
+        m.sample_format = format;
+    }
     if let Some(mat) = mat {
         let (h, w) = m.shape();
         isar_clutter::io::mat::write::check_output(mat, (h, w, run.samples))
@@ -544,17 +564,23 @@ fn generate_command(
         None => isar_clutter::io::model::generate_to_npy(
             &m,
             run.seed,
-            run.samples,
-            run.chunk,
+            (run.samples, run.chunk),
             out,
+            if run.buffered {
+                isar_clutter::io::stream::WriteMode::Buffered
+            } else {
+                isar_clutter::io::stream::WriteMode::Direct
+            },
             progress,
-        ),
+        )
+        .map(|_| ()),
     })?;
     bar.finish_and_clear();
     let s = t.elapsed().as_secs_f64();
     eprintln!(
-        "{} sample(s) -> {} in {s:.2} s ({:.0} samples/s)",
+        "{} sample(s) (format {}) -> {} in {s:.2} s ({:.0} samples/s)",
         run.samples,
+        m.sample_format,
         out.display(),
         run.samples as f64 / s
     );

@@ -21,7 +21,6 @@ use ndarray::{Array2, Array3, Axis};
 use ndarray_npy::ReadNpyExt;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
-use std::io::Write;
 use std::path::Path;
 
 /// Format tag of `model.json`.
@@ -465,61 +464,34 @@ pub fn npy_header_c64(m: usize, h: usize, w: usize) -> Vec<u8> {
 
 /// Streams samples `0..samples` of the generation seeded by `seed` into a `[M, H, W]`
 /// complex64 `.npy` at `path`, `chunk` samples at a time (memory: two chunks, one being
-/// generated while the other is written), calling `progress` with the number of samples
-/// generated so far. Written atomically.
+/// generated while the other is written, with direct I/O where the file system allows it and
+/// `mode` asks for it: [`crate::io::stream`]), calling `progress` with the number of samples
+/// generated so far. Written atomically. Returns the write mode used.
 ///
 /// # Errors
 /// If the blocks do not fit in memory or the file cannot be written.
 pub fn generate_to_npy(
     model: &Model,
     seed: u64,
-    samples: usize,
-    chunk: usize,
+    (samples, chunk): (usize, usize),
     path: &Path,
+    mode: crate::io::stream::WriteMode,
     progress: impl Fn(usize),
-) -> Result<()> {
+) -> Result<crate::io::stream::WriteMode> {
     let (h, w) = model.shape();
-    let plane = h * w;
-    let chunk = chunk.max(1).min(samples.max(1));
-    atomic_write(path, |out| {
-        out.write_all(&npy_header_c64(samples, h, w))?;
-        // Two blocks in turn: the caller's pool fills one while this thread's helper writes the
-        // other, so generation and the kernel's copy into the page cache overlap, and the
-        // blocks' memory is touched once (fresh memory costs a page fault per 4 KiB here).
-        type Block = Array3<num_complex::Complex32>;
-        let blocks = samples.div_ceil(chunk).min(2);
-        let (to_writer, written) = std::sync::mpsc::sync_channel::<(Block, usize)>(1);
-        let (to_generator, free) = std::sync::mpsc::channel::<Block>();
-        for _ in 0..blocks {
-            let b = crate::alloc::try_zeros((chunk, h, w), "a block of generated samples")?;
-            to_generator.send(b).expect("the receiver is alive");
-        }
-        std::thread::scope(|scope| -> Result<()> {
-            let writer = scope.spawn(move || -> Result<()> {
-                for (block, count) in written {
-                    let values = block.as_slice().expect("standard layout");
-                    out.write_all(bytemuck::cast_slice(&values[..count * plane]))?;
-                    // The generator may have stopped (an error): nothing to return to.
-                    let _ = to_generator.send(block);
-                }
-                Ok(())
-            });
-            let mut done = 0;
-            while done < samples {
-                let count = chunk.min(samples - done);
-                let Ok(mut block) = free.recv() else { break };
-                let values = block.as_slice_mut().expect("standard layout");
-                model.generate_c64_into(seed, done, &mut values[..count * plane]);
-                if to_writer.send((block, count)).is_err() {
-                    break;
-                }
-                done += count;
-                progress(done);
-            }
-            drop(to_writer);
-            writer.join().expect("the writer does not panic")
-        })
-    })
+    let mut used = mode;
+    crate::io::atomic::atomic_write_path(path, |tmp| {
+        used = crate::io::stream::write_samples(
+            tmp,
+            &npy_header_c64(samples, h, w),
+            (samples, h * w, chunk),
+            mode,
+            |first, out| model.generate_c64_into(seed, first, out),
+            progress,
+        )?;
+        Ok(())
+    })?;
+    Ok(used)
 }
 
 /// Streams samples `0..samples` of the generation seeded by `seed` into the MAT file `path` as

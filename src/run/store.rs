@@ -4,7 +4,7 @@
 //! store alone.
 //!
 //! `key` is the first 20 hex digits of a SHA-256 over what determines the result: the store's
-//! schema version, the job's kind, identity and seed, its full validated parameters
+//! schema version, the sample format generation uses, the job's kind, identity and seed, its full validated parameters
 //! ([`JobKind::key_material`]: for a dataset job its dataset, analysis and synthesis settings
 //! and the plan-wide settings its rows depend on) and the content hash of its input files. A
 //! changed spec or input file changes the keys of exactly the jobs it affects; a key of an
@@ -92,7 +92,8 @@ pub fn job_dir(out: &Path, key: &str) -> PathBuf {
 /// If an input file cannot be read for its hash.
 pub fn key(job: &dyn JobKind, plan: &Plan) -> Result<String> {
     let mut text = format!(
-        "isar-clutter/store/{SCHEMA}\nkind={}\nidentity={}\nseed={:?}\n{}\n",
+        "isar-clutter/store/{SCHEMA}\nsample_format={}\nkind={}\nidentity={}\nseed={:?}\n{}\n",
+        crate::synthesis::SAMPLE_FORMAT,
         job.kind(),
         job.identity(),
         job.seed(),
