@@ -671,3 +671,89 @@ fn fit_then_generate_streams_the_same_samples_as_the_library() {
         );
     }
 }
+
+/// `model.json` records the sample format; a model without it (written before the format was
+/// recorded) is format 1 and generates exactly what it did, `--sample-format` chooses the
+/// other, `--buffered` writes the same bytes as direct I/O, and a format this version does not
+/// know is refused with the file named.
+#[test]
+fn model_folders_carry_their_sample_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let stack = Array3::from_shape_fn((40, 8, 10), |(n, r, c)| {
+        Complex::new(
+            ((n * 31 + r * 7 + c * 3) % 17) as f32 - 8.0,
+            ((n + 2 * r) % 5) as f32,
+        )
+    });
+    let input = dir.path().join("s.npy");
+    stack.write_npy(File::create(&input).unwrap()).unwrap();
+    let model = dir.path().join("m");
+    let o = bin(&[
+        "fit",
+        "--input",
+        input.to_str().unwrap(),
+        "--method",
+        "method1",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json = model.join("model.json");
+    let info: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(info["sample_format"], 2);
+    let gen = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "generate",
+            "--model",
+            model.to_str().unwrap(),
+            "--samples",
+            "21",
+            "--seed",
+            "4",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = bin(&args);
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stderr).to_string(),
+            std::fs::read(&out).ok(),
+        )
+    };
+    let (ok, _, two) = gen("two.npy", &[]);
+    assert!(ok);
+    let (ok, _, buffered) = gen("buffered.npy", &["--buffered"]);
+    assert!(ok);
+    assert_eq!(
+        two, buffered,
+        "direct and buffered writes hold the same bytes"
+    );
+    let (ok, _, forced_one) = gen("forced1.npy", &["--sample-format", "1"]);
+    assert!(ok);
+    assert_ne!(two, forced_one);
+    // The same folder as an earlier version wrote it: no sample_format.
+    let mut old = info.clone();
+    old.as_object_mut().unwrap().remove("sample_format");
+    std::fs::write(&json, serde_json::to_vec_pretty(&old).unwrap()).unwrap();
+    let (ok, err, one) = gen("one.npy", &[]);
+    assert!(ok, "{err}");
+    assert!(err.contains("format 1"), "{err}");
+    assert_eq!(one, forced_one, "an old model generates format 1");
+    let (loaded, _) = isar_clutter::io::model::load(&model).unwrap();
+    assert_eq!(loaded.sample_format, 1);
+    let (ok, _, forced_two) = gen("forced2.npy", &["--sample-format", "2"]);
+    assert!(ok);
+    assert_eq!(forced_two, two);
+    // A format from the future.
+    let mut future = info.clone();
+    future["sample_format"] = serde_json::json!(3);
+    std::fs::write(&json, serde_json::to_vec_pretty(&future).unwrap()).unwrap();
+    let (ok, err, _) = gen("three.npy", &[]);
+    assert!(!ok);
+    assert!(
+        err.contains("model.json") && err.contains("sample_format 3"),
+        "{err}"
+    );
+}

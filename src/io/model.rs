@@ -497,7 +497,8 @@ pub fn generate_to_npy(
 /// Streams samples `0..samples` of the generation seeded by `seed` into the MAT file `path` as
 /// the variable `out.variable`, MATLAB `H x W x M` of `out.class` complex, `chunk` samples at
 /// a time (memory: one chunk; see [`crate::io::mat::write::write_stack`]). `single` values are
-/// those `generate_to_npy` writes; `double` values are the generator's own, unrounded.
+/// those `generate_to_npy` writes; `double` values are the generator's own (sample format 2
+/// computes in `f32`, so they are the same values widened; format 1's are its `f64` values).
 ///
 /// # Errors
 /// If the output is refused ([`crate::io::mat::write::check_output`]), a block does not fit in
