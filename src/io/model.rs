@@ -378,6 +378,7 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
             sample_format: info.sample_format,
             packed: Default::default(),
             fast: Default::default(),
+            fourth_f32: Default::default(),
         },
         info,
     ))

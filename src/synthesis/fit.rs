@@ -283,6 +283,7 @@ pub fn fit(
         sample_format: SAMPLE_FORMAT,
         packed: Default::default(),
         fast: Default::default(),
+        fourth_f32: Default::default(),
     };
     match method {
         Method::Uncorrelated => {}

@@ -185,18 +185,31 @@ impl Model {
         );
         match &self.fourth {
             Some(f) => {
-                let sqrt2 = std::f64::consts::SQRT_2;
-                for (p, x) in out.iter_mut().enumerate() {
-                    let (i, j) = (p / w, p % w);
-                    let part = |comp: usize, z: f64| {
-                        let coef = [0, 1, 2, 3].map(|k| f.coefficients[[comp, k, i, j]]);
-                        f.component_sd[[comp, i, j]] * crate::stats::fleishman::transform(&coef, z)
-                    };
-                    let (zr, zi) = (f64::from(re[p]) * sqrt2, f64::from(im[p]) * sqrt2);
-                    *x = Complex32::new(
-                        (mean[p].re + part(0, zr)) as f32,
-                        (mean[p].im + part(1, zi)) as f32,
-                    );
+                // Per pixel and component, in f32: the mean plus the component's standard
+                // deviation times Fleishman's cubic of the unit normal `sqrt 2` times the part.
+                let p = out.len();
+                let c = self.fourth_f32.get_or_init(|| {
+                    let mut c = vec![0.0f32; 2 * 5 * p];
+                    for comp in 0..2 {
+                        for (q, m) in mean.iter().enumerate() {
+                            let (i, j) = (q / w, q % w);
+                            let sd = f.component_sd[[comp, i, j]];
+                            c[(comp * 5) * p + q] = (if comp == 0 { m.re } else { m.im }) as f32;
+                            for k in 0..4 {
+                                c[(comp * 5 + 1 + k) * p + q] =
+                                    (sd * f.coefficients[[comp, k, i, j]]) as f32;
+                            }
+                        }
+                    }
+                    c
+                });
+                let sqrt2 = std::f32::consts::SQRT_2;
+                let part = |comp: usize, q: usize, z: f32| {
+                    let at = |k: usize| c[(comp * 5 + k) * p + q];
+                    at(0) + (at(1) + z * (at(2) + z * (at(3) + z * at(4))))
+                };
+                for (q, x) in out.iter_mut().enumerate() {
+                    *x = Complex32::new(part(0, q, re[q] * sqrt2), part(1, q, im[q] * sqrt2));
                 }
             }
             None => {

@@ -181,6 +181,9 @@ pub struct Model {
     pub(crate) packed: std::sync::OnceLock<crate::stats::lowrank::Panels>,
     /// Methods 1 and 2 in format 2: the bank prepared for the kernel, made on first use.
     pub(crate) fast: std::sync::OnceLock<kernel::FastFilter>,
+    /// Fourth order in format 2: per component the mean and the four Fleishman coefficients
+    /// times the standard deviation, `[2][5][H W]` in `f32`, made on first use.
+    pub(crate) fourth_f32: std::sync::OnceLock<Vec<f32>>,
 }
 
 /// The sample format of newly fitted models: 2 (ChaCha8 words, `f32` Box-Muller normals and
