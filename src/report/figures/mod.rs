@@ -24,6 +24,7 @@ use plotters_backend::{
     self as pb, BackendColor, BackendCoord, BackendTextStyle, DrawingErrorKind,
 };
 
+pub mod cache;
 pub mod charts;
 pub mod heatmap;
 #[cfg(test)]
@@ -187,6 +188,8 @@ struct Raster {
 /// A figure drawable on any plotters backend, plus rasters laid under the vector drawing.
 trait Figure {
     fn size(&self) -> (u32, u32);
+    /// Adds everything the figure is drawn from to its cache key (see [`cache`]).
+    fn key(&self, k: &mut cache::Key);
     fn rasters(&self) -> Vec<Raster> {
         Vec::new()
     }
@@ -402,6 +405,19 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
         msg: e.to_string(),
     };
     let (w, h) = fig.size();
+    let files = [png_path, svg_path];
+    let slot = cache::slot(&files);
+    let key = slot.as_ref().map(|_| {
+        let mut k = cache::Key::new((w, h));
+        fig.key(&mut k);
+        k.finish()
+    });
+    if let (Some(slot), Some(key)) = (&slot, &key) {
+        if slot.fresh(key) {
+            return Ok(files);
+        }
+    }
+    let [png_path, svg_path] = files;
     let rasters = fig.rasters();
 
     let mut buf = vec![255u8; 3 * w as usize * h as usize];
@@ -445,6 +461,9 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
     })?;
     write_atomic(&png_path, &png)?;
     write_atomic(&svg_path, svg.as_bytes())?;
+    if let (Some(slot), Some(key)) = (&slot, &key) {
+        slot.drawn(key, [&png, svg.as_bytes()]);
+    }
     Ok([png_path, svg_path])
 }
 
