@@ -187,12 +187,22 @@ impl Figure for HeatGrid<'_, '_> {
     }
 
     fn rasters(&self) -> Vec<Raster> {
+        // Neighbouring pixels mostly show the same cell: its colour is looked up once.
         let colour = |vals: &mut dyn Iterator<Item = f64>| -> Vec<u8> {
-            vals.flat_map(|v| {
-                let (r, g, b) = self.cmap.rgb(v);
-                [r, g, b]
-            })
-            .collect()
+            let mut last: Option<(u64, [u8; 3])> = None;
+            let mut out = Vec::with_capacity(3 * vals.size_hint().0);
+            for v in vals {
+                let rgb = match last {
+                    Some((bits, rgb)) if bits == v.to_bits() => rgb,
+                    _ => {
+                        let (r, g, b) = self.cmap.rgb(v);
+                        last = Some((v.to_bits(), [r, g, b]));
+                        [r, g, b]
+                    }
+                };
+                out.extend_from_slice(&rgb);
+            }
+            out
         };
         let mut out: Vec<Raster> = self
             .geo
