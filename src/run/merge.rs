@@ -230,9 +230,8 @@ pub fn merge_claimed(
     // Everything an earlier run wrote that this one did not (the store stays: its keys are a
     // cache that a later run of an earlier spec reads again; so do the figures when a report
     // follows: it draws again only those whose inputs changed).
-    let stale = outdir.remove_stale(|p| {
-        !p.starts_with("jobs") && !(opts.report_follows && p.starts_with("figures"))
-    })?;
+    let cache = |p: &Path| p.starts_with("jobs") || opts.report_follows && p.starts_with("figures");
+    let stale = outdir.remove_stale(|p| !cache(p))?;
     if stale > 0 {
         merged.notes.push(format!(
             "removed {stale} file(s) an earlier run wrote that this run does not have"
