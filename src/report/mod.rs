@@ -52,7 +52,9 @@ type Task = Box<dyn FnOnce() -> Result<Figure> + Send>;
 
 /// Builds `figures/` and `report.html` in the results folder `dir`, and removes the figures an
 /// earlier report drew that this one does not (only files the tool's records list: see
-/// [`crate::io::outdir`]).
+/// [`crate::io::outdir`]). Figures whose inputs did not change since the last report are kept
+/// as they are ([`figures::cache`]); the others are drawn in parallel on the current rayon
+/// pool, with the same files whatever its size.
 ///
 /// # Errors
 /// If `dir` is not a complete run's folder (in progress, interrupted, or changed since its
