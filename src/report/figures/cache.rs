@@ -1,21 +1,42 @@
 //! Figures that need not be drawn again. A report opens a [`FigureCache`] on its results
 //! folder; while it is open, every figure drawn into that folder is first keyed by a SHA-256 of
-//! everything it is drawn from (the values, titles, labels and layout the drawing code receives,
-//! [`FORMAT`] and the tool's version) and skipped when the sidecar `.isar-clutter/figures.json`
-//! records the same key and both its files still hold the bytes the tool wrote (their SHA-256).
-//! A figure whose key changed, whose file is missing, or whose file a user edited is drawn
-//! again. The sidecar keeps only the figures of the last report. The open caches are kept in a
-//! process-wide list by folder (as [`crate::io::outdir`] keeps its journals), so that the
-//! drawing functions need no extra argument.
+//! everything it is drawn from (the values, titles, labels and layout the drawing code
+//! receives, [`FORMAT`], the tool's version and a digest of the drawing code) and skipped when
+//! the sidecar `.isar-clutter/figures.json` records the same key and both its files still hold
+//! the bytes the tool wrote (their SHA-256). A figure whose key changed, whose file is missing,
+//! or whose file a user edited is drawn again. The sidecar keeps only the figures of the last
+//! report. The open caches are kept in a process-wide list by folder (as [`crate::io::outdir`]
+//! keeps its journals), so that the drawing functions need no extra argument.
 
 use sha2::{Digest, Sha256};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-/// Version of the figures' drawing: bump it when a change of the drawing code changes the
-/// files drawn from the same inputs, so that every cached figure is drawn again.
+/// Version of the figures' format: bump it when the files drawn from the same inputs change
+/// for a reason outside the drawing code (a dependency), so that every cached figure is drawn
+/// again. A change of the drawing code itself does that alone: the key holds a digest of its
+/// source ([`code_digest`]).
 pub const FORMAT: u32 = 1;
+
+/// SHA-256 of the drawing code's source (this folder's modules that draw) and the embedded
+/// font's length, computed once.
+fn code_digest() -> &'static [u8] {
+    static DIGEST: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    DIGEST.get_or_init(|| {
+        let mut h = Sha256::new();
+        for source in [
+            include_str!("mod.rs"),
+            include_str!("heatmap.rs"),
+            include_str!("charts.rs"),
+        ] {
+            h.update((source.len() as u64).to_le_bytes());
+            h.update(source.as_bytes());
+        }
+        h.update((super::FONT_BYTES.len() as u64).to_le_bytes());
+        h.finalize().to_vec()
+    })
+}
 
 /// The sidecar, relative to the results folder.
 pub const SIDECAR: &str = ".isar-clutter/figures.json";
@@ -211,7 +232,7 @@ impl Slot {
 }
 
 /// Builds the key of a figure: SHA-256 over length-prefixed strings and numbers as written by
-/// the figure, after [`FORMAT`] and the tool's version.
+/// the figure, after [`FORMAT`], the tool's version and the drawing code's digest.
 pub(super) struct Key {
     hash: Sha256,
     buf: Vec<u8>,
@@ -226,6 +247,7 @@ impl Key {
         };
         k.u64(u64::from(FORMAT));
         k.str(env!("CARGO_PKG_VERSION"));
+        k.buf.extend_from_slice(code_digest());
         k.u64(u64::from(size.0));
         k.u64(u64::from(size.1));
         k
