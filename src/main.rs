@@ -289,6 +289,7 @@ fn real_main() -> Result<ExitCode> {
                 jobs.unwrap_or_else(scheduler::default_threads),
             );
             opts.quiet = quiet;
+            opts.report_follows = !no_report;
             let merged = pool(jobs)?
                 .install(|| isar_clutter::run::merge::merge(&results, &opts, partial))?;
             for note in &merged.notes {
@@ -429,6 +430,7 @@ fn real_main() -> Result<ExitCode> {
             opts.max_memory = max_memory;
             opts.fresh = fresh;
             opts.shard = shard_option(shards, shard)?;
+            opts.report_follows = !no_report && opts.shard.is_none();
             let summary = isar_clutter::run::driver::run(&plan, &opts)?;
             for note in &summary.notes {
                 eprintln!("note: {note}");

@@ -42,11 +42,19 @@ pub struct Report {
     pub html: PathBuf,
     /// The figures, in report order.
     pub figures: Vec<Figure>,
+    /// The figures drawn this time (the others were found unchanged), as paths relative to the
+    /// results folder without extension (`figures/<job>/<stem>`), sorted.
+    pub drawn: Vec<String>,
 }
+
+/// A figure whose inputs are loaded, to be drawn (or found unchanged) later, in parallel.
+type Task = Box<dyn FnOnce() -> Result<Figure> + Send>;
 
 /// Builds `figures/` and `report.html` in the results folder `dir`, and removes the figures an
 /// earlier report drew that this one does not (only files the tool's records list: see
-/// [`crate::io::outdir`]).
+/// [`crate::io::outdir`]). Figures whose inputs did not change since the last report are kept
+/// as they are ([`figures::cache`]); the others are drawn in parallel on the current rayon
+/// pool, with the same files whatever its size.
 ///
 /// # Errors
 /// If `dir` is not a complete run's folder (in progress, interrupted, or changed since its
@@ -72,14 +80,18 @@ pub fn build(dir: &Path, allow_incomplete: bool) -> Result<Report> {
                 .collect()
         })
         .unwrap_or_default();
+    let cache = figures::cache::FigureCache::open(dir)?;
     let params = synthesis_params(dir)?;
-    let per_job: Vec<Vec<Figure>> = jobs
+    let per_job: Vec<Vec<Task>> = jobs
         .par_iter()
         .map(|job| job_figures(dir, job, params.as_ref()))
         .collect::<Result<_>>()?;
-    let mut figures: Vec<Figure> = per_job.into_iter().flatten().collect();
-    figures.extend(sweep_figures(dir)?);
-    figures.extend(calibration_figures(dir)?);
+    let mut tasks: Vec<Task> = per_job.into_iter().flatten().collect();
+    tasks.extend(sweep_figures(dir)?);
+    tasks.extend(calibration_figures(dir)?);
+    // Every figure is a pure function of its loaded inputs and has files of its own: drawn in
+    // any order on any number of threads, the files are the same.
+    let mut figures: Vec<Figure> = tasks.into_par_iter().map(|t| t()).collect::<Result<_>>()?;
     let sections = cnn::sections(dir)?;
     let html = page(dir, &manifest, &figures, &sections)?;
     figures.extend(sections.into_iter().flat_map(|s| s.figures));
@@ -89,11 +101,16 @@ pub fn build(dir: &Path, allow_incomplete: bool) -> Result<Report> {
         w.write_all(html.as_bytes())?;
         Ok(())
     })?;
-    // Figures of jobs that are gone or failed this time, of parameters no longer swept.
-    outdir.remove_stale(|p| p.starts_with("figures") || p == Path::new("report.html"))?;
+    let summary = cache.finish()?;
+    // Figures of jobs that are gone or failed this time, of parameters no longer swept (those
+    // found unchanged were not written by this claim, but are this report's).
+    outdir.remove_stale(|p| {
+        (p.starts_with("figures") && !summary.kept.contains(p)) || p == Path::new("report.html")
+    })?;
     Ok(Report {
         html: path,
         figures,
+        drawn: summary.drawn.into_iter().collect(),
     })
 }
 
@@ -112,7 +129,7 @@ fn rel(dir: &Path, p: &Path) -> PathBuf {
 /// Rows of titled maps.
 type Grid = Vec<Vec<(String, Array2<f64>)>>;
 
-/// Draws a grid of maps and records it.
+/// A grid of maps to draw, and its record.
 #[allow(clippy::too_many_arguments)]
 fn grid(
     dir: &Path,
@@ -123,6 +140,27 @@ fn grid(
     scale: Scale,
     bar: &str,
     data: Vec<PathBuf>,
+) -> Task {
+    let (dir, job, stem, bar) = (
+        dir.to_path_buf(),
+        job.to_string(),
+        stem.to_string(),
+        bar.to_string(),
+    );
+    Box::new(move || draw_grid(&dir, &job, &stem, caption, &rows, scale, &bar, &data))
+}
+
+/// Draws a grid of maps now (see [`grid`]).
+#[allow(clippy::too_many_arguments)]
+fn draw_grid(
+    dir: &Path,
+    job: &str,
+    stem: &str,
+    caption: String,
+    rows: &Grid,
+    scale: Scale,
+    bar: &str,
+    data: &[PathBuf],
 ) -> Result<Figure> {
     let out = dir.join("figures").join(job);
     let panels: Vec<Vec<Panel>> = rows
@@ -181,60 +219,84 @@ fn level_maps(maps: &Path, prefix: &str, kind: &str) -> Result<(Grid, Vec<PathBu
 
 /// The figures of one job, from `maps/<job>/`, `samples/<job>.npy` and the synthesis
 /// parameters.
-fn job_figures(dir: &Path, job: &str, params: Option<&DataFrame>) -> Result<Vec<Figure>> {
+fn job_figures(dir: &Path, job: &str, params: Option<&DataFrame>) -> Result<Vec<Task>> {
     let maps = dir.join("maps").join(job);
-    let mut out = vec![];
-    let (corr, corr_files) = level_maps(&maps, "", "correlation")?;
-    if !corr.is_empty() {
-        let values: Vec<(String, Vec<f64>)> = corr
-            .iter()
-            .flat_map(|row| row.iter())
-            .map(|(t, m)| {
-                (
-                    t.clone(),
-                    m.iter().copied().filter(|v| v.is_finite()).collect(),
-                )
-            })
-            .collect();
-        out.push(grid(
-            dir,
-            job,
-            "correlation",
-            format!("{job}: directional correlation maps by level (rows) and direction (columns)"),
-            corr,
-            Scale::Diverging { lo: -1.0, hi: 1.0 },
-            "correlation",
-            corr_files.clone(),
-        )?);
-        // Histograms of the map values, one figure per level (Figs. 86-102).
-        for level in 1..=values.len() / 3 {
-            let sets: Vec<(&str, &[f64])> = values[(level - 1) * 3..level * 3]
+    let mut out = correlation_figures(dir, job, &maps)?;
+    out.extend(level_figures(dir, job, &maps)?);
+    out.extend(moment_figures(dir, job, &maps)?);
+    out.extend(kl_figures(dir, job, &maps)?);
+    if let Some(p) = params {
+        out.extend(parameter_figures(dir, job, p)?);
+    }
+    let sample_file = dir.join("samples").join(format!("{job}.npy"));
+    if sample_file.exists() {
+        out.push(example_sample(dir, job, &sample_file)?);
+    }
+    Ok(out)
+}
+
+/// The correlation maps by level and direction, and a histogram of their values per level
+/// (Figs. 86-102).
+fn correlation_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
+    let (corr, corr_files) = level_maps(maps, "", "correlation")?;
+    if corr.is_empty() {
+        return Ok(vec![]);
+    }
+    let values: Vec<(String, Vec<f64>)> = corr
+        .iter()
+        .flat_map(|row| row.iter())
+        .map(|(t, m)| {
+            (
+                t.clone(),
+                m.iter().copied().filter(|v| v.is_finite()).collect(),
+            )
+        })
+        .collect();
+    let mut out = vec![grid(
+        dir,
+        job,
+        "correlation",
+        format!("{job}: directional correlation maps by level (rows) and direction (columns)"),
+        corr,
+        Scale::Diverging { lo: -1.0, hi: 1.0 },
+        "correlation",
+        corr_files.clone(),
+    )];
+    for (level, (sets, files)) in values.chunks(3).zip(corr_files.chunks(3)).enumerate() {
+        let level = level + 1;
+        let (sets, files) = (sets.to_vec(), files.to_vec());
+        let (dir, job) = (dir.to_path_buf(), job.to_string());
+        out.push(Box::new(move || {
+            let stem = format!("histogram_level{level}");
+            let caption = format!("{job}: histogram of the level-{level} correlation map values");
+            let refs: Vec<(&str, &[f64])> = sets
                 .iter()
                 .map(|(t, v)| (t.as_str(), v.as_slice()))
                 .collect();
-            let stem = format!("histogram_level{level}");
-            let caption = format!("{job}: histogram of the level-{level} correlation map values");
-            let files = figures::charts::histograms(
-                &dir.join("figures").join(job),
+            let files_drawn = figures::charts::histograms(
+                &dir.join("figures").join(&job),
                 &stem,
                 &caption,
-                &sets,
+                &refs,
                 30,
                 "correlation",
             )
             .with_context(|| format!("drawing {stem} of {job}"))?;
-            out.push(Figure {
-                job: job.into(),
+            Ok(Figure {
+                job,
                 caption,
-                files: files.map(|f| rel(dir, &f)),
-                data: corr_files[(level - 1) * 3..level * 3]
-                    .iter()
-                    .map(|f| rel(dir, f))
-                    .collect(),
-            });
-        }
+                files: files_drawn.map(|f| rel(&dir, &f)),
+                data: files.iter().map(|f| rel(&dir, f)).collect(),
+            })
+        }));
     }
-    let (expected, files) = level_maps(&maps, "expected_", "correlation")?;
+    Ok(out)
+}
+
+/// The exact expected correlation maps of a synthetic model, and the covariance maps.
+fn level_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
+    let mut out = vec![];
+    let (expected, files) = level_maps(maps, "expected_", "correlation")?;
     if !expected.is_empty() {
         out.push(grid(
             dir,
@@ -245,9 +307,9 @@ fn job_figures(dir: &Path, job: &str, params: Option<&DataFrame>) -> Result<Vec<
             Scale::Diverging { lo: -1.0, hi: 1.0 },
             "correlation",
             files,
-        )?);
+        ));
     }
-    let (cov, files) = level_maps(&maps, "", "covariance")?;
+    let (cov, files) = level_maps(maps, "", "covariance")?;
     if !cov.is_empty() {
         let m = abs_max(cov.iter().flatten().map(|(_, m)| m));
         out.push(grid(
@@ -259,8 +321,14 @@ fn job_figures(dir: &Path, job: &str, params: Option<&DataFrame>) -> Result<Vec<
             Scale::Diverging { lo: -m, hi: m },
             "covariance",
             files,
-        )?);
+        ));
     }
+    Ok(out)
+}
+
+/// The sample mean (real part) and the pixel variance.
+fn moment_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
+    let mut out = vec![];
     let mean_file = maps.join("mean.npy");
     if mean_file.exists() {
         use ndarray_npy::ReadNpyExt;
@@ -280,7 +348,7 @@ fn job_figures(dir: &Path, job: &str, params: Option<&DataFrame>) -> Result<Vec<
             Scale::Diverging { lo: -m, hi: m },
             "mean",
             vec![mean_file],
-        )?);
+        ));
     }
     let var_file = maps.join("variance.npy");
     if let Some(v) = map(&var_file)? {
@@ -293,8 +361,15 @@ fn job_figures(dir: &Path, job: &str, params: Option<&DataFrame>) -> Result<Vec<
             Scale::Perceptual,
             "variance",
             vec![var_file],
-        )?);
+        ));
     }
+    Ok(out)
+}
+
+/// The KL divergence maps (per pixel, per image area) of generated against original samples
+/// and of the noise floor.
+fn kl_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
+    let mut out = vec![];
     for prefix in ["", "noise_floor_"] {
         for metric in ["kl_pixel", "kl_area"] {
             let files: Vec<PathBuf> = ["re", "im"]
@@ -303,51 +378,45 @@ fn job_figures(dir: &Path, job: &str, params: Option<&DataFrame>) -> Result<Vec<
                 .collect();
             let loaded: Vec<Option<Array2<f64>>> =
                 files.iter().map(|f| map(f)).collect::<Result<_>>()?;
-            if loaded.iter().all(Option::is_some) {
-                let row: Vec<(String, Array2<f64>)> = ["real part", "imaginary part"]
-                    .iter()
-                    .zip(loaded.into_iter().flatten())
-                    .map(|(t, m)| (t.to_string(), m))
-                    .collect();
-                let what = if metric == "kl_pixel" {
-                    "per pixel"
-                } else {
-                    "per image area"
-                };
-                let whose = if prefix.is_empty() {
-                    "generated vs original"
-                } else {
-                    "noise floor"
-                };
-                out.push(grid(
-                    dir,
-                    job,
-                    &format!("{prefix}{metric}"),
-                    format!("{job}: KL divergence {what} ({whose})"),
-                    vec![row],
-                    Scale::Perceptual,
-                    "KL divergence",
-                    files,
-                )?);
+            if !loaded.iter().all(Option::is_some) {
+                continue;
             }
+            let row: Vec<(String, Array2<f64>)> = ["real part", "imaginary part"]
+                .iter()
+                .zip(loaded.into_iter().flatten())
+                .map(|(t, m)| (t.to_string(), m))
+                .collect();
+            let what = if metric == "kl_pixel" {
+                "per pixel"
+            } else {
+                "per image area"
+            };
+            let whose = if prefix.is_empty() {
+                "generated vs original"
+            } else {
+                "noise floor"
+            };
+            out.push(grid(
+                dir,
+                job,
+                &format!("{prefix}{metric}"),
+                format!("{job}: KL divergence {what} ({whose})"),
+                vec![row],
+                Scale::Perceptual,
+                "KL divergence",
+                files,
+            ));
         }
-    }
-    if let Some(p) = params {
-        out.extend(parameter_figures(dir, job, p)?);
-    }
-    let sample_file = dir.join("samples").join(format!("{job}.npy"));
-    if sample_file.exists() {
-        out.push(example_sample(dir, job, &sample_file)?);
     }
     Ok(out)
 }
 
 /// The first generated sample's real part (Figs. 47, 49, 72).
-fn example_sample(dir: &Path, job: &str, file: &Path) -> Result<Figure> {
+fn example_sample(dir: &Path, job: &str, file: &Path) -> Result<Task> {
     let stack = crate::io::npy::Stack::load(file)?.to_complex128(false);
     let first = stack.index_axis(ndarray::Axis(0), 0).mapv(|z| z.re);
     let m = abs_max(std::iter::once(&first));
-    grid(
+    Ok(grid(
         dir,
         job,
         "sample",
@@ -356,7 +425,7 @@ fn example_sample(dir: &Path, job: &str, file: &Path) -> Result<Figure> {
         Scale::Diverging { lo: -m, hi: m },
         "amplitude",
         vec![file.to_path_buf()],
-    )
+    ))
 }
 
 /// `synthesis_params.parquet`, if the run has one with rows.
@@ -366,7 +435,7 @@ fn synthesis_params(dir: &Path) -> Result<Option<DataFrame>> {
 }
 
 /// Filter parameter maps of a Method 1 or 2 job (Figs. 25-27, 34-36).
-fn parameter_figures(dir: &Path, job: &str, df: &DataFrame) -> Result<Vec<Figure>> {
+fn parameter_figures(dir: &Path, job: &str, df: &DataFrame) -> Result<Vec<Task>> {
     let strs = |c: &str| -> Result<Vec<Option<String>>> {
         Ok(df
             .column(c)?
@@ -434,11 +503,11 @@ fn parameter_figures(dir: &Path, job: &str, df: &DataFrame) -> Result<Vec<Figure
         Scale::Diverging { lo: -m, hi: m },
         "parameter",
         data,
-    )?])
+    )])
 }
 
 /// The calibration's spectra (Figs. 11-14): Mie, raw and calibrated sphere, and the error.
-fn calibration_figures(dir: &Path) -> Result<Vec<Figure>> {
+fn calibration_figures(dir: &Path) -> Result<Vec<Task>> {
     let path = dir.join("calibration.parquet");
     let Some(df) = crate::io::atomic::read_parquet(&path)? else {
         return Ok(vec![]);
@@ -454,52 +523,70 @@ fn calibration_figures(dir: &Path) -> Result<Vec<Figure>> {
     let f = col("freq_ghz")?;
     let series =
         |c: &str| -> Result<Vec<(f64, f64)>> { Ok(f.iter().copied().zip(col(c)?).collect()) };
-    let spectra = [
-        ("Mie (exact)", series("mie_dbsm")?),
-        ("raw sphere measurement", series("raw_db")?),
-        ("calibrated sphere", series("calibrated_dbsm")?),
+    let spectra = vec![
+        ("Mie (exact)".to_string(), series("mie_dbsm")?),
+        ("raw sphere measurement".into(), series("raw_db")?),
+        ("calibrated sphere".into(), series("calibrated_dbsm")?),
     ];
-    let error = [("calibrated - Mie", series("error_db")?)];
-    let mut out = vec![];
-    for (stem, caption, set, y) in [
-        (
+    let error = vec![("calibrated - Mie".to_string(), series("error_db")?)];
+    Ok(vec![
+        curves_task(
+            dir,
             "calibration_spectra",
-            "Sphere calibration: Mie, raw and calibrated response",
-            &spectra[..],
-            "dB (dBsm for Mie and calibrated)",
+            "Sphere calibration: Mie, raw and calibrated response".into(),
+            spectra,
+            ["frequency (GHz)", "dB (dBsm for Mie and calibrated)"],
+            &path,
         ),
-        (
+        curves_task(
+            dir,
             "calibration_error",
-            "Sphere calibration: calibrated minus Mie",
-            &error[..],
-            "error (dB)",
+            "Sphere calibration: calibrated minus Mie".into(),
+            error,
+            ["frequency (GHz)", "error (dB)"],
+            &path,
         ),
-    ] {
-        let refs: Vec<(&str, &[(f64, f64)])> =
-            set.iter().map(|(k, v)| (*k, v.as_slice())).collect();
+    ])
+}
+
+/// A run-wide figure of named curves (`figures/<stem>`) to draw, drawn from the table `data`.
+fn curves_task(
+    dir: &Path,
+    stem: &str,
+    caption: String,
+    series: Vec<(String, Vec<(f64, f64)>)>,
+    [x_label, y_label]: [&str; 2],
+    data: &Path,
+) -> Task {
+    let (dir, stem, data) = (dir.to_path_buf(), stem.to_string(), data.to_path_buf());
+    let (x_label, y_label) = (x_label.to_string(), y_label.to_string());
+    Box::new(move || {
+        let refs: Vec<(&str, &[(f64, f64)])> = series
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_slice()))
+            .collect();
         let files = figures::charts::curves(
             &dir.join("figures"),
-            stem,
-            caption,
+            &stem,
+            &caption,
             &refs,
-            "frequency (GHz)",
-            y,
+            &x_label,
+            &y_label,
         )
         .with_context(|| format!("drawing {stem}"))?;
-        out.push(Figure {
+        Ok(Figure {
             job: String::new(),
-            caption: caption.into(),
-            files: files.map(|f| rel(dir, &f)),
-            data: vec![rel(dir, &path)],
-        });
-    }
-    Ok(out)
+            caption,
+            files: files.map(|f| rel(&dir, &f)),
+            data: vec![rel(&dir, &data)],
+        })
+    })
 }
 
 /// Curves over every numeric swept parameter: the mean correlation per level and direction
 /// (per dataset and source), and each method's similarity summaries (`average_level_1` of the
 /// multiscale RMSE, the CMD) per dataset.
-fn sweep_figures(dir: &Path) -> Result<Vec<Figure>> {
+fn sweep_figures(dir: &Path) -> Result<Vec<Task>> {
     let mut out = curve_figures(dir, "analysis_summary.parquet", "mean_correlation", &|r| {
         Some((
             format!("{} ({})", r["dataset"], r["source"]),
@@ -529,7 +616,7 @@ fn curve_figures(
     file: &str,
     y: &str,
     pick: &dyn Fn(&Row) -> Option<(String, String)>,
-) -> Result<Vec<Figure>> {
+) -> Result<Vec<Task>> {
     let path = dir.join(file);
     let Some(df) = crate::io::atomic::read_parquet(&path)? else {
         return Ok(vec![]);
@@ -595,10 +682,6 @@ fn curve_figures(
                     (k, v)
                 })
                 .collect();
-            let refs: Vec<(&str, &[(f64, f64)])> = series
-                .iter()
-                .map(|(k, v)| (k.as_str(), v.as_slice()))
-                .collect();
             let safe = |s: &str| -> String {
                 s.chars()
                     .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
@@ -611,21 +694,14 @@ fn curve_figures(
             } else {
                 "mean correlation"
             };
-            let files = figures::charts::curves(
-                &dir.join("figures"),
+            out.push(curves_task(
+                dir,
                 &stem,
-                &caption,
-                &refs,
-                &axis,
-                y_label,
-            )
-            .with_context(|| format!("drawing {stem}"))?;
-            out.push(Figure {
-                job: String::new(),
                 caption,
-                files: files.map(|f| rel(dir, &f)),
-                data: vec![rel(dir, &path)],
-            });
+                series,
+                [&axis, y_label],
+                &path,
+            ));
         }
     }
     Ok(out)

@@ -224,9 +224,14 @@ pub fn merge_claimed(
     };
     scheduler::write_tables(plan, jobs, &outcomes, &run_opts)?;
     let tables_s = t_tables.elapsed().as_secs_f64();
+    // An earlier report's page goes in any case (a report that follows writes it again from
+    // this run's files).
+    outdir.remove_stale(|p| p == Path::new("report.html"))?;
     // Everything an earlier run wrote that this one did not (the store stays: its keys are a
-    // cache that a later run of an earlier spec reads again).
-    let stale = outdir.remove_stale(|p| !p.starts_with("jobs"))?;
+    // cache that a later run of an earlier spec reads again; so do the figures when a report
+    // follows: it draws again only those whose inputs changed).
+    let cache = |p: &Path| p.starts_with("jobs") || opts.report_follows && p.starts_with("figures");
+    let stale = outdir.remove_stale(|p| !cache(p))?;
     if stale > 0 {
         merged.notes.push(format!(
             "removed {stale} file(s) an earlier run wrote that this run does not have"

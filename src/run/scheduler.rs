@@ -38,6 +38,11 @@ pub struct RunOptions {
     /// Memory limit in bytes (`--max-memory`; the machine's memory when lower or unset): a job
     /// whose estimate ([`JobKind::estimate`]) exceeds it fails without allocating anything.
     pub max_memory: Option<u64>,
+    /// A report follows the run (`run` and `merge` without `--no-report`): the merge leaves
+    /// an earlier report's figures in `figures/` for it, which keeps those whose inputs did
+    /// not change and removes the others. Without it they go with everything else the run did
+    /// not write.
+    pub report_follows: bool,
 }
 
 impl RunOptions {
@@ -51,6 +56,7 @@ impl RunOptions {
             max_memory: None,
             shard: None,
             fresh: false,
+            report_follows: false,
         }
     }
 }

@@ -17,7 +17,8 @@
 //! - `journal`: paths noted since then (appended before each write, so a killed run's files
 //!   are known too);
 //! - `previous-manifest.json`: the manifest of the run before this one (moved aside when a
-//!   run starts, so that a folder has a `manifest.json` only when its run completed).
+//!   run starts, so that a folder has a `manifest.json` only when its run completed);
+//! - `figures.json`: the report's figure cache (see [`crate::report::figures::cache`]).
 
 use anyhow::{bail, Context, Result};
 use serde::Serialize;

@@ -66,8 +66,9 @@ fn figure(dir: &Path, caption: String, files: [PathBuf; 2], data: &[&str]) -> Fi
 pub(super) fn classification(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
     let history = read(dir, "training_history.parquet")?;
     let confusion = read(dir, "confusion.parquet")?;
-    let mut out = vec![];
-    for g in groups {
+    // One group's figures after another's, each group's drawn while the others are.
+    let per_group = |g: &Group| -> Result<Vec<Figure>> {
+        let mut out = vec![];
         let stem = format!("classification_accuracy_{}", safe(&g.name));
         let caption = format!(
             "Classification, {}: prediction accuracy on original data against the training \
@@ -83,7 +84,7 @@ pub(super) fn classification(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>
             ("training size N", App::Classification),
         )?);
         let Some(rep) = g.representative(App::Classification) else {
-            continue;
+            return Ok(out);
         };
         let what = format!(
             "{} at N = {}, repeat {} ({}: the best generated method at the largest size)",
@@ -110,8 +111,19 @@ pub(super) fn classification(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>
             );
             out.extend(training_curves(dir, h, g, &rep, &stem, caption)?);
         }
-    }
-    Ok(out)
+        Ok(out)
+    };
+    in_parallel(groups, per_group)
+}
+
+/// `figures` of every group, in the groups' order, drawn in parallel.
+fn in_parallel(
+    groups: &[Group],
+    figures: impl Fn(&Group) -> Result<Vec<Figure>> + Sync + Send,
+) -> Result<Vec<Figure>> {
+    use rayon::prelude::*;
+    let per_group: Vec<Vec<Figure>> = groups.par_iter().map(figures).collect::<Result<_>>()?;
+    Ok(per_group.into_iter().flatten().collect())
 }
 
 /// The location's figures: per target, accuracy against SCR, the representative training's
@@ -119,8 +131,8 @@ pub(super) fn classification(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>
 pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
     let history = read(dir, "training_history.parquet")?;
     let confusion = read(dir, "confusion.parquet")?;
-    let mut out = vec![];
-    for g in groups {
+    let per_group = |g: &Group| -> Result<Vec<Figure>> {
+        let mut out = vec![];
         let stem = format!("location_accuracy_{}", safe(&g.name));
         let caption = format!(
             "Target location, {} target: test accuracy against SCR, per method (Figs. 73-74); \
@@ -136,7 +148,7 @@ pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
             ("SCR (dB)", App::Location),
         )?);
         let Some(rep) = g.representative(App::Location) else {
-            continue;
+            return Ok(out);
         };
         let what = format!(
             "{} at SCR {} dB, repeat {} ({}: the best generated method over the sweep, at the \
@@ -165,8 +177,9 @@ pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
             out.extend(training_curves(dir, h, g, &rep, &stem, caption)?);
         }
         out.extend(examples(dir, g, &rep)?);
-    }
-    Ok(out)
+        Ok(out)
+    };
+    in_parallel(groups, per_group)
 }
 
 /// A Parquet table of the run, if present.

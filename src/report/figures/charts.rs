@@ -82,6 +82,20 @@ impl Figure for Hist<'_> {
         CHART_SIZE
     }
 
+    fn key(&self, k: &mut cache::Key) {
+        k.str("histograms")
+            .str(self.title)
+            .str(self.x_label)
+            .u64(self.names.len() as u64);
+        for (name, counts) in self.names.iter().zip(&self.counts) {
+            k.str(name).u64(counts.len() as u64);
+            for &c in counts {
+                k.u64(c);
+            }
+        }
+        k.f64s(self.edges.iter().copied());
+    }
+
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
     where
         DB::ErrorType: 'static,
@@ -246,6 +260,24 @@ struct Curves<'s> {
 impl Figure for Curves<'_> {
     fn size(&self) -> (u32, u32) {
         CHART_SIZE
+    }
+
+    fn key(&self, k: &mut cache::Key) {
+        k.str("curves")
+            .str(self.title)
+            .str(self.x_label)
+            .str(self.y_label)
+            .u64(self.series.len() as u64);
+        for (name, points) in &self.series {
+            k.str(name).u64(points.len() as u64);
+            for &(x, y, e) in points {
+                k.f64(x).f64(y).f64(e);
+            }
+        }
+        match &self.y_range {
+            Some(r) => k.u64(1).f64(r.start).f64(r.end),
+            None => k.u64(0),
+        };
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult

@@ -149,13 +149,60 @@ impl Figure for HeatGrid<'_, '_> {
         grid_size(self.nrows, self.ncols)
     }
 
+    fn key(&self, k: &mut cache::Key) {
+        let o = self.options;
+        k.str("heatmap")
+            .str(self.title)
+            .str(self.bar_label)
+            .str(o.x_label)
+            .str(o.y_label)
+            .u64(u64::from(o.annotate))
+            .u64(o.boxes.len() as u64);
+        for b in &o.boxes {
+            k.u64(b.len() as u64);
+            for &v in b.iter().flatten() {
+                k.u64(v as u64);
+            }
+        }
+        k.u64(self.nrows as u64)
+            .u64(self.ncols as u64)
+            .f64(self.cmap.lo)
+            .f64(self.cmap.hi)
+            .u64(u64::from(self.cmap.diverging))
+            .u64(u64::from(self.has_nan))
+            .u64(self.geo.len() as u64);
+        for g in &self.geo {
+            let (rows, cols) = g.panel.map.dim();
+            k.str(&g.panel.title)
+                .u64(rows as u64)
+                .u64(cols as u64)
+                .f64s(g.panel.map.iter().copied())
+                .u64(u64::from(g.x))
+                .u64(u64::from(g.y))
+                .u64(u64::from(g.w))
+                .u64(u64::from(g.h))
+                .u64(u64::from(g.x_label))
+                .u64(u64::from(g.y_label));
+        }
+    }
+
     fn rasters(&self) -> Vec<Raster> {
+        // Neighbouring pixels mostly show the same cell: its colour is looked up once.
         let colour = |vals: &mut dyn Iterator<Item = f64>| -> Vec<u8> {
-            vals.flat_map(|v| {
-                let (r, g, b) = self.cmap.rgb(v);
-                [r, g, b]
-            })
-            .collect()
+            let mut last: Option<(u64, [u8; 3])> = None;
+            let mut out = Vec::with_capacity(3 * vals.size_hint().0);
+            for v in vals {
+                let rgb = match last {
+                    Some((bits, rgb)) if bits == v.to_bits() => rgb,
+                    _ => {
+                        let (r, g, b) = self.cmap.rgb(v);
+                        last = Some((v.to_bits(), [r, g, b]));
+                        [r, g, b]
+                    }
+                };
+                out.extend_from_slice(&rgb);
+            }
+            out
         };
         let mut out: Vec<Raster> = self
             .geo

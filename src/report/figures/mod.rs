@@ -24,6 +24,7 @@ use plotters_backend::{
     self as pb, BackendColor, BackendCoord, BackendTextStyle, DrawingErrorKind,
 };
 
+pub mod cache;
 pub mod charts;
 pub mod heatmap;
 #[cfg(test)]
@@ -187,6 +188,8 @@ struct Raster {
 /// A figure drawable on any plotters backend, plus rasters laid under the vector drawing.
 trait Figure {
     fn size(&self) -> (u32, u32);
+    /// Adds everything the figure is drawn from to its cache key (see [`cache`]).
+    fn key(&self, k: &mut cache::Key);
     fn rasters(&self) -> Vec<Raster> {
         Vec::new()
     }
@@ -402,6 +405,19 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
         msg: e.to_string(),
     };
     let (w, h) = fig.size();
+    let files = [png_path, svg_path];
+    let slot = cache::slot(&files);
+    let key = slot.as_ref().map(|_| {
+        let mut k = cache::Key::new((w, h));
+        fig.key(&mut k);
+        k.finish()
+    });
+    if let (Some(slot), Some(key)) = (&slot, &key) {
+        if slot.fresh(key) {
+            return Ok(files);
+        }
+    }
+    let [png_path, svg_path] = files;
     let rasters = fig.rasters();
 
     let mut buf = vec![255u8; 3 * w as usize * h as usize];
@@ -445,6 +461,9 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
     })?;
     write_atomic(&png_path, &png)?;
     write_atomic(&svg_path, svg.as_bytes())?;
+    if let (Some(slot), Some(key)) = (&slot, &key) {
+        slot.drawn(key, [&png, svg.as_bytes()]);
+    }
     Ok([png_path, svg_path])
 }
 
@@ -478,11 +497,15 @@ fn blit(buf: &mut [u8], width: u32, r: &Raster) {
     }
 }
 
+/// Encodes an RGB image as PNG, for speed over size (see the comment inside).
 fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, png::EncodingError> {
     let mut out = Vec::new();
     let mut enc = png::Encoder::new(&mut out, w, h);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
+    // fdeflate with the adaptive row filter: on the report's figures about 10x faster than
+    // the default (zlib level 6) for files about 1.5x larger; the pixels are the same.
+    enc.set_compression(png::Compression::Fast);
     let mut writer = enc.write_header()?;
     writer.write_image_data(rgb)?;
     writer.finish()?;
@@ -587,8 +610,43 @@ fn span(i: usize, n: usize, m: usize) -> Range<usize> {
 }
 
 /// Resamples `map` to `w` x `h` pixels (row-major): nearest cell when enlarging, mean of the
-/// non-NaN cells under a pixel when shrinking (NaN only if all of them are NaN).
+/// non-NaN cells under a pixel when shrinking (NaN only if all of them are NaN). The cells of a
+/// pixel are summed row by row, left to right; a pixel row over the same map rows as the one
+/// above is a copy of it.
 fn resample(map: ArrayView2<f64>, w: usize, h: usize) -> Vec<f64> {
+    let (rows, cols) = map.dim();
+    let xs: Vec<Range<usize>> = (0..w).map(|x| span(x, cols, w)).collect();
+    let mut out = Vec::with_capacity(w * h);
+    let mut above: Option<Range<usize>> = None;
+    for y in 0..h {
+        let ys = span(y, rows, h);
+        if above.as_ref() == Some(&ys) {
+            let start = out.len() - w;
+            out.extend_from_within(start..);
+            continue;
+        }
+        for xr in &xs {
+            let (mut sum, mut n) = (0.0, 0u32);
+            for r in ys.clone() {
+                for c in xr.clone() {
+                    let v = map[[r, c]];
+                    if !v.is_nan() {
+                        sum += v;
+                        n += 1;
+                    }
+                }
+            }
+            out.push(if n > 0 { sum / f64::from(n) } else { f64::NAN });
+        }
+        above = Some(ys);
+    }
+    out
+}
+
+/// The resampling of [`resample`] as first written (one array slice per pixel): the oracle of
+/// its tests.
+#[cfg(test)]
+fn resample_slow(map: ArrayView2<f64>, w: usize, h: usize) -> Vec<f64> {
     let (rows, cols) = map.dim();
     let xs: Vec<Range<usize>> = (0..w).map(|x| span(x, cols, w)).collect();
     let mut out = Vec::with_capacity(w * h);
