@@ -392,3 +392,51 @@ fn a_live_shard_blocks_a_merge_and_a_partial_merge_stays_incomplete() {
         .success());
     assert!(bin(&["table", out.to_str().unwrap()]).status.success());
 }
+
+/// The output folder remembers its inputs' hashes (`jobs/input-hashes.json`) so that a resumed
+/// run does not re-read them, and the memo never hides a change: an input rewritten in place
+/// with the same size (and, on a coarse clock, the same modification time) runs its job again.
+#[test]
+fn the_input_hash_memo_never_hides_a_changed_input() {
+    use ndarray_npy::WriteNpyExt;
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("s.npy");
+    let stack = ndarray::Array3::from_shape_fn((20, 8, 8), |(n, r, c)| {
+        num_complex::Complex::new((n * 7 + r * 3 + c) as f32, r as f32)
+    });
+    stack.write_npy(fs::File::create(&data).unwrap()).unwrap();
+    let spec = dir.path().join("spec.yaml");
+    fs::write(
+        &spec,
+        format!("name: memo\nseed: 1\ndatasets:\n  - id: d\n    kind: npy\n    path: {}\nanalysis:\n  levels: 2\n", data.display()),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let run = || {
+        bin(&[
+            "run",
+            spec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--no-report",
+        ])
+    };
+    // Older than a second: its hash may be remembered.
+    std::thread::sleep(Duration::from_millis(1100));
+    let o = run();
+    assert!(o.status.success(), "{}", text(&o));
+    let memo = fs::read_to_string(out.join("jobs/input-hashes.json")).unwrap();
+    assert!(memo.contains("s.npy"), "{memo}");
+    let o = run();
+    assert!(text(&o).contains("1 job(s) already done"), "{}", text(&o));
+    // The same size, other values.
+    let mut changed = stack.clone();
+    changed[[3, 2, 1]] = num_complex::Complex::new(-1.0, 5.0);
+    changed.write_npy(fs::File::create(&data).unwrap()).unwrap();
+    let o = run();
+    assert!(
+        o.status.success() && !text(&o).contains("already done"),
+        "{}",
+        text(&o)
+    );
+}

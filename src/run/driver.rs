@@ -36,10 +36,15 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         .build()?;
     let all = AllJobs::new(plan);
     let jobs = all.list();
+    store::load_hash_memo(&opts.out);
     let keys: Vec<String> = jobs
         .iter()
         .map(|j| store::key(*j, plan))
         .collect::<Result<_>>()?;
+    let mut inputs: Vec<std::path::PathBuf> = jobs.iter().flat_map(|j| j.input_files()).collect();
+    inputs.sort();
+    inputs.dedup();
+    store::save_hash_memo(&opts.out, &inputs)?;
     // This run's jobs: a shard's share, or every job; jobs that read other jobs' rows run at
     // the merge.
     let mine: Vec<usize> = match opts.shard {
