@@ -91,9 +91,16 @@ $(VENV)/bin/python:
 	$(VENV)/bin/pip install --quiet numpy==2.3.5 pyarrow==21.0.0
 bench-deps: $(VENV)/bin/python
 
-## bench: analysis benchmark (isar-clutter run vs numpy baselines); see BENCHMARKS.md
+## bench: every speed figure of BENCHMARKS.md side by side in one run, each next to its
+## reference: generation stages against this thread's FMA peak (cargo bench --bench generate),
+## the analysis kernel against the memory bandwidth measured in the same run (--bench analysis),
+## isar-clutter run against numpy (bench/analysis_bench.py), isar-clutter generate against numpy
+## and against writing the same bytes (bench/generate_bench.py)
 bench: build bench-deps
+	cargo bench --locked $(CARGO_FEATURES) --bench generate
+	cargo bench --locked $(CARGO_FEATURES) --bench analysis
 	$(VENV)/bin/python bench/analysis_bench.py --bin $(BIN)
+	$(VENV)/bin/python bench/generate_bench.py --bin $(BIN)
 
 ## bench-torch-deps: a separate virtualenv (.venv-torch) with a pinned PyTorch for the CNN
 ## reference benchmark (the PyPI wheel is a large CUDA build, ~5 GB installed; only its CPU
