@@ -32,11 +32,10 @@ unsafe impl bytemuck::Zeroable for Page {}
 // SAFETY: as above; `Page` is `Copy` and `'static`.
 unsafe impl bytemuck::Pod for Page {}
 
-/// A block: page-aligned memory holding `lead` bytes carried over, then samples.
+/// A block: page-aligned memory holding the bytes carried over from the previous block (the
+/// part of a page it did not fill; the first block: the header), then samples.
 struct Block {
     pages: Vec<Page>,
-    /// Bytes at the start that precede this block's samples in the file.
-    lead: usize,
 }
 
 impl Block {
@@ -48,7 +47,6 @@ impl Block {
         )?;
         Ok(Block {
             pages: pages.into_raw_vec_and_offset().0,
-            lead: 0,
         })
     }
 
@@ -110,11 +108,9 @@ pub fn write_samples(
         });
         let mut done = 0;
         let mut carried: Vec<u8> = header.to_vec();
-        loop {
-            let Ok(mut block) = free.recv() else { break };
+        while let Ok(mut block) = free.recv() {
             let count = chunk.min(samples - done);
             let lead = carried.len();
-            block.lead = lead;
             block.bytes()[..lead].copy_from_slice(&carried);
             let len = lead + count * sample_bytes;
             let values: &mut [Complex32] = bytemuck::cast_slice_mut(&mut block.bytes()[lead..len]);

@@ -430,11 +430,11 @@ fn horizontal<const N: usize>(
     });
     for t in 1..nt {
         let c = at(coef, t * w);
-        for r in 0..2 {
-            for comp in 0..2 {
-                let b = at(basis[r], (2 * t + comp) * T);
+        for (row, acc) in basis.iter().zip(acc.iter_mut()) {
+            for (comp, acc) in acc.iter_mut().enumerate() {
+                let b = at(row, (2 * t + comp) * T);
                 for x in 0..N {
-                    acc[r][comp][x] = c[x].mul_add(b[x], acc[r][comp][x]);
+                    acc[x] = c[x].mul_add(b[x], acc[x]);
                 }
             }
         }
