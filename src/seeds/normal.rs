@@ -52,15 +52,135 @@ pub fn complex_normals(
     transform(words, re, im);
 }
 
-/// The first `count` words of stream `stream` of ChaCha8 seeded with `seed`, into `words`.
+/// The first `count` words of stream `stream` of ChaCha8 seeded with `seed`, into `words`:
+/// `rand_chacha`'s stream, 16 blocks at a time with AVX-512 where the CPU has it (the same
+/// words, tested against `rand_chacha`; its own AVX2 path makes 4 blocks at a time and needs
+/// three instructions per rotation where AVX-512 has one).
 pub fn fill_words(seed: u64, stream: u64, count: usize, words: &mut Vec<u32>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(stream);
     words.clear();
     words.resize(count, 0);
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            let key: [u32; 8] = std::array::from_fn(|i| {
+                u32::from_le_bytes(rng.get_seed()[4 * i..4 * i + 4].try_into().expect("4 bytes"))
+            });
+            let whole = count / 256 * 256;
+            // SAFETY: the CPU has AVX-512F, checked just above; the slices hold whole groups.
+            unsafe { chacha8_avx512(&key, stream, 0, &mut words[..whole]) };
+            if whole < count {
+                let mut last = [0u32; 256];
+                // SAFETY: as above.
+                unsafe { chacha8_avx512(&key, stream, (whole / 16) as u64, &mut last) };
+                words[whole..].copy_from_slice(&last[..count - whole]);
+            }
+            return;
+        }
+    }
     rand::Rng::fill_bytes(&mut rng, bytemuck::cast_slice_mut(words.as_mut_slice()));
     for w in words.iter_mut() {
         *w = u32::from_le(*w);
+    }
+}
+
+/// ChaCha8 blocks `first, first + 1, ...` (16 words each, in order) of the key and stream into
+/// `out` (whole groups of 16 blocks), 16 blocks at once: lane `j` of vector `i` is word `i` of
+/// block `j`, transposed back to block order before the store. The state is that of
+/// `rand_chacha`: constants, key, 64-bit block counter, 64-bit stream.
+///
+/// # Safety
+/// The CPU has AVX-512F; `out.len()` is a multiple of 256.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn chacha8_avx512(key: &[u32; 8], stream: u64, first: u64, out: &mut [u32]) {
+    use std::arch::x86_64::*;
+    assert_eq!(out.len() % 256, 0);
+    let set = |x: u32| _mm512_set1_epi32(x as i32);
+    let lanes = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+    for (g, group) in out.chunks_exact_mut(256).enumerate() {
+        let base = first + 16 * g as u64;
+        let lo0 = set(base as u32);
+        let lo = _mm512_add_epi32(lo0, lanes);
+        let carry = _mm512_cmplt_epu32_mask(lo, lo0);
+        let hi = _mm512_mask_add_epi32(set((base >> 32) as u32), carry, set((base >> 32) as u32), set(1));
+        let init: [__m512i; 16] = [
+            set(0x6170_7865),
+            set(0x3320_646e),
+            set(0x7962_2d32),
+            set(0x6b20_6574),
+            set(key[0]),
+            set(key[1]),
+            set(key[2]),
+            set(key[3]),
+            set(key[4]),
+            set(key[5]),
+            set(key[6]),
+            set(key[7]),
+            lo,
+            hi,
+            set(stream as u32),
+            set((stream >> 32) as u32),
+        ];
+        let mut x = init;
+        let qr = |x: &mut [__m512i; 16], a: usize, b: usize, c: usize, d: usize| {
+            x[a] = _mm512_add_epi32(x[a], x[b]);
+            x[d] = _mm512_rol_epi32::<16>(_mm512_xor_si512(x[d], x[a]));
+            x[c] = _mm512_add_epi32(x[c], x[d]);
+            x[b] = _mm512_rol_epi32::<12>(_mm512_xor_si512(x[b], x[c]));
+            x[a] = _mm512_add_epi32(x[a], x[b]);
+            x[d] = _mm512_rol_epi32::<8>(_mm512_xor_si512(x[d], x[a]));
+            x[c] = _mm512_add_epi32(x[c], x[d]);
+            x[b] = _mm512_rol_epi32::<7>(_mm512_xor_si512(x[b], x[c]));
+        };
+        for _ in 0..4 {
+            qr(&mut x, 0, 4, 8, 12);
+            qr(&mut x, 1, 5, 9, 13);
+            qr(&mut x, 2, 6, 10, 14);
+            qr(&mut x, 3, 7, 11, 15);
+            qr(&mut x, 0, 5, 10, 15);
+            qr(&mut x, 1, 6, 11, 12);
+            qr(&mut x, 2, 7, 8, 13);
+            qr(&mut x, 3, 4, 9, 14);
+        }
+        for i in 0..16 {
+            x[i] = _mm512_add_epi32(x[i], init[i]);
+        }
+        // Transpose the 16 x 16 words: 32-bit, then 64-bit interleaves within 128-bit lanes,
+        // then two rounds of 128-bit lane shuffles.
+        let mut a = [_mm512_setzero_si512(); 16];
+        for i in (0..16).step_by(2) {
+            a[i] = _mm512_unpacklo_epi32(x[i], x[i + 1]);
+            a[i + 1] = _mm512_unpackhi_epi32(x[i], x[i + 1]);
+        }
+        let mut b = [_mm512_setzero_si512(); 16];
+        for g4 in (0..16).step_by(4) {
+            for i in [g4, g4 + 1] {
+                b[i] = _mm512_unpacklo_epi64(a[i], a[i + 2]);
+                b[i + 2] = _mm512_unpackhi_epi64(a[i], a[i + 2]);
+            }
+        }
+        // In row group G (rows 4G..4G+3), column 4L + q sits in 128-bit lane L of
+        // b[4G + [0, 2, 1, 3][q]].
+        for (q, off) in [0usize, 2, 1, 3].into_iter().enumerate() {
+            let v = |gr: usize| b[4 * gr + off];
+            let p01 = _mm512_shuffle_i32x4::<0x44>(v(0), v(1));
+            let p01h = _mm512_shuffle_i32x4::<0xEE>(v(0), v(1));
+            let p23 = _mm512_shuffle_i32x4::<0x44>(v(2), v(3));
+            let p23h = _mm512_shuffle_i32x4::<0xEE>(v(2), v(3));
+            let cols = [
+                _mm512_shuffle_i32x4::<0x88>(p01, p23),
+                _mm512_shuffle_i32x4::<0xDD>(p01, p23),
+                _mm512_shuffle_i32x4::<0x88>(p01h, p23h),
+                _mm512_shuffle_i32x4::<0xDD>(p01h, p23h),
+            ];
+            for (l, col) in cols.into_iter().enumerate() {
+                let block = 4 * l + q;
+                // SAFETY: block < 16 and the group holds 16 blocks of 16 words.
+                unsafe { _mm512_storeu_si512(group.as_mut_ptr().add(16 * block).cast(), col) };
+            }
+        }
     }
 }
 
@@ -285,6 +405,35 @@ mod tests {
             .count();
         let p = 0.045_500_263_896_358_4;
         assert!((tail as f64 / nf - p).abs() < se(p * (1.0 - p)), "tail");
+    }
+
+    /// The words are `rand_chacha`'s ChaCha8 stream, whichever path makes them (seeds, streams
+    /// and lengths around the 256-word groups of the AVX-512 path, and a counter near 2^32).
+    #[test]
+    fn words_are_rand_chacha_words() {
+        for (seed, stream, count) in [(0u64, 0u64, 1usize), (5, 3, 255), (5, 3, 256), (9, 1 << 40, 12800), (77, 2, 1000)] {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(stream);
+            let want: Vec<u32> = (0..count).map(|_| rng.next_u32()).collect();
+            let mut got = Vec::new();
+            fill_words(seed, stream, count, &mut got);
+            assert_eq!(got, want, "seed {seed}, stream {stream}, {count} words");
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            let mut rng = ChaCha8Rng::seed_from_u64(4);
+            rng.set_stream(6);
+            let first = (1u64 << 32) - 3;
+            rng.set_word_pos(u128::from(first) * 16);
+            let want: Vec<u32> = (0..512).map(|_| rng.next_u32()).collect();
+            let key: [u32; 8] = std::array::from_fn(|i| {
+                u32::from_le_bytes(rng.get_seed()[4 * i..4 * i + 4].try_into().unwrap())
+            });
+            let mut got = vec![0u32; 512];
+            // SAFETY: AVX-512F is present, checked just above; 512 words are two groups.
+            unsafe { chacha8_avx512(&key, 6, first, &mut got) };
+            assert_eq!(got, want, "the block counter carries into its high word");
+        }
     }
 
     /// Streams differ, the same stream repeats, and a request of `n` values is the first `n`
