@@ -65,7 +65,11 @@ pub fn fill_words(seed: u64, stream: u64, count: usize, words: &mut Vec<u32>) {
     {
         if std::arch::is_x86_feature_detected!("avx512f") {
             let key: [u32; 8] = std::array::from_fn(|i| {
-                u32::from_le_bytes(rng.get_seed()[4 * i..4 * i + 4].try_into().expect("4 bytes"))
+                u32::from_le_bytes(
+                    rng.get_seed()[4 * i..4 * i + 4]
+                        .try_into()
+                        .expect("4 bytes"),
+                )
             });
             let whole = count / 256 * 256;
             // SAFETY: the CPU has AVX-512F, checked just above; the slices hold whole groups.
@@ -104,7 +108,12 @@ unsafe fn chacha8_avx512(key: &[u32; 8], stream: u64, first: u64, out: &mut [u32
         let lo0 = set(base as u32);
         let lo = _mm512_add_epi32(lo0, lanes);
         let carry = _mm512_cmplt_epu32_mask(lo, lo0);
-        let hi = _mm512_mask_add_epi32(set((base >> 32) as u32), carry, set((base >> 32) as u32), set(1));
+        let hi = _mm512_mask_add_epi32(
+            set((base >> 32) as u32),
+            carry,
+            set((base >> 32) as u32),
+            set(1),
+        );
         let init: [__m512i; 16] = [
             set(0x6170_7865),
             set(0x3320_646e),
@@ -411,7 +420,13 @@ mod tests {
     /// and lengths around the 256-word groups of the AVX-512 path, and a counter near 2^32).
     #[test]
     fn words_are_rand_chacha_words() {
-        for (seed, stream, count) in [(0u64, 0u64, 1usize), (5, 3, 255), (5, 3, 256), (9, 1 << 40, 12800), (77, 2, 1000)] {
+        for (seed, stream, count) in [
+            (0u64, 0u64, 1usize),
+            (5, 3, 255),
+            (5, 3, 256),
+            (9, 1 << 40, 12800),
+            (77, 2, 1000),
+        ] {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             rng.set_stream(stream);
             let want: Vec<u32> = (0..count).map(|_| rng.next_u32()).collect();
