@@ -16,7 +16,7 @@
 use anyhow::{Context, Result};
 use num_complex::Complex32;
 use std::fs::File;
-use std::io::Write;
+use std::io::{Seek, Write};
 use std::path::Path;
 
 /// Bytes per page of direct I/O: offsets, lengths and memory are multiples of it.
@@ -96,7 +96,18 @@ pub fn write_samples(
         let writer = scope.spawn(move || -> Result<()> {
             for (mut block, len, last) in written {
                 let whole = len / align * align;
-                file.write_all(&block.bytes()[..whole])?;
+                let bytes = &block.bytes()[..whole];
+                let start = file.stream_position()?;
+                match file.write_all(bytes) {
+                    // A file system that takes the flag but refuses the writes: the rest of the
+                    // bytes through the page cache, from where the refused write stopped.
+                    Err(e) if direct && e.raw_os_error() == Some(libc::EINVAL) => {
+                        let written = (file.stream_position()? - start) as usize;
+                        set_direct(&file, false)?;
+                        file.write_all(&bytes[written..])?;
+                    }
+                    other => other?,
+                }
                 if last && whole < len {
                     set_direct(&file, false)?;
                     file.write_all(&block.bytes()[whole..len])?;
