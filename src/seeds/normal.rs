@@ -64,12 +64,9 @@ pub fn fill_words(seed: u64, stream: u64, count: usize, words: &mut Vec<u32>) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512f") {
+            let seed_bytes = rng.get_seed();
             let key: [u32; 8] = std::array::from_fn(|i| {
-                u32::from_le_bytes(
-                    rng.get_seed()[4 * i..4 * i + 4]
-                        .try_into()
-                        .expect("4 bytes"),
-                )
+                u32::from_le_bytes(seed_bytes[4 * i..4 * i + 4].try_into().expect("4 bytes"))
             });
             let whole = count / 256 * 256;
             // SAFETY: the CPU has AVX-512F, checked just above; the slices hold whole groups.

@@ -137,6 +137,19 @@ impl Model {
         }
     }
 
+    /// Full covariance: samples `first ..` (as many as `out` holds, `H * W` each) as complex64,
+    /// the mean plus the f32 deviation sums added in f64 and rounded once.
+    fn full_covariance_c64(&self, seed: u64, first: usize, out: &mut [Complex32]) {
+        let mean: &[f64] = bytemuck::cast_slice(self.mean.as_slice().expect("standard layout"));
+        let flat: &mut [f32] = bytemuck::cast_slice_mut(out);
+        let count = flat.len() / mean.len();
+        self.full_covariance_sums(seed, first, count, flat, |c0, values| {
+            for (x, mu) in values.iter_mut().zip(&mean[c0..]) {
+                *x = (mu + f64::from(*x)) as f32;
+            }
+        });
+    }
+
     /// Methods 1 and 2: the bank prepared for the format-2 kernel.
     fn fast(&self) -> &FastFilter {
         self.fast.get_or_init(|| {
@@ -166,16 +179,7 @@ impl Model {
             return self.fast().sample(seed, index, scratch, out);
         }
         if self.deviations.is_some() {
-            let mut acc = vec![0.0f32; 2 * out.len()];
-            self.full_covariance_sums(seed, index, 1, &mut acc, |_, _| {});
-            let mean = self.mean.as_slice().expect("standard layout");
-            for ((x, a), mu) in out.iter_mut().zip(acc.chunks_exact(2)).zip(mean) {
-                *x = Complex32::new(
-                    (mu.re + f64::from(a[0])) as f32,
-                    (mu.im + f64::from(a[1])) as f32,
-                );
-            }
-            return;
+            return self.full_covariance_c64(seed, index, out);
         }
         let w = self.shape().1;
         let (re, im) = scratch.normals(seed, index, out.len());
@@ -265,23 +269,10 @@ impl Model {
         let (h, w) = self.shape();
         assert_eq!(out.len() % (h * w).max(1), 0, "whole samples");
         if let (None, Some(_)) = (&self.filter, &self.deviations) {
-            let mean: &[f64] = bytemuck::cast_slice(self.mean.as_slice().expect("standard layout"));
-            let flat: &mut [f32] = bytemuck::cast_slice_mut(out);
-            flat.par_chunks_mut(FULL_COVARIANCE_BATCH * 2 * h * w)
+            out.par_chunks_mut(FULL_COVARIANCE_BATCH * h * w)
                 .enumerate()
                 .for_each(|(b, block)| {
-                    let count = block.len() / (2 * h * w);
-                    self.full_covariance_sums(
-                        seed,
-                        first + b * FULL_COVARIANCE_BATCH,
-                        count,
-                        block,
-                        |c0, values| {
-                            for (x, mu) in values.iter_mut().zip(&mean[c0..]) {
-                                *x = (mu + f64::from(*x)) as f32;
-                            }
-                        },
-                    );
+                    self.full_covariance_c64(seed, first + b * FULL_COVARIANCE_BATCH, block)
                 });
             return;
         }
