@@ -113,22 +113,24 @@ type Seen = (PathBuf, u64, u64, u64, i128, i128);
 /// The content hashes of this process, and those read from an output folder's memo.
 static MEMO: Mutex<Option<HashMap<Seen, String>>> = Mutex::new(None);
 
-fn seen(path: &Path) -> Result<(Seen, i128)> {
+/// What identifies `path`'s content now (its change time is the last field).
+fn seen(path: &Path) -> Result<Seen> {
     use std::os::unix::fs::MetadataExt;
     let meta = fs::metadata(path).with_context(|| format!("reading {}", path.display()))?;
     let ns = |s: i64, n: i64| i128::from(s) * 1_000_000_000 + i128::from(n);
-    let ctime = ns(meta.ctime(), meta.ctime_nsec());
     Ok((
-        (
-            path.to_path_buf(),
-            meta.dev(),
-            meta.ino(),
-            meta.len(),
-            ns(meta.mtime(), meta.mtime_nsec()),
-            ctime,
-        ),
-        ctime,
+        path.to_path_buf(),
+        meta.dev(),
+        meta.ino(),
+        meta.len(),
+        ns(meta.mtime(), meta.mtime_nsec()),
+        ns(meta.ctime(), meta.ctime_nsec()),
     ))
+}
+
+/// The rows of `out`'s memo file, if it holds any.
+fn read_hash_memo(out: &Path) -> Option<Vec<(Seen, String)>> {
+    serde_json::from_slice(&fs::read(memo_path(out)).ok()?).ok()
 }
 
 /// The memo of input hashes an output folder keeps: `jobs/input-hashes.json`.
@@ -140,10 +142,7 @@ fn memo_path(out: &Path) -> PathBuf {
 /// is no memo: every input is hashed again), so that a resumed run does not re-read its
 /// inputs: hashing a 32 MB stack took 40 % of a resumed run.
 pub fn load_hash_memo(out: &Path) {
-    let Ok(bytes) = fs::read(memo_path(out)) else {
-        return;
-    };
-    let Ok(rows) = serde_json::from_slice::<Vec<(Seen, String)>>(&bytes) else {
+    let Some(rows) = read_hash_memo(out) else {
         return;
     };
     if let Ok(mut m) = MEMO.lock() {
@@ -164,8 +163,8 @@ pub fn save_hash_memo(out: &Path, files: &[PathBuf]) -> Result<()> {
     let memo = MEMO.lock().ok().and_then(|m| m.clone()).unwrap_or_default();
     let mut rows: Vec<(Seen, String)> = Vec::new();
     for f in files {
-        let Ok((id, ctime)) = seen(f) else { continue };
-        if now - ctime < 1_000_000_000 {
+        let Ok(id) = seen(f) else { continue };
+        if now - id.5 < 1_000_000_000 {
             continue;
         }
         if let Some(h) = memo.get(&id) {
@@ -174,6 +173,10 @@ pub fn save_hash_memo(out: &Path, files: &[PathBuf]) -> Result<()> {
     }
     rows.sort();
     rows.dedup();
+    // A re-run over the same inputs finds its memo as it would write it: nothing to write.
+    if read_hash_memo(out).as_ref() == Some(&rows) {
+        return Ok(());
+    }
     crate::io::atomic::atomic_write(&memo_path(out), |w| {
         serde_json::to_writer(&mut *w, &rows)?;
         Ok(())
@@ -185,7 +188,7 @@ pub fn save_hash_memo(out: &Path, files: &[PathBuf]) -> Result<()> {
 /// across runs through the output folder's memo ([`load_hash_memo`]).
 fn content_hash(path: &Path) -> Result<String> {
     use sha2::{Digest, Sha256};
-    let (id, _) = seen(path)?;
+    let id = seen(path)?;
     if let Some(h) = MEMO
         .lock()
         .ok()
