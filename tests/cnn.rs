@@ -307,6 +307,29 @@ fn nudged<const D: usize>(
     ))
 }
 
+/// `n` 32 x 32 images of two alternating classes: complex white noise (parts `N(0, 1)`) with
+/// 3 added to the real part of the top half (class 0) or the bottom half (class 1), all times
+/// `scale`.
+fn half_bright_set(rng: &mut ChaCha20Rng, n: usize, scale: f64) -> Labelled {
+    let mut set = Labelled::default();
+    for k in 0..n {
+        let label = k % 2;
+        let img: Vec<Complex32> = (0..32 * 32)
+            .map(|p| {
+                let (a, b): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
+                let bright = if (p / 32 < 16) == (label == 0) {
+                    3.0
+                } else {
+                    0.0
+                };
+                Complex32::new(((a + bright) * scale) as f32, (b * scale) as f32)
+            })
+            .collect();
+        set.push(&img, label);
+    }
+    set
+}
+
 /// Two classes that differ in a large mean at different places are learnt to > 95 % in a few
 /// epochs on a few samples.
 #[test]
@@ -318,28 +341,7 @@ fn a_trivially_separable_toy_set_is_learnt() {
         classes: 2,
     };
     let mut rng = ChaCha20Rng::seed_from_u64(1);
-    let mut make = |n: usize| {
-        let mut set = Labelled::default();
-        for k in 0..n {
-            let label = k % 2;
-            let img: Vec<Complex32> = (0..32 * 32)
-                .map(|p| {
-                    let (a, b): (f64, f64) = (
-                        StandardNormal.sample(&mut rng),
-                        StandardNormal.sample(&mut rng),
-                    );
-                    let bright = if (p / 32 < 16) == (label == 0) {
-                        3.0
-                    } else {
-                        0.0
-                    };
-                    Complex32::new((a + bright) as f32, b as f32)
-                })
-                .collect();
-            set.push(&img, label);
-        }
-        set
-    };
+    let mut make = |n: usize| half_bright_set(&mut rng, n, 1.0);
     let (tr, va) = (make(64), make(64));
     let opts = TrainingOptions {
         batch_size: 16,
@@ -750,28 +752,7 @@ fn few_updates_on_small_power_data_still_predict() {
         classes: 2,
     };
     let mut rng = ChaCha20Rng::seed_from_u64(4);
-    let mut make = |n: usize| {
-        let mut set = Labelled::default();
-        for k in 0..n {
-            let label = k % 2;
-            let img: Vec<Complex32> = (0..32 * 32)
-                .map(|p| {
-                    let (a, b): (f64, f64) = (
-                        StandardNormal.sample(&mut rng),
-                        StandardNormal.sample(&mut rng),
-                    );
-                    let bright = if (p / 32 < 16) == (label == 0) {
-                        3.0
-                    } else {
-                        0.0
-                    };
-                    Complex32::new(((a + bright) * 1e-3) as f32, (b * 1e-3) as f32)
-                })
-                .collect();
-            set.push(&img, label);
-        }
-        set
-    };
+    let mut make = |n: usize| half_bright_set(&mut rng, n, 1e-3);
     let (tr, va) = (make(32), make(32));
     let opts = TrainingOptions {
         batch_size: 32,
