@@ -129,6 +129,20 @@ fn rel(dir: &Path, p: &Path) -> PathBuf {
 /// Rows of titled maps.
 type Grid = Vec<Vec<(String, Array2<f64>)>>;
 
+/// The panels of a grid of titled maps, row by row, borrowing the maps.
+fn panels(rows: &Grid) -> Vec<Vec<Panel<'_>>> {
+    rows.iter()
+        .map(|r| {
+            r.iter()
+                .map(|(t, m)| Panel {
+                    title: t.clone(),
+                    map: m.view(),
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// A grid of maps to draw, and its record.
 #[allow(clippy::too_many_arguments)]
 fn grid(
@@ -163,17 +177,7 @@ fn draw_grid(
     data: &[PathBuf],
 ) -> Result<Figure> {
     let out = dir.join("figures").join(job);
-    let panels: Vec<Vec<Panel>> = rows
-        .iter()
-        .map(|r| {
-            r.iter()
-                .map(|(t, m)| Panel {
-                    title: t.clone(),
-                    map: m.view(),
-                })
-                .collect()
-        })
-        .collect();
+    let panels = panels(rows);
     let files = figures::heatmap::heatmap_grid(&out, stem, &caption, &panels, scale, bar)
         .with_context(|| format!("drawing {stem} of {job}"))?;
     Ok(Figure {

@@ -365,7 +365,7 @@ fn training_curves(
 /// five locations (columns), `20 log10 |x|` on one scale spanning [`EXAMPLE_RANGE_DB`] below
 /// the peak, each target's 8x8 footprint outlined.
 fn examples(dir: &Path, g: &Group, rep: &Representative) -> Result<Option<Figure>> {
-    let mut rows: Vec<Vec<(String, Array2<f64>)>> = vec![];
+    let mut rows: super::super::Grid = vec![];
     let mut files = vec![];
     for m in &g.methods {
         let Some(r) = g.at(m, rep.x).find(|r| r.repeat == 0) else {
@@ -400,17 +400,7 @@ fn examples(dir: &Path, g: &Group, rep: &Representative) -> Result<Option<Figure
     for (_, m) in rows.iter_mut().flatten() {
         m.mapv_inplace(|v| if v.is_finite() { v.max(floor) } else { floor });
     }
-    let panels: Vec<Vec<Panel>> = rows
-        .iter()
-        .map(|r| {
-            r.iter()
-                .map(|(t, m)| Panel {
-                    title: t.clone(),
-                    map: m.view(),
-                })
-                .collect()
-        })
-        .collect();
+    let panels = super::super::panels(&rows);
     let half = TARGET / 2;
     let boxes = rows
         .iter()
