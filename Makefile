@@ -13,6 +13,13 @@ VENV := .venv
 # without it: MAT v5 only, and a v7.3 file is a clear error.
 FEATURES ?= mat73
 CARGO_FEATURES := $(if $(strip $(FEATURES)),--features $(FEATURES))
+# mat73 links Debian's static libhdf5.a, through the HDF5_DIR that the `hdf5` target lays out
+# (include/; lib/ with libhdf5.a alone; bin/ with the shared library that hdf5-metno-sys's build
+# script loads to check the version). Linked dynamically, libhdf5 brings 33 more shared
+# libraries (libcurl, krb5, ldap, ...) whose loading took 6 ms of every command's start on the
+# development VM. Set HDF5_DIR to use another HDF5 installation.
+HDF5_DIR ?= $(CARGO_TARGET_DIR)/hdf5-static
+export HDF5_DIR
 
 .PHONY: build run-experiment run-all compare validate test test-deps hdf5 lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
 
@@ -46,15 +53,24 @@ test: test-deps
 	cargo test --release --locked $(CARGO_FEATURES)
 
 ## hdf5: Debian's libhdf5-dev (and pkg-config) for the mat73 feature, installed with apt when
-## running as root, otherwise a hint; nothing when it is there or FEATURES leaves mat73 out
+## running as root, otherwise a hint; then the static layout of HDF5_DIR (above) from it.
+## Nothing when FEATURES leaves mat73 out.
+HDF5_SERIAL := /usr/lib/$(shell gcc -print-multiarch 2>/dev/null)/hdf5/serial
 hdf5:
 	@case " $(FEATURES) " in *" mat73 "*) ;; *) exit 0 ;; esac; \
-	if [ -f /usr/include/hdf5/serial/hdf5.h ] || [ -f /usr/include/hdf5.h ] || pkg-config --exists hdf5 2>/dev/null; then exit 0; fi; \
+	if [ ! -f /usr/include/hdf5/serial/hdf5.h ] && [ ! -f /usr/include/hdf5.h ] && ! pkg-config --exists hdf5 2>/dev/null; then \
 	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 		echo "installing libhdf5-dev for MATLAB v7.3 files (apt-get)"; \
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends libhdf5-dev pkg-config >/dev/null; \
 	else \
-		echo "libhdf5-dev not found: install Debian's libhdf5-dev for MATLAB v7.3 files, or build without them: make FEATURES="; \
+		echo "libhdf5-dev not found: install Debian's libhdf5-dev for MATLAB v7.3 files, or build without them: make FEATURES="; exit 0; \
+	fi; fi; \
+	case "$(HDF5_DIR)" in "$(CARGO_TARGET_DIR)/hdf5-static") ;; *) exit 0 ;; esac; \
+	if [ -f $(HDF5_SERIAL)/libhdf5.a ] && [ -f $(HDF5_SERIAL)/libhdf5.so ] && [ -d /usr/include/hdf5/serial ]; then \
+		mkdir -p $(HDF5_DIR)/lib $(HDF5_DIR)/bin && ln -sfn /usr/include/hdf5/serial $(HDF5_DIR)/include && \
+		ln -sf $(HDF5_SERIAL)/libhdf5.a $(HDF5_DIR)/lib/libhdf5.a && ln -sf $(HDF5_SERIAL)/libhdf5.so $(HDF5_DIR)/bin/libhdf5.so; \
+	else \
+		echo "no Debian libhdf5.a in $(HDF5_SERIAL): set HDF5_DIR to an HDF5 installation, or build without mat73: make FEATURES="; exit 1; \
 	fi
 
 ## test-deps: libhdf5-dev (`hdf5`); SciPy and h5py (pinned) in .venv for the MATLAB .mat tests;
@@ -74,7 +90,7 @@ test-deps: hdf5 $(VENV)/bin/python
 	fi
 
 ## lint: formatting and clippy with warnings as errors
-lint:
+lint: hdf5
 	cargo fmt --all -- --check
 	cargo clippy --release --all-targets --locked $(CARGO_FEATURES) -- -D warnings
 	cargo clippy --release --all-targets --locked -- -D warnings
@@ -121,7 +137,7 @@ bench-cnn-torch: bench-torch-deps
 
 ## bench-cnn: CNN training throughput side by side in one run: burn (cargo bench --bench cnn:
 ## 1 and 2 threads, two trainings side by side) and PyTorch (1 and 2 threads)
-bench-cnn: bench-torch-deps
+bench-cnn: hdf5 bench-torch-deps
 	cargo bench --locked $(CARGO_FEATURES) --bench cnn
 	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 1
 	$(VENV_TORCH)/bin/python bench/cnn_torch.py --threads 2

@@ -19,6 +19,22 @@ fn main() {
     if target == "x86_64-unknown-linux-gnu" {
         println!("cargo:rustc-link-arg-bins=-no-pie");
     }
+    // mat73 with a static libhdf5 (HDF5_DIR laid out by `make hdf5`): the libraries that
+    // libhdf5.a needs, after it on the link line.
+    println!("cargo:rerun-if-env-changed=HDF5_DIR");
+    let static_hdf5 = std::env::var_os("CARGO_FEATURE_MAT73").is_some()
+        && std::env::var_os("HDF5_DIR")
+            .is_some_and(|dir| std::path::Path::new(&dir).join("lib/libhdf5.a").exists());
+    if static_hdf5 {
+        for lib in ["sz", "z", "m", "dl"] {
+            println!("cargo:rustc-link-arg=-l{lib}");
+        }
+    }
+    // For the test that the binary does not load libhdf5 at start (tests/mat.rs).
+    println!(
+        "cargo:rustc-env=ISAR_CLUTTER_HDF5_LINK={}",
+        if static_hdf5 { "static" } else { "dynamic" }
+    );
     for path in [
         "src",
         "Cargo.toml",
