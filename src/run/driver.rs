@@ -37,10 +37,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let all = AllJobs::new(plan);
     let jobs = all.list();
     store::load_hash_memo(&opts.out);
-    let keys: Vec<String> = jobs
-        .iter()
-        .map(|j| store::key(*j, plan))
-        .collect::<Result<_>>()?;
+    // On the run's pool: input files are hashed by its threads.
+    let keys: Vec<String> = pool.install(|| {
+        jobs.iter()
+            .map(|j| store::key(*j, plan))
+            .collect::<Result<_>>()
+    })?;
     let mut inputs: Vec<std::path::PathBuf> = jobs.iter().flat_map(|j| j.input_files()).collect();
     inputs.sort();
     inputs.dedup();
