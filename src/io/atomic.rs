@@ -113,7 +113,7 @@ fn write_via_temporary(
 /// new file's data back at once (its `auto_da_alloc` safeguard), about 0.2 ms per file on the
 /// development VM, which was a fifth of a short run's time. Readers see the old or the new
 /// file, never a partial one, either way.
-fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
+pub(crate) fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
     if fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
         return Err(std::io::Error::other(
             "it exists and is not a regular file (nothing is renamed over a folder or a link)",

@@ -81,8 +81,9 @@ pub(super) fn take_lock(
     for _ in 0..3 {
         match OpenOptions::new().write(true).create_new(true).open(&path) {
             Ok(mut f) => {
+                // Not synced: a lock outlives its holder only while the holder lives, and after
+                // a crash a lock that is missing, empty or half written is taken over (below).
                 serde_json::to_writer_pretty(&mut f, me)?;
-                f.sync_all().ok();
                 return Ok(());
             }
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {

@@ -187,7 +187,15 @@ impl OutDir {
         }
         if let Some(name) = name {
             let owner = serde_json::json!({"tool": env!("CARGO_PKG_NAME"), "name": name});
-            write_json(&state.join("owner.json"), &owner)?;
+            let marker = state.join("owner.json");
+            // A re-run finds its marker as it would write it.
+            let same = fs::read(&marker)
+                .ok()
+                .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+                .is_some_and(|v| v == owner);
+            if !same {
+                write_json(&marker, &owner)?;
+            }
         }
         let removed = if matches!(purpose, Purpose::Shard { .. }) {
             0 // other shards may be writing: their temporary files are alive
