@@ -2,9 +2,12 @@
 """Analysis benchmark for BENCHMARKS.md (issue 2, item 8).
 
 Side by side, in one run, on the same complex64 stack:
-  * `isar-clutter run --fresh` end to end (process start, .npy load, 3-level analysis, Parquet,
-    .npy maps, manifest, the job store), without and with its report, a resumed re-run with its
-    report, and the kernel alone (the manifest's analysis_s);
+  * `isar-clutter run` end to end (process start, .npy load, 3-level analysis, Parquet, .npy
+    maps, manifest, the job store): redone with --fresh without and with its report (figures
+    unchanged), resumed from the job store, the first run on an input (hashed for the job's
+    key), the first run into a new folder (every figure drawn), and the kernel alone (the
+    manifest's analysis_s); the cases run in turn (round robin) so that the machine's drift
+    falls on all alike, numpy's included;
   * (a) forming the full P x P sample covariance with numpy/OpenBLAS (what the method avoids);
   * (b) a straightforward vectorised numpy implementation of the same estimator, which is
     also checked against the tool's maps (max abs difference printed).
@@ -15,6 +18,7 @@ import argparse
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import time
@@ -75,10 +79,16 @@ def write_spec(path, name, npy, levels):
     )
 
 
-def run_tool(binary, spec, out, threads, report=False, fresh=True):
+def run_tool(binary, spec, out, threads, report=False, fresh=True, touch=None, new_out=False):
     """One `isar-clutter run`; `fresh`: the job is redone (--fresh), not resumed from the job
-    store, so that the analysis really runs."""
+    store, so that the analysis really runs; `touch`: the input's times are moved first, so
+    that the run hashes it for the job's key as a first run on new data does; `new_out`: into
+    an empty output folder, so that the report draws every figure."""
     extra = ([] if report else ["--no-report"]) + (["--fresh"] if fresh else [])
+    if touch is not None:
+        os.utime(touch)
+    if new_out:
+        shutil.rmtree(out, ignore_errors=True)
     subprocess.run([binary, "run", str(spec), "--out", str(out), "--jobs", str(threads), "--quiet", *extra], check=True)
 
 
@@ -105,21 +115,48 @@ def main():
     spec = work / "bench.yaml"
     write_spec(spec, "bench", npy, args.levels)
     out = work / "out"
+    # The first-run case hashes its own copy of the input (moving a file's times makes every
+    # run that reads it hash it again).
+    npy_first = work / "stack_first.npy"
+    shutil.copyfile(npy, npy_first)
+    spec_first = work / "bench_first.yaml"
+    write_spec(spec_first, "bench", npy_first, args.levels)
+    # Inputs older than a second (their hashes may be remembered) and on disk, so that no
+    # write-back runs beside the timings.
+    time.sleep(1.1)
+    os.sync()
 
-    run_tool(args.bin, spec, out, args.threads)  # warm the page cache
-    t_run, _ = median_time(lambda: run_tool(args.bin, spec, out, args.threads), args.repeats)
+    b, th = args.bin, args.threads
+    cases = {
+        # --fresh: the job is redone, not resumed from the store; without the report.
+        "noreport": lambda: run_tool(b, spec, out, th),
+        # With its report; the figures found unchanged.
+        "report": lambda: run_tool(b, spec, work / "out_report", th, report=True),
+        # A re-run that finds its job done in the store, with the report.
+        "resumed": lambda: run_tool(b, spec, work / "out_report", th, report=True, fresh=False),
+        # The first run on new data: the input is hashed for the job's key.
+        "first": lambda: run_tool(b, spec_first, work / "out_first", th, report=True, touch=npy_first),
+        # The first run into a new output folder: every figure drawn.
+        "new": lambda: run_tool(b, spec, work / "out_new", th, report=True, new_out=True),
+        "numpy": lambda: numpy_estimator(stack, args.levels),
+    }
+    for fn in cases.values():  # the page cache, the figures, the store
+        fn()
+    # Round robin, so that the machine's drift falls on every case alike.
+    times = {k: [] for k in cases}
     kernels = []
     for _ in range(args.repeats):
-        run_tool(args.bin, spec, out, args.threads)
-        m = json.loads((out / "manifest.json").read_text())
-        kernels.append(m["jobs"][0]["timing"]["analysis_s"])
+        for name, fn in cases.items():
+            t = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t)
+            if name == "noreport":
+                m = json.loads((out / "manifest.json").read_text())
+                kernels.append(m["jobs"][0]["timing"]["analysis_s"])
+    med = {k: float(np.median(v)) for k, v in times.items()}
+    t_run, t_report, t_resumed, t_first, t_new, t_numpy = (
+        med[k] for k in ("noreport", "report", "resumed", "first", "new", "numpy"))
     t_kernel = float(np.median(kernels))
-    # With its report (issue 16): the first run draws the figures, the reruns find them unchanged.
-    run_tool(args.bin, spec, out, args.threads, report=True)
-    t_report, _ = median_time(lambda: run_tool(args.bin, spec, out, args.threads, report=True), args.repeats)
-    # A re-run that finds its job done in the store, with the report.
-    t_resumed, _ = median_time(lambda: run_tool(args.bin, spec, out, args.threads, report=True, fresh=False), args.repeats)
-    t_numpy, _ = median_time(lambda: numpy_estimator(stack, args.levels), max(3, args.repeats // 2))
     t_full, _ = median_time(lambda: full_covariance(stack), args.full_repeats)
 
     # Cross-check the tool's maps against the numpy estimator.
@@ -136,6 +173,8 @@ def main():
         ("  of which the analysis kernel", t_kernel),
         ("isar-clutter run --fresh with its report (figures unchanged)", t_report),
         ("isar-clutter run, resumed (job done in the store), with its report", t_resumed),
+        ("isar-clutter run, first on this input (hashed for the key), with its report", t_first),
+        ("isar-clutter run into a new folder (input hashed, every figure drawn)", t_new),
         ("(b) numpy vectorised estimator", t_numpy),
         ("(a) numpy full P x P sample covariance", t_full),
     ]
@@ -148,7 +187,8 @@ def main():
         print(f"| {name} | {t * 1e3:.1f} ms | {nbytes / t / 1e9:.2f} GB/s |")
     print()
     print(f"speed-up of the whole run: {t_numpy / t_run:.1f}x vs (b), {t_full / t_run:.0f}x vs (a)")
-    print(f"speed-up of the whole run with its report: {t_numpy / t_report:.1f}x vs (b); resumed: {t_numpy / t_resumed:.1f}x")
+    print(f"speed-up of the whole run with its report: {t_numpy / t_report:.1f}x vs (b); resumed: {t_numpy / t_resumed:.1f}x; "
+          f"first on this input: {t_numpy / t_first:.1f}x; new folder: {t_numpy / t_new:.1f}x")
     print(f"kernel: {nbytes / t_kernel / 1e9:.2f} GB/s of complex64 input")
     print(f"max |tool - numpy| over all maps: {worst:.2e}")
 

@@ -453,8 +453,12 @@ fn real_main() -> Result<ExitCode> {
                 );
             } else if !no_report {
                 let t = std::time::Instant::now();
+                // Under the run's claim: the folder was complete a moment ago and is still locked.
                 let report = pool(jobs)?
-                    .install(|| isar_clutter::report::build(&summary.out, false))
+                    .install(|| match &summary.claim {
+                        Some(claim) => isar_clutter::report::build_claimed(claim),
+                        None => isar_clutter::report::build(&summary.out, false),
+                    })
                     .context("building the report (the results are written; retry with `isar-clutter report`)")?;
                 if !quiet {
                     eprintln!(

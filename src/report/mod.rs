@@ -63,6 +63,16 @@ type Task = Box<dyn FnOnce() -> Result<Figure> + Send>;
 pub fn build(dir: &Path, allow_incomplete: bool) -> Result<Report> {
     use crate::io::outdir::{OutDir, Purpose};
     let outdir = OutDir::claim(dir, None, Purpose::Report { allow_incomplete })?;
+    build_claimed(&outdir)
+}
+
+/// [`build`] in a folder this process has claimed already: a run's, right after its manifest
+/// (the run holds the lock, and the folder is complete).
+///
+/// # Errors
+/// As [`build`], but for the claim.
+pub fn build_claimed(outdir: &crate::io::outdir::OutDir) -> Result<Report> {
+    let dir = outdir.root();
     let manifest: Json =
         serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).with_context(|| {
             format!(

@@ -70,8 +70,11 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         ));
     }
     let bar = scheduler::progress(todo.len(), opts);
+    // A run that merges keeps its jobs' rows for the merge (which would read the same rows
+    // back from the store's fragments); a shard's go as soon as they are stored.
+    let merges = opts.shard.is_none();
     let done: Vec<(usize, Outcome)> =
-        pool.install(|| scheduler::execute(plan, &jobs, &keys, &[], &todo, opts, &bar, false));
+        pool.install(|| scheduler::execute(plan, &jobs, &keys, &[], &todo, opts, &bar, merges));
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -94,11 +97,11 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
             notes,
             skipped: skipped.len(),
             merged: false,
+            claim: None,
         });
     }
-    drop(done);
-    let merged =
-        pool.install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start))?;
+    let merged = pool
+        .install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start, done))?;
     notes.extend(merged.notes);
     failed = merged.failed;
     Ok(RunSummary {
@@ -109,5 +112,6 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         notes,
         skipped: skipped.len(),
         merged: true,
+        claim: opts.report_follows.then_some(outdir),
     })
 }

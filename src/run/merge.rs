@@ -10,7 +10,7 @@
 
 use crate::io::outdir::{OutDir, Purpose, STATE};
 use crate::run::jobs::all::AllJobs;
-use crate::run::jobs::{Inputs, JobKind, Outcome};
+use crate::run::jobs::{Inputs, JobKind, Outcome, Rows};
 use crate::run::plan::{self, Plan};
 use crate::run::scheduler::{self, RunOptions};
 use crate::run::{manifest, store};
@@ -120,7 +120,7 @@ pub fn merge(out: &Path, opts: &RunOptions, partial: bool) -> Result<Merged> {
         }
     }
     let outdir = OutDir::claim(out, Some(&plan.spec.name), Purpose::Run)?;
-    let mut merged = merge_claimed(&plan, &jobs, &keys, &outdir, opts, partial, start)?;
+    let mut merged = merge_claimed(&plan, &jobs, &keys, &outdir, opts, partial, start, vec![])?;
     merged.notes.splice(0..0, outdir.notes.iter().cloned());
     Ok(merged)
 }
@@ -150,10 +150,14 @@ fn missing_message(out: &Path, missing: &[String]) -> String {
 
 /// Merges the store of a claimed folder: reads every job's outcome, runs the jobs that read
 /// other jobs' rows, publishes the files, writes the tables, removes stale files (never the
-/// store), writes the manifest and marks the folder complete.
+/// store), writes the manifest and marks the folder complete. `ran`: the outcomes of the jobs
+/// this process has just run and stored, whose rows are taken as they are instead of read back
+/// from their fragments (the same rows); every job's record is read from the store all the
+/// same.
 ///
 /// # Errors
 /// If a job is missing and not `partial`, or a file cannot be read or written.
+#[allow(clippy::too_many_arguments)]
 pub fn merge_claimed(
     plan: &Plan,
     jobs: &[&dyn JobKind],
@@ -162,9 +166,14 @@ pub fn merge_claimed(
     opts: &RunOptions,
     partial: bool,
     start: Instant,
+    ran: Vec<(usize, Outcome)>,
 ) -> Result<Merged> {
     let out = outdir.root();
     let mut merged = Merged::default();
+    let mut kept: Vec<Option<Rows>> = (0..jobs.len()).map(|_| None).collect();
+    for (i, o) in ran {
+        kept[i] = o.rows.ok();
+    }
     let mut outcomes: Vec<Option<Outcome>> = (0..jobs.len()).map(|_| None).collect();
     let mut done = vec![];
     let mut second = vec![];
@@ -175,7 +184,14 @@ pub fn merge_claimed(
         }
         outcomes[i] = Some(match store::entry(out, &keys[i]) {
             store::Entry::Done(d) => {
-                let rows = store::load_rows(out, &d)?;
+                let rows = match kept[i].take() {
+                    // As `load_rows` gives them: the files as the record lists them.
+                    Some(rows) => Rows {
+                        files: d.files.keys().map(PathBuf::from).collect(),
+                        ..rows
+                    },
+                    None => store::load_rows(out, &d)?,
+                };
                 let o = Outcome {
                     rows: Ok(rows),
                     elapsed_s: d.elapsed_s,
@@ -224,14 +240,16 @@ pub fn merge_claimed(
     };
     scheduler::write_tables(plan, jobs, &outcomes, &run_opts)?;
     let tables_s = t_tables.elapsed().as_secs_f64();
-    // An earlier report's page goes in any case (a report that follows writes it again from
-    // this run's files).
-    outdir.remove_stale(|p| p == Path::new("report.html"))?;
     // Everything an earlier run wrote that this one did not (the store stays: its keys are a
     // cache that a later run of an earlier spec reads again; so do the figures when a report
-    // follows: it draws again only those whose inputs changed).
+    // follows: it draws again only those whose inputs changed). An earlier report's page goes
+    // in any case (a report that follows writes it again from this run's files); it is not
+    // counted.
+    let page = Path::new("report.html");
+    let had_page = out.join(page).is_file();
     let cache = |p: &Path| p.starts_with("jobs") || opts.report_follows && p.starts_with("figures");
-    let stale = outdir.remove_stale(|p| !cache(p))?;
+    let removed = outdir.remove_stale(|p| p == page || !cache(p))?;
+    let stale = removed - usize::from(had_page && !out.join(page).exists());
     if stale > 0 {
         merged.notes.push(format!(
             "removed {stale} file(s) an earlier run wrote that this run does not have"

@@ -62,7 +62,7 @@ impl RunOptions {
 }
 
 /// What a run did.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct RunSummary {
     /// Jobs run.
     pub total: usize,
@@ -80,6 +80,10 @@ pub struct RunSummary {
     pub skipped: usize,
     /// Whether the tables and the manifest were written (not for a shard).
     pub merged: bool,
+    /// The output folder, still claimed, of a merged run whose report follows
+    /// ([`RunOptions::report_follows`]): the report is built under the run's claim
+    /// ([`crate::report::build_claimed`]); dropping it releases the folder.
+    pub claim: Option<crate::io::outdir::OutDir>,
 }
 
 /// Default number of worker threads: `RAYON_NUM_THREADS` when it is set to a positive

@@ -1,14 +1,13 @@
 //! Figures that need not be drawn again. A report opens a [`FigureCache`] on its results
-//! folder; while it is open, every figure drawn into that folder is first keyed by a SHA-256 of
+//! folder; while it is open, every figure drawn into that folder is first keyed by a BLAKE3 hash of
 //! everything it is drawn from (the values, titles, labels and layout the drawing code
 //! receives, [`FORMAT`], the tool's version and a digest of the drawing code) and skipped when
 //! the sidecar `.isar-clutter/figures.json` records the same key and both its files still hold
-//! the bytes the tool wrote (their SHA-256). A figure whose key changed, whose file is missing,
+//! the bytes the tool wrote (their BLAKE3 hash). A figure whose key changed, whose file is missing,
 //! or whose file a user edited is drawn again. The sidecar keeps only the figures of the last
 //! report. The open caches are kept in a process-wide list by folder (as [`crate::io::outdir`]
 //! keeps its journals), so that the drawing functions need no extra argument.
 
-use sha2::{Digest, Sha256};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -19,22 +18,22 @@ use std::sync::{Arc, Mutex};
 /// source ([`code_digest`]).
 pub const FORMAT: u32 = 1;
 
-/// SHA-256 of the drawing code's source (this folder's modules that draw) and the embedded
+/// BLAKE3 of the drawing code's source (this folder's modules that draw) and the embedded
 /// font's length, computed once.
 fn code_digest() -> &'static [u8] {
     static DIGEST: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
     DIGEST.get_or_init(|| {
-        let mut h = Sha256::new();
+        let mut h = blake3::Hasher::new();
         for source in [
             include_str!("mod.rs"),
             include_str!("heatmap.rs"),
             include_str!("charts.rs"),
         ] {
-            h.update((source.len() as u64).to_le_bytes());
+            h.update(&(source.len() as u64).to_le_bytes());
             h.update(source.as_bytes());
         }
-        h.update((super::FONT_BYTES.len() as u64).to_le_bytes());
-        h.finalize().to_vec()
+        h.update(&(super::FONT_BYTES.len() as u64).to_le_bytes());
+        h.finalize().as_bytes().to_vec()
     })
 }
 
@@ -46,7 +45,7 @@ pub const SIDECAR: &str = ".isar-clutter/figures.json";
 struct Entry {
     /// The key of the inputs the files were drawn from.
     key: String,
-    /// The files (relative to the results folder) and the SHA-256 of their bytes as written.
+    /// The files (relative to the results folder) and the BLAKE3 hash of their bytes as written.
     files: BTreeMap<String, String>,
 }
 
@@ -197,7 +196,7 @@ impl Slot {
             && self.files.iter().all(|f| {
                 entry.files.get(f).is_some_and(|want| {
                     std::fs::read(self.active.root.join(f))
-                        .is_ok_and(|b| crate::seeds::sha256_hex(&b) == *want)
+                        .is_ok_and(|b| blake3::hash(&b).to_hex().as_str() == want)
                 })
             });
         if entry.key != key || !same_files {
@@ -216,7 +215,7 @@ impl Slot {
             .files
             .iter()
             .zip(bytes)
-            .map(|(f, b)| (f.clone(), crate::seeds::sha256_hex(b)))
+            .map(|(f, b)| (f.clone(), blake3::hash(b).to_hex().to_string()))
             .collect();
         if let Ok(mut s) = self.active.state.lock() {
             s.now.insert(
@@ -231,10 +230,10 @@ impl Slot {
     }
 }
 
-/// Builds the key of a figure: SHA-256 over length-prefixed strings and numbers as written by
+/// Builds the key of a figure: BLAKE3 over length-prefixed strings and numbers as written by
 /// the figure, after [`FORMAT`], the tool's version and the drawing code's digest.
 pub(super) struct Key {
-    hash: Sha256,
+    hash: blake3::Hasher,
     buf: Vec<u8>,
 }
 
@@ -242,7 +241,7 @@ impl Key {
     /// A key of a figure of `size` pixels.
     pub(super) fn new(size: (u32, u32)) -> Self {
         let mut k = Key {
-            hash: Sha256::new(),
+            hash: blake3::Hasher::new(),
             buf: Vec::with_capacity(1 << 16),
         };
         k.u64(u64::from(FORMAT));
@@ -292,10 +291,6 @@ impl Key {
     /// The key as hex.
     pub(super) fn finish(mut self) -> String {
         self.hash.update(&self.buf);
-        self.hash
-            .finalize()
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect()
+        self.hash.finalize().to_hex().to_string()
     }
 }
