@@ -492,8 +492,9 @@ fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, png::EncodingError>
     let mut enc = png::Encoder::new(&mut out, w, h);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
-    // fdeflate with the Up row filter (`Fastest`): on the report's figures much faster than
-    // the default (zlib level 6, adaptive filter); the pixels are the same.
+    // fdeflate with the Paeth row filter: on the report's figures much faster than the default
+    // (zlib level 6, adaptive filter), and 25 % less CPU than fdeflate with the adaptive filter
+    // for files 2 % larger (the Up filter: 40 % less, files twice as large); same pixels.
     enc.set_compression(png::Compression::Fast);
     enc.set_filter(png::Filter::Paeth);
     let mut writer = enc.write_header()?;
