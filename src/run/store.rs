@@ -216,9 +216,15 @@ const HASH_PREFIX: &str = "blake3:";
 fn hash_file(path: &Path) -> Result<blake3::Hash> {
     let file = fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
     let mut hasher = blake3::Hasher::new();
-    // SAFETY: read-only and private; an input rewritten during the run is undefined here as
-    // for the analysis, which maps it too (documented in `io::npy::Stack`).
-    match unsafe { memmap2::Mmap::map(&file) } {
+    // An `.npy` stack keeps its mapping for the analysis that loads it next.
+    // SAFETY (both): read-only and private; an input rewritten during the run is undefined
+    // here as for the analysis (documented in `io::npy::Stack`).
+    let map = if path.extension().is_some_and(|e| e == "npy") {
+        unsafe { crate::io::npy::map_for_reading(&file) }
+    } else {
+        unsafe { memmap2::Mmap::map(&file) }.map(std::sync::Arc::new)
+    };
+    match map {
         Ok(map) => {
             hasher.update_rayon(&map);
         }
