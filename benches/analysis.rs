@@ -74,6 +74,7 @@ fn bandwidth(threads: usize) -> (f64, f64) {
 }
 
 fn main() {
+    isar_clutter::alloc::tune_malloc();
     for threads in [1, 2] {
         let (read, copy) = bandwidth(threads);
         println!(

@@ -37,6 +37,7 @@ fn data(n: usize, classes: usize, seed: u64) -> Labelled {
 }
 
 fn main() {
+    isar_clutter::alloc::tune_malloc();
     let json = std::env::args().any(|a| a == "--json");
     let batches: usize = std::env::var("CNN_BENCH_BATCHES")
         .ok()

@@ -34,6 +34,7 @@ fn stack(n: usize, seed: u64) -> Array3<Complex64> {
 }
 
 fn main() {
+    isar_clutter::alloc::tune_malloc();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()

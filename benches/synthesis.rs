@@ -61,6 +61,7 @@ fn peak_gflops(threads: usize) -> f64 {
 }
 
 fn main() {
+    isar_clutter::alloc::tune_malloc();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()

@@ -230,6 +230,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    isar_clutter::alloc::tune_malloc();
     match real_main() {
         Ok(code) => code,
         Err(e) => {

@@ -245,17 +245,26 @@ pub fn filter_seed(bank: &FilterBank, seed: ArrayView2<Complex64>, out: &mut [Co
     let s = seed.as_slice().expect("standard layout");
     let sw = w + 2 * k;
     if bank.is_uniform() {
+        // Each output is the sum of its products in tap order from zero, as
+        // `iter().sum()` forms it (the oracle in the tests), but with the taps outside and the
+        // columns inside: whole rows of independent additions instead of one chain per
+        // output, the same operations in the same order, so the same bits.
         let (fv, fh) = (&bank.vertical[0], &bank.horizontal[0]);
-        let mut rows = vec![Complex64::new(0.0, 0.0); (h + 2 * k) * w];
-        for r in 0..h + 2 * k {
-            for j in 0..w {
-                let src = &s[r * sw + j..r * sw + j + 2 * k + 1];
-                rows[r * w + j] = src.iter().zip(fh).map(|(z, f)| z * f).sum();
+        let zero = Complex64::new(0.0, 0.0);
+        let mut rows = vec![zero; (h + 2 * k) * w];
+        for (dst, src) in rows.chunks_exact_mut(w).zip(s.chunks_exact(sw)) {
+            for (a, &f) in fh.iter().enumerate() {
+                for (d, z) in dst.iter_mut().zip(&src[a..a + w]) {
+                    *d += z * f;
+                }
             }
         }
-        for i in 0..h {
-            for j in 0..w {
-                out[i * w + j] = (0..=2 * k).map(|a| rows[(i + a) * w + j] * fv[a]).sum();
+        for (i, dst) in out.chunks_exact_mut(w).enumerate() {
+            dst.fill(zero);
+            for (a, &f) in fv.iter().enumerate() {
+                for (d, z) in dst.iter_mut().zip(&rows[(i + a) * w..(i + a + 1) * w]) {
+                    *d += z * f;
+                }
             }
         }
     } else {
