@@ -327,6 +327,14 @@ pub unsafe fn map_for_reading(file: &File) -> std::io::Result<Arc<memmap2::Mmap>
     Ok(map)
 }
 
+/// Drops the mappings [`map_for_reading`] kept that no load took (the inputs of jobs resumed
+/// from the store, or read some other way): called when a run's jobs are done.
+pub fn release_offered() {
+    if let Ok(mut offered) = OFFERED.lock() {
+        offered.clear();
+    }
+}
+
 /// The mapping [`map_for_reading`] kept for `file`, if its content is unchanged since.
 fn take_map(file: &File) -> Option<Arc<memmap2::Mmap>> {
     let id = file_id(file)?;

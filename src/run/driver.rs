@@ -78,6 +78,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    crate::io::npy::release_offered();
     let mut failed: Vec<(String, String)> = done
         .iter()
         .filter_map(|(i, o)| {
