@@ -2,6 +2,7 @@
 //! one colour bar; NaN cells are grey.
 
 use super::*;
+use rayon::prelude::*;
 
 /// Side of a panel's plot square in pixels (divisible by 32, 16 and 8: crisp level maps).
 pub(super) const PANEL: u32 = 224;
@@ -204,9 +205,10 @@ impl Figure for HeatGrid<'_, '_> {
             }
             out
         };
+        // Panels coloured on the rayon pool (each its own raster).
         let mut out: Vec<Raster> = self
             .geo
-            .iter()
+            .par_iter()
             .map(|g| {
                 let vals = resample(g.panel.map, g.w as usize, g.h as usize);
                 Raster {

@@ -185,7 +185,8 @@ struct Raster {
 }
 
 /// A figure drawable on any plotters backend, plus rasters laid under the vector drawing.
-trait Figure {
+/// A figure: drawn on the rayon pool, its raster (PNG) and vector (SVG) files side by side.
+trait Figure: Sync {
     fn size(&self) -> (u32, u32);
     /// Adds everything the figure is drawn from to its cache key (see [`cache`]).
     fn key(&self, k: &mut cache::Key);
@@ -418,41 +419,47 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
     }
     let [png_path, svg_path] = files;
     let rasters = fig.rasters();
-
-    let mut buf = vec![255u8; 3 * w as usize * h as usize];
-    for r in &rasters {
-        blit(&mut buf, w, r);
-    }
-    {
-        let root = Typeset {
-            inner: BitMapBackend::with_buffer(&mut buf, (w, h)),
-            raster: true,
-        }
-        .into_drawing_area();
-        fig.draw(&root)
-            .and_then(|()| Ok(root.present()?))
-            .map_err(|e| draw_err(&png_path, e))?;
-    }
-    let png = encode_png(&buf, w, h).map_err(|source| FigureError::Encode {
-        path: png_path.clone(),
-        source,
-    })?;
-
-    let mut svg = String::new();
-    {
-        let root = Typeset {
-            inner: SVGBackend::with_string(&mut svg, (w, h)),
-            raster: false,
-        }
-        .into_drawing_area();
-        fig.draw(&root)
-            .and_then(|()| Ok(root.present()?))
-            .map_err(|e| draw_err(&svg_path, e))?;
-    }
-    let svg = embed_rasters(&svg, w, h, &rasters).map_err(|source| FigureError::Encode {
-        path: svg_path.clone(),
-        source,
-    })?;
+    // The two files are independent once the rasters are made: drawn side by side.
+    let (png, svg) = rayon::join(
+        || -> Result<Vec<u8>, FigureError> {
+            let mut buf = vec![255u8; 3 * w as usize * h as usize];
+            for r in &rasters {
+                blit(&mut buf, w, r);
+            }
+            {
+                let root = Typeset {
+                    inner: BitMapBackend::with_buffer(&mut buf, (w, h)),
+                    raster: true,
+                }
+                .into_drawing_area();
+                fig.draw(&root)
+                    .and_then(|()| Ok(root.present()?))
+                    .map_err(|e| draw_err(&png_path, e))?;
+            }
+            encode_png(&buf, w, h).map_err(|source| FigureError::Encode {
+                path: png_path.clone(),
+                source,
+            })
+        },
+        || -> Result<String, FigureError> {
+            let mut svg = String::new();
+            {
+                let root = Typeset {
+                    inner: SVGBackend::with_string(&mut svg, (w, h)),
+                    raster: false,
+                }
+                .into_drawing_area();
+                fig.draw(&root)
+                    .and_then(|()| Ok(root.present()?))
+                    .map_err(|e| draw_err(&svg_path, e))?;
+            }
+            embed_rasters(&svg, w, h, &rasters).map_err(|source| FigureError::Encode {
+                path: svg_path.clone(),
+                source,
+            })
+        },
+    );
+    let (png, svg) = (png?, svg?);
 
     fs::create_dir_all(dir).map_err(|source| FigureError::Io {
         path: dir.to_path_buf(),
