@@ -249,7 +249,7 @@ pub fn merge_claimed(
     let had_page = out.join(page).is_file();
     let cache = |p: &Path| p.starts_with("jobs") || opts.report_follows && p.starts_with("figures");
     let removed = outdir.remove_stale(|p| p == page || !cache(p))?;
-    let stale = removed - usize::from(had_page && !out.join(page).exists());
+    let stale = removed.saturating_sub(usize::from(had_page && !out.join(page).exists()));
     if stale > 0 {
         merged.notes.push(format!(
             "removed {stale} file(s) an earlier run wrote that this run does not have"
