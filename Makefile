@@ -66,11 +66,16 @@ hdf5:
 		echo "libhdf5-dev not found: install Debian's libhdf5-dev for MATLAB v7.3 files, or build without them: make FEATURES="; exit 0; \
 	fi; fi; \
 	case "$(HDF5_DIR)" in "$(CARGO_TARGET_DIR)/hdf5-static") ;; *) exit 0 ;; esac; \
+	rm -rf $(HDF5_DIR); \
 	if [ -f $(HDF5_SERIAL)/libhdf5.a ] && [ -f $(HDF5_SERIAL)/libhdf5.so ] && [ -d /usr/include/hdf5/serial ]; then \
 		mkdir -p $(HDF5_DIR)/lib $(HDF5_DIR)/bin && ln -sfn /usr/include/hdf5/serial $(HDF5_DIR)/include && \
 		ln -sf $(HDF5_SERIAL)/libhdf5.a $(HDF5_DIR)/lib/libhdf5.a && ln -sf $(HDF5_SERIAL)/libhdf5.so $(HDF5_DIR)/bin/libhdf5.so; \
+	elif pkg-config --exists hdf5 2>/dev/null; then \
+		echo "no Debian libhdf5.a: linking the shared libhdf5 that pkg-config finds"; \
+		mkdir -p $(HDF5_DIR) && ln -sfn "$$(pkg-config --variable=includedir hdf5)" $(HDF5_DIR)/include && \
+		ln -sfn "$$(pkg-config --variable=libdir hdf5)" $(HDF5_DIR)/lib; \
 	else \
-		echo "no Debian libhdf5.a in $(HDF5_SERIAL): set HDF5_DIR to an HDF5 installation, or build without mat73: make FEATURES="; exit 1; \
+		echo "no libhdf5 found (Debian's libhdf5-dev, or pkg-config): set HDF5_DIR to an HDF5 installation, or build without mat73: make FEATURES="; exit 1; \
 	fi
 
 ## test-deps: libhdf5-dev (`hdf5`); SciPy and h5py (pinned) in .venv for the MATLAB .mat tests;

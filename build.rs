@@ -22,9 +22,13 @@ fn main() {
     // mat73 with a static libhdf5 (HDF5_DIR laid out by `make hdf5`): the libraries that
     // libhdf5.a needs, after it on the link line.
     println!("cargo:rerun-if-env-changed=HDF5_DIR");
+    // Static where HDF5_DIR's lib/ holds the archive and no shared library (the linker would
+    // take the shared one).
     let static_hdf5 = std::env::var_os("CARGO_FEATURE_MAT73").is_some()
-        && std::env::var_os("HDF5_DIR")
-            .is_some_and(|dir| std::path::Path::new(&dir).join("lib/libhdf5.a").exists());
+        && std::env::var_os("HDF5_DIR").is_some_and(|dir| {
+            let lib = std::path::Path::new(&dir).join("lib");
+            lib.join("libhdf5.a").exists() && !lib.join("libhdf5.so").exists()
+        });
     if static_hdf5 {
         for lib in ["sz", "z", "m", "dl"] {
             println!("cargo:rustc-link-arg=-l{lib}");
