@@ -7,7 +7,6 @@
 
 use std::error::Error;
 use std::fmt::Write as _;
-use std::fs;
 use std::io::{self, Write as _};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -400,10 +399,6 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
     if face().is_none() {
         return Err(FigureError::Font { path: png_path });
     }
-    let draw_err = |path: &Path, e: Box<dyn Error>| FigureError::Draw {
-        path: path.to_path_buf(),
-        msg: e.to_string(),
-    };
     let (w, h) = fig.size();
     let files = [png_path, svg_path];
     let slot = cache::slot(&files);
@@ -426,16 +421,12 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
             for r in &rasters {
                 blit(&mut buf, w, r);
             }
-            {
-                let root = Typeset {
-                    inner: BitMapBackend::with_buffer(&mut buf, (w, h)),
-                    raster: true,
-                }
-                .into_drawing_area();
-                fig.draw(&root)
-                    .and_then(|()| Ok(root.present()?))
-                    .map_err(|e| draw_err(&png_path, e))?;
-            }
+            draw_on(
+                fig,
+                BitMapBackend::with_buffer(&mut buf, (w, h)),
+                true,
+                &png_path,
+            )?;
             encode_png(&buf, w, h).map_err(|source| FigureError::Encode {
                 path: png_path.clone(),
                 source,
@@ -443,16 +434,12 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
         },
         || -> Result<String, FigureError> {
             let mut svg = String::new();
-            {
-                let root = Typeset {
-                    inner: SVGBackend::with_string(&mut svg, (w, h)),
-                    raster: false,
-                }
-                .into_drawing_area();
-                fig.draw(&root)
-                    .and_then(|()| Ok(root.present()?))
-                    .map_err(|e| draw_err(&svg_path, e))?;
-            }
+            draw_on(
+                fig,
+                SVGBackend::with_string(&mut svg, (w, h)),
+                false,
+                &svg_path,
+            )?;
             embed_rasters(&svg, w, h, &rasters).map_err(|source| FigureError::Encode {
                 path: svg_path.clone(),
                 source,
@@ -460,17 +447,33 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
         },
     );
     let (png, svg) = (png?, svg?);
-
-    fs::create_dir_all(dir).map_err(|source| FigureError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    // The atomic writer makes the folder when it is missing.
     write_atomic(&png_path, &png)?;
     write_atomic(&svg_path, svg.as_bytes())?;
     if let (Some(slot), Some(key)) = (&slot, &key) {
         slot.drawn(key, [&png, svg.as_bytes()]);
     }
     Ok([png_path, svg_path])
+}
+
+/// Draws `fig` on the backend `inner` (`raster`: text typeset by [`Typeset`] into pixels) and
+/// presents it; an error names `path`, the file being drawn.
+fn draw_on<DB: DrawingBackend>(
+    fig: &impl Figure,
+    inner: DB,
+    raster: bool,
+    path: &Path,
+) -> Result<(), FigureError>
+where
+    DB::ErrorType: 'static,
+{
+    let root = Typeset { inner, raster }.into_drawing_area();
+    fig.draw(&root)
+        .and_then(|()| Ok(root.present()?))
+        .map_err(|e| FigureError::Draw {
+            path: path.to_path_buf(),
+            msg: e.to_string(),
+        })
 }
 
 /// Writes `bytes` to `path` through the tool's atomic writer ([`crate::io::atomic`]): not

@@ -4,6 +4,7 @@ use super::charts::*;
 use super::heatmap::*;
 use super::*;
 use ndarray::Array2;
+use std::fs;
 
 fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
     let file = io::BufReader::new(fs::File::open(path).expect("open png"));
