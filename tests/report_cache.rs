@@ -4,6 +4,9 @@
 //! for byte as before), a user's own files in `figures/` are never touched, `run --no-report`
 //! still removes the tool's old figures, and the files do not depend on the thread count.
 
+mod common;
+
+use common::run_spec as run;
 use std::collections::BTreeMap;
 use std::fs;
 use std::os::unix::fs::MetadataExt;
@@ -53,19 +56,6 @@ fn ok(o: &Output) {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
-}
-
-/// Runs [`SPEC`] into `out` (with its report unless `extra` says otherwise).
-fn run(spec: &Path, out: &Path, extra: &[&str]) {
-    let mut args = vec![
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-    ];
-    args.extend(extra);
-    ok(&bin(&args));
 }
 
 fn setup(dir: &Path) -> (PathBuf, PathBuf) {
