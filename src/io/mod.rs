@@ -11,3 +11,22 @@ pub mod netcdf;
 pub mod npy;
 pub mod outdir;
 pub mod stream;
+
+/// What identifies a file's content without reading it: device, inode, size, and the
+/// modification and change times in nanoseconds (the change time cannot be set back by a
+/// user; any write moves it). Used by the job store's input-hash memo and by the hand-over of
+/// an input's mapping from its hash to its load ([`npy::map_for_reading`]).
+pub(crate) type FileId = (u64, u64, u64, i128, i128);
+
+/// The [`FileId`] of a file's metadata.
+pub(crate) fn file_id(m: &std::fs::Metadata) -> FileId {
+    use std::os::unix::fs::MetadataExt;
+    let ns = |s: i64, n: i64| i128::from(s) * 1_000_000_000 + i128::from(n);
+    (
+        m.dev(),
+        m.ino(),
+        m.len(),
+        ns(m.mtime(), m.mtime_nsec()),
+        ns(m.ctime(), m.ctime_nsec()),
+    )
+}

@@ -3,6 +3,7 @@
 //! parameter maps. Stacks stay in their stored element type so that memory is the input's
 //! size; the analysis converts to f64 on the fly.
 
+use super::FileId;
 use crate::stats::analysis::{analyse, Analysis, AnalysisError, Sample};
 use ndarray::{Array2, Array3, ArrayView3};
 use num_complex::Complex;
@@ -286,21 +287,8 @@ pub struct MappedNpy {
     map: Arc<memmap2::Mmap>,
 }
 
-/// What identifies an open file's content: device, inode, size, modification and change
-/// times in ns.
-type FileId = (u64, u64, u64, i128, i128);
-
 fn file_id(file: &File) -> Option<FileId> {
-    use std::os::unix::fs::MetadataExt;
-    let m = file.metadata().ok()?;
-    let ns = |s: i64, n: i64| i128::from(s) * 1_000_000_000 + i128::from(n);
-    Some((
-        m.dev(),
-        m.ino(),
-        m.len(),
-        ns(m.mtime(), m.mtime_nsec()),
-        ns(m.ctime(), m.ctime_nsec()),
-    ))
+    file.metadata().ok().map(|m| super::file_id(&m))
 }
 
 /// Mappings made by [`map_for_reading`], kept for the [`Stack::load`] of the same file.

@@ -106,9 +106,8 @@ pub fn key(job: &dyn JobKind, plan: &Plan) -> Result<String> {
     Ok(crate::seeds::sha256_hex(text.as_bytes())[..20].to_string())
 }
 
-/// What identifies a file's content without reading it: path, device, inode, size, and the
-/// modification and change times in nanoseconds (the change time cannot be set back by a
-/// user; any write moves it).
+/// What identifies a file's content without reading it: its path and its
+/// [`crate::io::FileId`], flat (the memo's JSON rows).
 type Seen = (PathBuf, u64, u64, u64, i128, i128);
 
 /// The content hashes of this process, and those read from an output folder's memo.
@@ -116,17 +115,9 @@ static MEMO: Mutex<Option<HashMap<Seen, String>>> = Mutex::new(None);
 
 /// What identifies `path`'s content now (its change time is the last field).
 fn seen(path: &Path) -> Result<Seen> {
-    use std::os::unix::fs::MetadataExt;
     let meta = fs::metadata(path).with_context(|| format!("reading {}", path.display()))?;
-    let ns = |s: i64, n: i64| i128::from(s) * 1_000_000_000 + i128::from(n);
-    Ok((
-        path.to_path_buf(),
-        meta.dev(),
-        meta.ino(),
-        meta.len(),
-        ns(meta.mtime(), meta.mtime_nsec()),
-        ns(meta.ctime(), meta.ctime_nsec()),
-    ))
+    let (dev, ino, len, mtime, ctime) = crate::io::file_id(&meta);
+    Ok((path.to_path_buf(), dev, ino, len, mtime, ctime))
 }
 
 /// The rows of `out`'s memo file, if it holds any.
