@@ -166,21 +166,20 @@ fn write_via_temporary(
     let result = (|| -> Result<()> {
         write(&mut w)?;
         let file = match w.file.take() {
-            Some(mut f) => {
-                f.flush()?;
-                f
-            }
+            Some(f) => f
+                .into_inner()
+                .map_err(std::io::IntoInnerError::into_error)?,
             // The same bytes are there already (written, and synced if durable, by the run
             // that made them).
             None if holds(path, &w.held) => return Ok(()),
             None => {
-                let mut f = BufWriter::new(w.create()?);
-                f.get_mut().write_all(&w.held)?;
+                let mut f = w.create()?;
+                f.write_all(&w.held)?;
                 f
             }
         };
         if durable {
-            file.get_ref().sync_all()?;
+            file.sync_all()?;
         }
         drop(file);
         replace(&tmp, path)
