@@ -249,7 +249,14 @@ fn separable_path_equals_the_tap_order_sums_bit_for_bit() {
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(41);
-    for (h, w, k, index) in [(9, 13, 5, 0), (64, 64, 8, 1), (7, 3, 1, 2), (1, 17, 0, 3)] {
+    for (h, w, k, index) in [
+        (9, 13, 5, 0),
+        (64, 64, 8, 1),
+        (7, 3, 1, 2),
+        (1, 17, 0, 3),
+        (5, 37, 3, 4),
+        (3, 100, 8, 5),
+    ] {
         let mut taps = || -> Vec<f64> {
             (0..2 * k + 1)
                 .map(|_| StandardNormal.sample(&mut rng))

@@ -14,7 +14,7 @@
 use crate::alloc::{try_zeros, AllocError};
 use crate::experiment::{Dataset, FilterParams, FilteredNoise, Layout, Map};
 use crate::io::npy::{NpyError, Stack};
-use crate::seeds::{texture, white_seed};
+use crate::seeds::{texture, white_seed_into};
 use crate::stats::filters::{dyadic_taps, exponential_taps, filter_seed, FilterBank};
 use ndarray::{Array2, Array3};
 use num_complex::Complex64;
@@ -97,10 +97,11 @@ pub fn generate(
         .collect();
     let mut out = try_zeros((d.samples, h, w), "the filtered-noise stack")?;
     let data = out.as_slice_mut().expect("standard layout");
-    data.par_chunks_mut(h * w)
-        .enumerate()
-        .for_each(|(s, plane)| {
-            let seed = white_seed(data_seed, s, h + 2 * k, w + 2 * k);
+    let padded = (h + 2 * k, w + 2 * k);
+    data.par_chunks_mut(h * w).enumerate().for_each_init(
+        || Array2::zeros(padded),
+        |seed, (s, plane)| {
+            white_seed_into(data_seed, s, seed.as_slice_mut().expect("standard layout"));
             filter_seed(bank, seed.view(), plane);
             let t = d
                 .texture_shape
@@ -108,7 +109,8 @@ pub fn generate(
             for ((x, g), m) in plane.iter_mut().zip(&gain).zip(&mu) {
                 *x = m + *x * (*g * t);
             }
-        });
+        },
+    );
     Ok(out)
 }
 

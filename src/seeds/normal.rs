@@ -86,16 +86,33 @@ pub fn fill_words(seed: u64, stream: u64, count: usize, words: &mut Vec<u32>) {
     }
 }
 
-/// ChaCha8 blocks `first, first + 1, ...` (16 words each, in order) of the key and stream into
-/// `out` (whole groups of 16 blocks), 16 blocks at once: lane `j` of vector `i` is word `i` of
-/// block `j`, transposed back to block order before the store. The state is that of
-/// `rand_chacha`: constants, key, 64-bit block counter, 64-bit stream.
+/// ChaCha8 blocks of the key and stream: [`chacha_avx512`] with 4 double rounds.
+///
+/// # Safety
+/// As [`chacha_avx512`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn chacha8_avx512(key: &[u32; 8], stream: u64, first: u64, out: &mut [u32]) {
+    // SAFETY: the caller's guarantees are those of `chacha_avx512`.
+    unsafe { chacha_avx512::<4>(key, stream, first, out) }
+}
+
+/// ChaCha blocks with `DOUBLE_ROUNDS` double rounds (4 for ChaCha8, 10 for ChaCha20), blocks
+/// `first, first + 1, ...` (16 words each, in order) of the key and stream into `out` (whole
+/// groups of 16 blocks), 16 blocks at once: lane `j` of vector `i` is word `i` of block `j`,
+/// transposed back to block order before the store. The state is that of `rand_chacha`:
+/// constants, key, 64-bit block counter, 64-bit stream.
 ///
 /// # Safety
 /// The CPU has AVX-512F; `out.len()` is a multiple of 256.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn chacha8_avx512(key: &[u32; 8], stream: u64, first: u64, out: &mut [u32]) {
+pub(crate) unsafe fn chacha_avx512<const DOUBLE_ROUNDS: usize>(
+    key: &[u32; 8],
+    stream: u64,
+    first: u64,
+    out: &mut [u32],
+) {
     use std::arch::x86_64::*;
     assert_eq!(out.len() % 256, 0);
     let set = |x: u32| _mm512_set1_epi32(x as i32);
@@ -140,7 +157,7 @@ unsafe fn chacha8_avx512(key: &[u32; 8], stream: u64, first: u64, out: &mut [u32
             x[c] = _mm512_add_epi32(x[c], x[d]);
             x[b] = _mm512_rol_epi32::<7>(_mm512_xor_si512(x[b], x[c]));
         };
-        for _ in 0..4 {
+        for _ in 0..DOUBLE_ROUNDS {
             qr(&mut x, 0, 4, 8, 12);
             qr(&mut x, 1, 5, 9, 13);
             qr(&mut x, 2, 6, 10, 14);
