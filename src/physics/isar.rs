@@ -481,6 +481,28 @@ const F_BLOCK: usize = 32;
 /// rounding error stays ~1e-14), and computed directly otherwise. The block
 /// layout and summation order do not depend on the number of threads.
 pub fn point_response(points: &[(Complex64, [f64; 3])], m: &Measurement) -> Array2<Complex64> {
+    point_response_with(points, m, |block, chunk| {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU supports AVX-512F, checked just above.
+                return unsafe { block.fill_avx512(chunk) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { block.fill_avx2(chunk) };
+            }
+        }
+        block.fill::<AZ_LANES>(chunk)
+    })
+}
+
+/// [`point_response`] with each block summed by `fill` (the tests pass each lane count).
+fn point_response_with(
+    points: &[(Complex64, [f64; 3])],
+    m: &Measurement,
+    fill: impl Fn(&ResponseBlock, &mut [Complex64]) + Sync,
+) -> Array2<Complex64> {
     let (nf, np) = (m.n_f(), m.n_phi());
     let mut out = Array2::<Complex64>::zeros((nf, np));
     if nf == 0 || np == 0 {
@@ -520,18 +542,7 @@ pub fn point_response(points: &[(Complex64, [f64; 3])], m: &Measurement) -> Arra
                 i0: b * F_BLOCK,
                 steps: uniform.then_some(&steps[..]),
             };
-            #[cfg(target_arch = "x86_64")]
-            {
-                if std::arch::is_x86_feature_detected!("avx512f") {
-                    // SAFETY: the CPU supports AVX-512F, checked just above.
-                    return unsafe { block.fill_avx512(chunk) };
-                }
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU supports AVX2, checked just above.
-                    return unsafe { block.fill_avx2(chunk) };
-                }
-            }
-            block.fill(chunk)
+            fill(&block, chunk)
         });
     out
 }
@@ -552,25 +563,28 @@ struct ResponseBlock<'a> {
     steps: Option<&'a [Complex64]>,
 }
 
-/// Azimuths advanced together in the uniform recurrence: a few vector registers' worth.
-const AZ_LANES: usize = 16;
+/// Azimuths advanced together in the uniform recurrence with AVX-512: four registers per
+/// row, so that four independent multiply-add chains hide each step's latency.
+const AZ_LANES_512: usize = 32;
+/// The same with AVX2 or less: its 16 registers hold the phases and steps of 8 lanes.
+const AZ_LANES: usize = 8;
 
 impl ResponseBlock<'_> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn fill_avx512(&self, chunk: &mut [Complex64]) {
-        self.fill(chunk)
+        self.fill::<AZ_LANES_512>(chunk)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn fill_avx2(&self, chunk: &mut [Complex64]) {
-        self.fill(chunk)
+        self.fill::<AZ_LANES>(chunk)
     }
 
     /// Sums the block into `chunk` (`[frequency][azimuth]`, its `nb x n_phi` values).
     #[inline(always)]
-    fn fill(&self, chunk: &mut [Complex64]) {
+    fn fill<const L: usize>(&self, chunk: &mut [Complex64]) {
         let np = self.cs.len();
         let nb = chunk.len() / np;
         let (k2, i0) = (self.k2, self.i0);
@@ -599,9 +613,9 @@ impl ResponseBlock<'_> {
             }
             let mut j0 = 0;
             while j0 < np {
-                let lanes = AZ_LANES.min(np - j0);
-                if lanes == AZ_LANES {
-                    advance::<AZ_LANES>(
+                let lanes = L.min(np - j0);
+                if lanes == L {
+                    advance::<L>(
                         &start[j0..],
                         &step[j0..],
                         &mut re[j0..],
@@ -879,17 +893,30 @@ mod tests {
                     )
                 })
                 .collect();
-            let fast = point_response(&pts, m);
             let slow = point_response_serial(&pts, m);
-            assert!(
-                fast.iter()
-                    .zip(slow.iter())
-                    .all(|(a, b)| a.re.to_bits() == b.re.to_bits()
-                        && a.im.to_bits() == b.im.to_bits()),
-                "{} x {}",
-                m.n_f(),
-                m.n_phi()
-            );
+            // The dispatched kernel, and each lane count on the baseline instruction set.
+            let fills: [(&str, Array2<Complex64>); 3] = [
+                ("dispatched", point_response(&pts, m)),
+                (
+                    "8 lanes",
+                    point_response_with(&pts, m, |b, c| b.fill::<AZ_LANES>(c)),
+                ),
+                (
+                    "32 lanes",
+                    point_response_with(&pts, m, |b, c| b.fill::<AZ_LANES_512>(c)),
+                ),
+            ];
+            for (what, fast) in fills {
+                assert!(
+                    fast.iter()
+                        .zip(slow.iter())
+                        .all(|(a, b)| a.re.to_bits() == b.re.to_bits()
+                            && a.im.to_bits() == b.im.to_bits()),
+                    "{what}: {} x {}",
+                    m.n_f(),
+                    m.n_phi()
+                );
+            }
         }
     }
 
