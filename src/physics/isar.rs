@@ -508,17 +508,7 @@ fn point_response_with(
     if nf == 0 || np == 0 {
         return out;
     }
-    let cs: Vec<(f64, f64)> = m.azimuths.iter().map(|p| (p.cos(), p.sin())).collect();
-    let k2: Vec<f64> = m
-        .freqs
-        .iter()
-        .map(|f| 4.0 * std::f64::consts::PI * f / C0)
-        .collect();
-    let uniform = nf >= 2 && {
-        let d = k2[1] - k2[0];
-        k2.windows(2)
-            .all(|w| ((w[1] - w[0]) - d).abs() <= 1e-12 * k2[nf - 1].abs())
-    };
+    let (cs, k2, uniform) = response_geometry(m);
     // The steps of the uniform recurrence are the same in every block: computed once.
     let dk2 = if nf >= 2 { k2[1] - k2[0] } else { 0.0 };
     let mut steps = vec![Complex64::new(0.0, 0.0); if uniform { points.len() * np } else { 0 }];
@@ -545,6 +535,25 @@ fn point_response_with(
             fill(&block, chunk)
         });
     out
+}
+
+/// What [`point_response`] needs of the measurement: each azimuth's `(cos, sin)`, each
+/// frequency's two-way wavenumber `4 pi f / c`, and whether the frequencies are uniformly spaced
+/// (to 1e-12 of the largest wavenumber), which allows the phase recurrence.
+fn response_geometry(m: &Measurement) -> (Vec<(f64, f64)>, Vec<f64>, bool) {
+    let cs: Vec<(f64, f64)> = m.azimuths.iter().map(|p| (p.cos(), p.sin())).collect();
+    let k2: Vec<f64> = m
+        .freqs
+        .iter()
+        .map(|f| 4.0 * std::f64::consts::PI * f / C0)
+        .collect();
+    let nf = k2.len();
+    let uniform = nf >= 2 && {
+        let d = k2[1] - k2[0];
+        k2.windows(2)
+            .all(|w| ((w[1] - w[0]) - d).abs() <= 1e-12 * k2[nf - 1].abs())
+    };
+    (cs, k2, uniform)
 }
 
 /// One block of up to [`F_BLOCK`] frequencies of [`point_response`]: every scatterer's
@@ -611,29 +620,20 @@ impl ResponseBlock<'_> {
             for j in 0..np {
                 start[j] = *a * Complex64::from_polar(1.0, -k2[i0] * u[j]);
             }
-            let mut j0 = 0;
-            while j0 < np {
-                let lanes = L.min(np - j0);
-                if lanes == L {
-                    advance::<L>(
-                        &start[j0..],
-                        &step[j0..],
-                        &mut re[j0..],
-                        &mut im[j0..],
-                        np,
-                        nb,
-                    );
-                } else {
-                    advance_one_by_one(
-                        &start[j0..np],
-                        &step[j0..np],
-                        &mut re[j0..],
-                        &mut im[j0..],
-                        np,
-                        nb,
-                    );
-                }
-                j0 += lanes;
+            // Whole groups of `L` azimuths, then the last ones one lane at a time.
+            let whole = np / L * L;
+            for j0 in (0..whole).step_by(L) {
+                advance::<L>(
+                    &start[j0..],
+                    &step[j0..],
+                    &mut re[j0..],
+                    &mut im[j0..],
+                    np,
+                    nb,
+                );
+            }
+            for j in whole..np {
+                advance::<1>(&start[j..], &step[j..], &mut re[j..], &mut im[j..], np, nb);
             }
         }
         for (v, (&r, &i)) in chunk.iter_mut().zip(re.iter().zip(&im)) {
@@ -666,26 +666,6 @@ fn advance<const L: usize>(
             let a = pr[l];
             pr[l] = pr[l] * sr[l] - pi[l] * si[l];
             pi[l] = pi[l] * sr[l] + a * si[l];
-        }
-    }
-}
-
-/// [`advance`] for the last azimuths, fewer than a block.
-#[inline(always)]
-fn advance_one_by_one(
-    start: &[Complex64],
-    step: &[Complex64],
-    re: &mut [f64],
-    im: &mut [f64],
-    np: usize,
-    nb: usize,
-) {
-    for (l, (&p0, &st)) in start.iter().zip(step).enumerate() {
-        let mut ph = p0;
-        for ii in 0..nb {
-            re[ii * np + l] += ph.re;
-            im[ii * np + l] += ph.im;
-            ph *= st;
         }
     }
 }
@@ -828,17 +808,7 @@ mod tests {
     ) -> Array2<Complex64> {
         let (nf, np) = (m.n_f(), m.n_phi());
         let mut out = Array2::<Complex64>::zeros((nf, np));
-        let cs: Vec<(f64, f64)> = m.azimuths.iter().map(|p| (p.cos(), p.sin())).collect();
-        let k2: Vec<f64> = m
-            .freqs
-            .iter()
-            .map(|f| 4.0 * std::f64::consts::PI * f / C0)
-            .collect();
-        let uniform = nf >= 2 && {
-            let d = k2[1] - k2[0];
-            k2.windows(2)
-                .all(|w| ((w[1] - w[0]) - d).abs() <= 1e-12 * k2[nf - 1].abs())
-        };
+        let (cs, k2, uniform) = response_geometry(m);
         for b in 0..nf.div_ceil(F_BLOCK) {
             let i0 = b * F_BLOCK;
             let nb = F_BLOCK.min(nf - i0);
