@@ -119,7 +119,8 @@ impl rand::TryRng for Chacha20Words {
 
     #[inline]
     fn try_next_u64(&mut self) -> Result<u64, Self::Error> {
-        // Only `u64`s are read, so `pos` is even and a pair never straddles a refill.
+        // A pair that straddles a refill (after an odd number of `u32` reads; `white_seed`
+        // reads only `u64`s) is read word by word, low word first, as `rand_core` does.
         if self.pos + 1 >= self.buf.len() {
             let lo = u64::from(self.try_next_u32()?);
             let hi = u64::from(self.try_next_u32()?);

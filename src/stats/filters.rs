@@ -100,7 +100,9 @@ pub fn group_correlation(taps: &[f64], g: usize) -> f64 {
     cov / var
 }
 
-/// Per-pixel separable filter bank: vertical and horizontal taps for every output pixel.
+/// Per-pixel separable filter bank: vertical and horizontal taps for every output pixel. The
+/// taps are not changed after [`FilterBank::new`]: the bank keeps what it derives from them
+/// (uniformity, output standard deviations, the row kernel's layout) once found.
 #[derive(Clone, Debug)]
 pub struct FilterBank {
     /// Half-width `K` shared by all taps.
