@@ -6,7 +6,7 @@
 //! `key` is the first 20 hex digits of a SHA-256 over what determines the result: the store's
 //! schema version, the sample format generation uses, the job's kind, identity and seed, its full validated parameters
 //! ([`JobKind::key_material`]: for a dataset job its dataset, analysis and synthesis settings
-//! and the plan-wide settings its rows depend on) and the content hash (BLAKE3) of its input files. A
+//! and the plan-wide settings its rows depend on) and the content hash (XXH3-128) of its input files. A
 //! changed spec or input file changes the keys of exactly the jobs it affects; a key of an
 //! earlier spec is never read.
 //!
