@@ -237,8 +237,19 @@ fn tree_hash(bytes: &[u8]) -> u128 {
         .par_chunks(HASH_CHUNK)
         .map(xxhash_rust::xxh3::xxh3_128)
         .collect();
-    let digests: Vec<u8> = leaves.iter().flat_map(|d| d.to_le_bytes()).collect();
-    xxhash_rust::xxh3::xxh3_128(&digests)
+    root(&leaves)
+}
+
+/// The tree hash from its leaves (the XXH3-128 of each chunk, in order): a lone leaf is the
+/// hash; several are hashed together, 16 bytes each, little endian.
+fn root(leaves: &[u128]) -> u128 {
+    match leaves {
+        [one] => *one,
+        _ => {
+            let digests: Vec<u8> = leaves.iter().flat_map(|d| d.to_le_bytes()).collect();
+            xxhash_rust::xxh3::xxh3_128(&digests)
+        }
+    }
 }
 
 /// [`tree_hash`] of everything `r` yields, read one chunk at a time.
@@ -261,13 +272,7 @@ fn hash_reader(mut r: impl std::io::Read) -> std::io::Result<u128> {
             break;
         }
     }
-    Ok(match leaves.as_slice() {
-        [one] => *one,
-        _ => {
-            let digests: Vec<u8> = leaves.iter().flat_map(|d| d.to_le_bytes()).collect();
-            xxhash_rust::xxh3::xxh3_128(&digests)
-        }
-    })
+    Ok(root(&leaves))
 }
 
 /// Reads what the store holds for `key`, verifying a `done.json` (schema, key, every file
