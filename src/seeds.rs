@@ -81,11 +81,8 @@ struct Chacha20Words {
 #[cfg(target_arch = "x86_64")]
 impl Chacha20Words {
     fn new(seed: u64, stream: u64) -> Chacha20Words {
-        let bytes = ChaCha20Rng::seed_from_u64(seed).get_seed();
         Chacha20Words {
-            key: std::array::from_fn(|i| {
-                u32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().expect("4 bytes"))
-            }),
+            key: normal::key_words(&ChaCha20Rng::seed_from_u64(seed).get_seed()),
             stream,
             next_block: 0,
             buf: [0; 256],

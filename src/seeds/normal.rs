@@ -64,10 +64,7 @@ pub fn fill_words(seed: u64, stream: u64, count: usize, words: &mut Vec<u32>) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512f") {
-            let seed_bytes = rng.get_seed();
-            let key: [u32; 8] = std::array::from_fn(|i| {
-                u32::from_le_bytes(seed_bytes[4 * i..4 * i + 4].try_into().expect("4 bytes"))
-            });
+            let key = key_words(&rng.get_seed());
             let whole = count / 256 * 256;
             // SAFETY: the CPU has AVX-512F, checked just above; the slices hold whole groups.
             unsafe { chacha8_avx512(&key, stream, 0, &mut words[..whole]) };
@@ -84,6 +81,13 @@ pub fn fill_words(seed: u64, stream: u64, count: usize, words: &mut Vec<u32>) {
     for w in words.iter_mut() {
         *w = u32::from_le(*w);
     }
+}
+
+/// The eight key words of a `rand_chacha` generator's 32-byte seed (`get_seed`), little
+/// endian, as the ChaCha state holds them.
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn key_words(seed: &[u8; 32]) -> [u32; 8] {
+    std::array::from_fn(|i| u32::from_le_bytes(seed[4 * i..4 * i + 4].try_into().expect("4 bytes")))
 }
 
 /// ChaCha8 blocks of the key and stream: [`chacha_avx512`] with 4 double rounds.
@@ -455,9 +459,7 @@ mod tests {
             let first = (1u64 << 32) - 3;
             rng.set_word_pos(u128::from(first) * 16);
             let want: Vec<u32> = (0..512).map(|_| rng.next_u32()).collect();
-            let key: [u32; 8] = std::array::from_fn(|i| {
-                u32::from_le_bytes(rng.get_seed()[4 * i..4 * i + 4].try_into().unwrap())
-            });
+            let key = key_words(&rng.get_seed());
             let mut got = vec![0u32; 512];
             // SAFETY: AVX-512F is present, checked just above; 512 words are two groups.
             unsafe { chacha8_avx512(&key, 6, first, &mut got) };
