@@ -88,23 +88,15 @@ impl AtomicWriter {
     /// Creates the temporary file (and its folder when it is missing: one failed open, not a
     /// mkdir per file).
     fn create(&self) -> std::io::Result<File> {
-        let named = |e: std::io::Error| {
-            std::io::Error::new(
-                e.kind(),
-                format!("cannot create {}: {e}", self.tmp.display()),
-            )
-        };
+        fn named(path: &Path) -> impl Fn(std::io::Error) -> std::io::Error + '_ {
+            move |e| std::io::Error::new(e.kind(), format!("cannot create {}: {e}", path.display()))
+        }
         match File::create(&self.tmp) {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                fs::create_dir_all(&self.dir).map_err(|e| {
-                    std::io::Error::new(
-                        e.kind(),
-                        format!("cannot create {}: {e}", self.dir.display()),
-                    )
-                })?;
-                File::create(&self.tmp).map_err(named)
+                fs::create_dir_all(&self.dir).map_err(named(&self.dir))?;
+                File::create(&self.tmp).map_err(named(&self.tmp))
             }
-            other => other.map_err(named),
+            other => other.map_err(named(&self.tmp)),
         }
     }
 
