@@ -195,8 +195,7 @@ impl Slot {
         let same_files = entry.files.len() == self.files.len()
             && self.files.iter().all(|f| {
                 entry.files.get(f).is_some_and(|want| {
-                    std::fs::read(self.active.root.join(f))
-                        .is_ok_and(|b| blake3::hash(&b).to_hex().as_str() == want)
+                    std::fs::read(self.active.root.join(f)).is_ok_and(|b| file_digest(&b) == *want)
                 })
             });
         if entry.key != key || !same_files {
@@ -215,7 +214,7 @@ impl Slot {
             .files
             .iter()
             .zip(bytes)
-            .map(|(f, b)| (f.clone(), blake3::hash(b).to_hex().to_string()))
+            .map(|(f, b)| (f.clone(), file_digest(b)))
             .collect();
         if let Ok(mut s) = self.active.state.lock() {
             s.now.insert(
@@ -228,6 +227,11 @@ impl Slot {
             s.drawn.insert(self.id.clone());
         }
     }
+}
+
+/// The hash of a figure file's bytes as the sidecar records it (BLAKE3, hex).
+fn file_digest(bytes: &[u8]) -> String {
+    blake3::hash(bytes).to_hex().to_string()
 }
 
 /// Builds the key of a figure: BLAKE3 over length-prefixed strings and numbers as written by
