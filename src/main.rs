@@ -201,7 +201,9 @@ enum Command {
         /// by this version) or 1 (ChaCha20 and f64, earlier models). Default: the model's.
         #[arg(long, value_name = "FORMAT", value_parser = clap::value_parser!(u32).range(1..=2))]
         sample_format: Option<u32>,
-        /// The .npy or .mat (by its extension) to write.
+        /// The .npy or .mat (by its extension) to write. A .npy gets NAME.npy.json beside
+        /// it: the model, seed and sample format that write it again. An existing file is
+        /// replaced only if the tool wrote it.
         #[arg(long)]
         out: PathBuf,
         /// .mat output: the MAT version, 7.3 (default: HDF5, any size; needs the mat73
@@ -541,8 +543,17 @@ fn generate_command(
             "samples .mat",
             isar_clutter::io::mat::write::is_ours,
         )?,
-        None => isar_clutter::io::outdir::check_file_output(out, "samples .npy", is_samples_npy)?,
+        None => {
+            use isar_clutter::io::model::{is_generated_npy, is_generation_record, record_path};
+            isar_clutter::io::outdir::check_file_output(out, "samples .npy", is_generated_npy)?;
+            isar_clutter::io::outdir::check_file_output(
+                &record_path(out),
+                "generation record",
+                is_generation_record,
+            )?;
+        }
     }
+    clear_dead_temporaries(out)?;
     let (mut m, _) = isar_clutter::io::model::load(model)?;
     if let Some(format) = run.sample_format {
         m.sample_format = format;
@@ -580,7 +591,24 @@ fn generate_command(
             },
             progress,
         )
-        .map(|_| ()),
+        .and_then(|_| {
+            let name = out.file_name().unwrap_or_default().to_string_lossy();
+            let (h, w) = m.shape();
+            let record = isar_clutter::io::model::GenerationRecord {
+                format: isar_clutter::io::model::GENERATION_FORMAT.into(),
+                file: name.into_owned(),
+                shape: [run.samples, h, w],
+                model: std::path::absolute(model)
+                    .unwrap_or_else(|_| model.to_path_buf())
+                    .display()
+                    .to_string(),
+                method: m.method,
+                seed: run.seed,
+                sample_format: m.sample_format,
+                version: env!("CARGO_PKG_VERSION").into(),
+            };
+            isar_clutter::io::model::write_generation_record(out, &record)
+        }),
     })?;
     bar.finish_and_clear();
     let s = t.elapsed().as_secs_f64();
@@ -711,11 +739,16 @@ fn fit_command(
     Ok(())
 }
 
-/// Whether `path` is a `.npy` of complex64 `[M, H, W]` (what `generate` writes), so that
-/// `generate` may replace it.
-fn is_samples_npy(path: &std::path::Path) -> bool {
-    isar_clutter::io::npy::read_raw_header(path)
-        .is_ok_and(|h| h.descr == "<c8" && h.shape.len() == 3)
+/// Removes what killed writers of `out` left beside it (a `generate` or `fit` stopped by
+/// `kill -9` or a crash), saying so on stderr.
+fn clear_dead_temporaries(out: &std::path::Path) -> Result<()> {
+    for name in isar_clutter::io::outdir::remove_dead_temporaries_of(out)? {
+        eprintln!(
+            "removed {name}: a killed writer of {} left it",
+            out.display()
+        );
+    }
+    Ok(())
 }
 
 /// Saves a model folder at `out`: refused if `out` is a file, or a folder that is neither
@@ -764,6 +797,7 @@ fn save_model(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "model".into());
+    clear_dead_temporaries(out)?;
     let tmp = out.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     let saved = isar_clutter::io::model::save(model, info, &tmp)

@@ -267,10 +267,45 @@ fn generate_never_renames_over_a_folder_or_a_foreign_file() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("paper.tex"), "{}", text(&o));
     assert_eq!(fs::read(&paper).unwrap(), b"\\documentclass");
-    // Its own earlier output is replaced.
+    // The user's measured complex64 stack (the fit's input) looks like generated samples
+    // inside, but no generation record names it: refused and kept.
+    let measured = fs::read(&stack).unwrap();
+    let o = gen(&stack);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("s.npy exists"), "{}", text(&o));
+    assert_eq!(fs::read(&stack).unwrap(), measured);
+    // Its own earlier output is replaced; the record beside it says how to write it again.
     let samples = dir.path().join("samples.npy");
     assert!(gen(&samples).status.success());
-    assert!(gen(&samples).status.success());
+    let record: serde_json::Value =
+        serde_json::from_slice(&fs::read(dir.path().join("samples.npy.json")).unwrap()).unwrap();
+    assert_eq!(record["file"], "samples.npy");
+    assert_eq!(record["shape"], serde_json::json!([5, 8, 8]));
+    assert_eq!(record["seed"], 1);
+    assert_eq!(record["method"], "method2");
+    // A temporary file that a killed generate left (its pid is no live process) goes.
+    let left = dir.path().join(".samples.npy.tmp-999999999");
+    fs::write(&left, b"half").unwrap();
+    let o = gen(&samples);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!left.exists());
+    assert!(
+        text(&o).contains(".samples.npy.tmp-999999999"),
+        "{}",
+        text(&o)
+    );
+    // A file of another shape saved over the samples since is not the tool's any more.
+    Array3::from_shape_fn((4, 8, 8), |_| Complex::new(1f32, 0.0))
+        .write_npy(File::create(&samples).unwrap())
+        .unwrap();
+    let o = gen(&samples);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    // A user's file where the record goes is refused too.
+    fs::write(dir.path().join("other.npy.json"), b"{}").unwrap();
+    let o = gen(&dir.path().join("other.npy"));
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("other.npy.json"), "{}", text(&o));
+    assert!(!dir.path().join("other.npy").exists());
     // fit: a file, or a folder that is not a model folder, is refused; a refit with another
     // method replaces the model whole (no file of the earlier method stays).
     let o = fit("method1", &paper);

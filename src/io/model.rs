@@ -463,6 +463,77 @@ pub fn npy_header_c64(m: usize, h: usize, w: usize) -> Vec<u8> {
     out
 }
 
+/// Format tag of a generation record.
+pub const GENERATION_FORMAT: &str = "isar-clutter-generation/1";
+
+/// What `generate` writes beside a `.npy` it made, as `NAME.npy.json`: the model, seed and
+/// sample format its samples come from (enough to write the same bytes again), and the mark
+/// by which a later `generate` knows the `.npy` is one it may replace (a user's complex64
+/// stack looks the same inside).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct GenerationRecord {
+    /// Always [`GENERATION_FORMAT`].
+    pub format: String,
+    /// The `.npy`'s file name.
+    pub file: String,
+    /// `[M, H, W]` of the complex64 samples.
+    pub shape: [usize; 3],
+    /// The model folder, as an absolute path.
+    pub model: String,
+    /// The model's method.
+    pub method: Method,
+    /// The generation's seed.
+    pub seed: u64,
+    /// How the samples were drawn from the seed ([`crate::synthesis::SAMPLE_FORMAT`]).
+    pub sample_format: u32,
+    /// The tool's version.
+    pub version: String,
+}
+
+/// Where the [`GenerationRecord`] of the `.npy` `npy` is: `NAME.npy.json` beside it.
+pub fn record_path(npy: &Path) -> std::path::PathBuf {
+    let mut name = npy.file_name().unwrap_or_default().to_os_string();
+    name.push(".json");
+    npy.with_file_name(name)
+}
+
+/// The [`GenerationRecord`] at `path`, if it is one.
+fn read_record(path: &Path) -> Option<GenerationRecord> {
+    let rec: GenerationRecord = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
+    (rec.format == GENERATION_FORMAT).then_some(rec)
+}
+
+/// Whether `path` is a generation record (so that `generate` may replace it).
+pub fn is_generation_record(path: &Path) -> bool {
+    read_record(path).is_some()
+}
+
+/// Whether `path` is a `.npy` that `generate` wrote: a complex64 `[M, H, W]` whose record
+/// beside it names this file and this shape (a file written over it since has another record,
+/// or a shape the record does not give, or no record).
+pub fn is_generated_npy(path: &Path) -> bool {
+    let (Some(name), Ok(h)) = (
+        path.file_name().and_then(|n| n.to_str()),
+        crate::io::npy::read_raw_header(path),
+    ) else {
+        return false;
+    };
+    read_record(&record_path(path)).is_some_and(|rec| {
+        h.descr == "<c8" && rec.file == name && h.shape.as_slice() == rec.shape.as_slice()
+    })
+}
+
+/// Writes the record of the `.npy` at `npy` (atomically), once the `.npy` is in place.
+///
+/// # Errors
+/// If the record cannot be written.
+pub fn write_generation_record(npy: &Path, rec: &GenerationRecord) -> Result<()> {
+    atomic_write(&record_path(npy), |w| {
+        serde_json::to_writer_pretty(&mut *w, rec)?;
+        Ok(std::io::Write::write_all(w, b"\n")?)
+    })
+}
+
 /// Streams samples `0..samples` of the generation seeded by `seed` into a `[M, H, W]`
 /// complex64 `.npy` at `path`, `chunk` samples at a time (memory: two chunks, one being
 /// generated while the other is written, with direct I/O where the file system allows it and

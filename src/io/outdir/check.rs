@@ -143,3 +143,50 @@ pub fn check_file_output(path: &Path, what: &str, ours: impl Fn(&Path) -> bool) 
         Ok(_) => Ok(()),
     }
 }
+
+/// Removes what killed writers of `path` left beside it: the temporary files or folders of the
+/// tool's atomic writes (`.NAME.tmp-PID`, `.NAME.PID-SEQ.tmp`, NAME being `path`'s file name)
+/// whose writer is not a live process of this machine (no such process, or a zombie). A pid
+/// now reused by another process counts as alive and its file stays. Writers on other machines
+/// sharing the folder cannot be told apart, so two machines must not write one path at once
+/// (their renames would race anyway). Returns the names removed.
+///
+/// # Errors
+/// When a temporary of a dead writer cannot be removed.
+pub fn remove_dead_temporaries_of(path: &Path) -> Result<Vec<String>> {
+    let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
+        return Ok(Vec::new());
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let Ok(entries) = fs::read_dir(dir) else {
+        return Ok(Vec::new());
+    };
+    let me = std::process::id();
+    let mut removed = Vec::new();
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(file) = file.to_str() else { continue };
+        match super::temporary_of(file) {
+            Some((base, pid)) if base == name && pid != me && super::lock::is_gone(pid) => {}
+            _ => continue,
+        }
+        let p = e.path();
+        let gone = match fs::symlink_metadata(&p) {
+            Ok(m) if m.is_dir() => fs::remove_dir_all(&p),
+            Ok(_) => fs::remove_file(&p),
+            Err(_) => continue,
+        };
+        match gone {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(e)
+                    .with_context(|| format!("removing {}, left by a killed writer", p.display()))
+            }
+            _ => removed.push(file.to_string()),
+        }
+    }
+    removed.sort();
+    Ok(removed)
+}

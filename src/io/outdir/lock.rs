@@ -44,7 +44,8 @@ impl Holder {
     }
 
     /// Whether the holder is certainly dead: same host, and another boot, or no process with
-    /// its pid, or one that started at another time. `false` for another host (unknowable).
+    /// its pid, or one that started at another time, or a zombie (killed, not yet reaped by
+    /// its parent: it writes nothing more). `false` for another host (unknowable).
     pub fn is_dead(&self) -> bool {
         if self.host != hostname() {
             return false;
@@ -52,10 +53,9 @@ impl Holder {
         if !self.boot_id.is_empty() && self.boot_id != boot_id() {
             return true;
         }
-        match process_start(self.pid) {
-            None => true,
-            Some(start) => self.process_start != 0 && start != self.process_start,
-        }
+        is_gone(self.pid)
+            || process_start(self.pid)
+                .is_some_and(|start| self.process_start != 0 && start != self.process_start)
     }
 
     /// `run (pid 12, host h, started 2026-11-23 23:51:20 UTC)`.
@@ -139,10 +139,24 @@ fn boot_id() -> String {
 /// Start time of process `pid` in clock ticks after boot; `None` if there is no such process
 /// (or no `/proc`).
 fn process_start(pid: u32) -> Option<u64> {
+    process_stat(pid).map(|(_, start)| start)
+}
+
+/// Whether no live process of this machine has `pid`: none has it, or a zombie (killed, not
+/// yet reaped) does.
+pub(super) fn is_gone(pid: u32) -> bool {
+    process_stat(pid).is_none_or(|(state, _)| matches!(state, 'Z' | 'X'))
+}
+
+/// State (`R`, `S`, `Z` for a zombie...) and start time in clock ticks after boot of process
+/// `pid`, from `/proc/<pid>/stat`; `None` if there is no such process (or no `/proc`).
+pub(crate) fn process_stat(pid: u32) -> Option<(char, u64)> {
     let stat = fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    // Fields after the command name (which may hold spaces) start at field 3; 22 is index 19.
-    let rest = &stat[stat.rfind(')')? + 1..];
-    rest.split_whitespace().nth(19)?.parse().ok()
+    // Fields after the command name (which may hold spaces) start at field 3 (the state);
+    // field 22 (the start time) is index 19 of them.
+    let mut rest = stat[stat.rfind(')')? + 1..].split_whitespace();
+    let state = rest.next()?.chars().next()?;
+    Some((state, rest.nth(18)?.parse().ok()?))
 }
 
 /// `2026-11-23 23:51:20 UTC` from seconds since the epoch.

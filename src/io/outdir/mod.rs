@@ -31,7 +31,7 @@ use std::sync::Mutex;
 mod check;
 mod lock;
 
-pub use check::{check_complete, check_file_output, file_records};
+pub use check::{check_complete, check_file_output, file_records, remove_dead_temporaries_of};
 use lock::take_lock;
 pub use lock::Holder;
 

@@ -38,6 +38,34 @@ fn this_process_is_alive_and_a_dead_pid_is_not() {
 }
 
 #[test]
+fn a_killed_holder_not_yet_reaped_is_dead() {
+    // A writer killed a moment ago whose parent has not reaped it yet is a zombie: it still
+    // answers `kill(pid, 0)` and keeps its /proc entry, but it writes nothing more.
+    let mut child = std::process::Command::new("sleep")
+        .arg("30")
+        .spawn()
+        .unwrap();
+    let pid = child.id();
+    let mut holder = Holder::me("run");
+    holder.pid = pid;
+    holder.process_start = super::lock::process_stat(pid).unwrap().1;
+    assert!(!holder.is_dead(), "a running holder");
+    // SAFETY: `kill` on our own child's pid; the child is not reaped before the check below.
+    assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
+    let t = std::time::Instant::now();
+    while super::lock::process_stat(pid).unwrap().0 != 'Z' {
+        assert!(
+            t.elapsed().as_secs() < 10,
+            "the child never became a zombie"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert!(holder.is_dead(), "an unreaped, killed holder");
+    child.wait().unwrap();
+    assert!(holder.is_dead(), "a reaped holder");
+}
+
+#[test]
 fn a_claim_cleans_only_its_own_records() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("out");
