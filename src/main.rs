@@ -40,7 +40,9 @@ enum Command {
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
-        /// Do not build figures/ and report.html at the end.
+        /// Do not build figures/ and report.html at the end. An earlier report in the folder
+        /// goes with the run's other stale files (it would not follow the new tables);
+        /// `isar-clutter report DIR` builds it again.
         #[arg(long)]
         no_report: bool,
         /// Redo every job, even those whose result the job store (OUT/jobs/) already holds.
