@@ -614,8 +614,15 @@ fn generate_command(
     })?;
     bar.finish_and_clear();
     let s = t.elapsed().as_secs_f64();
+    let record = match mat {
+        Some(_) => String::new(),
+        None => format!(
+            " (how to write it again: {})",
+            isar_clutter::io::model::record_path(out).display()
+        ),
+    };
     eprintln!(
-        "{} sample(s) (format {}) -> {} in {s:.2} s ({:.0} samples/s)",
+        "{} sample(s) (format {}) -> {}{record} in {s:.2} s ({:.0} samples/s)",
         run.samples,
         m.sample_format,
         out.display(),
