@@ -604,6 +604,9 @@ fn generate_command(
                     .unwrap_or_else(|_| model.to_path_buf())
                     .display()
                     .to_string(),
+                model_json_sha256: std::fs::read(model.join("model.json"))
+                    .map(|b| isar_clutter::seeds::sha256_hex(&b))
+                    .unwrap_or_default(),
                 method: m.method,
                 seed: run.seed,
                 sample_format: m.sample_format,

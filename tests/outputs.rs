@@ -3,6 +3,9 @@
 //! asserts the exit code, that the message names the path, and that nothing outside the
 //! tool's own files changed.
 
+mod common;
+use common::{bin, text, BIN};
+
 use ndarray::Array3;
 use ndarray_npy::WriteNpyExt;
 use num_complex::Complex;
@@ -11,8 +14,6 @@ use std::fs::{self, File};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-
-const BIN: &str = env!("CARGO_BIN_EXE_isar-clutter");
 
 /// Two small datasets, one read from `stack.npy`: a second run can make that one fail.
 const SPEC: &str = "name: owned
@@ -51,14 +52,6 @@ sweep:
   grid:
     datasets.d.alpha_h: [0.5, 1, 2, 3, 4, 5]
 ";
-
-fn bin(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().unwrap()
-}
-
-fn text(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout)
-}
 
 fn setup(dir: &Path) -> PathBuf {
     let stack = Array3::from_shape_fn((6, 8, 8), |(n, r, c)| {
@@ -283,6 +276,11 @@ fn generate_never_renames_over_a_folder_or_a_foreign_file() {
     assert_eq!(record["shape"], serde_json::json!([5, 8, 8]));
     assert_eq!(record["seed"], 1);
     assert_eq!(record["method"], "method2");
+    let model_json = fs::read(model.join("model.json")).unwrap();
+    assert_eq!(
+        record["model_json_sha256"],
+        isar_clutter::seeds::sha256_hex(&model_json)
+    );
     // A temporary file that a killed generate left (its pid is no live process) goes.
     let left = dir.path().join(".samples.npy.tmp-999999999");
     fs::write(&left, b"half").unwrap();

@@ -480,6 +480,9 @@ pub struct GenerationRecord {
     pub shape: [usize; 3],
     /// The model folder, as an absolute path.
     pub model: String,
+    /// SHA-256 (hex) of the model's `model.json` when the samples were written: a model
+    /// fitted again into the same folder from other data has another.
+    pub model_json_sha256: String,
     /// The model's method.
     pub method: Method,
     /// The generation's seed.

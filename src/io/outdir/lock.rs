@@ -45,7 +45,8 @@ impl Holder {
 
     /// Whether the holder is certainly dead: same host, and another boot, or no process with
     /// its pid, or one that started at another time, or a zombie (killed, not yet reaped by
-    /// its parent: it writes nothing more). `false` for another host (unknowable).
+    /// its parent: it writes nothing more). `false` for another host, and without `/proc`
+    /// (unknowable).
     pub fn is_dead(&self) -> bool {
         if self.host != hostname() {
             return false;
@@ -143,14 +144,15 @@ fn process_start(pid: u32) -> Option<u64> {
 }
 
 /// Whether no live process of this machine has `pid`: none has it, or a zombie (killed, not
-/// yet reaped) does.
+/// yet reaped) does. `false` where there is no `/proc` to tell (not Linux).
 pub(super) fn is_gone(pid: u32) -> bool {
-    process_stat(pid).is_none_or(|(state, _)| matches!(state, 'Z' | 'X'))
+    fs::metadata("/proc/self/stat").is_ok()
+        && process_stat(pid).is_none_or(|(state, _)| matches!(state, 'Z' | 'X'))
 }
 
 /// State (`R`, `S`, `Z` for a zombie...) and start time in clock ticks after boot of process
 /// `pid`, from `/proc/<pid>/stat`; `None` if there is no such process (or no `/proc`).
-pub(crate) fn process_stat(pid: u32) -> Option<(char, u64)> {
+pub(super) fn process_stat(pid: u32) -> Option<(char, u64)> {
     let stat = fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     // Fields after the command name (which may hold spaces) start at field 3 (the state);
     // field 22 (the start time) is index 19 of them.
