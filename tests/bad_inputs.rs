@@ -4,6 +4,7 @@
 //! after the defect it pins (issue 13, item 4).
 
 mod common;
+use common::bin;
 
 use isar_clutter::io::model;
 use isar_clutter::stats::analysis::analyse;
@@ -11,14 +12,7 @@ use isar_clutter::synthesis::{fit, FitOptions, Method};
 use ndarray::{Array2, Array3};
 use ndarray_npy::WriteNpyExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn bin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
+use std::process::Output;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

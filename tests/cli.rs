@@ -4,6 +4,7 @@
 
 mod common;
 
+use common::bin;
 use common::read_table as read;
 use ndarray::Array3;
 use ndarray_npy::WriteNpyExt;
@@ -11,7 +12,7 @@ use num_complex::Complex;
 use polars::prelude::*;
 use std::fs::File;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 const SPEC: &str = "name: e2e
 seed: 42
@@ -34,13 +35,6 @@ sweep:
     datasets.held.alpha_h: [0.5, 2]
     analysis.levels: [1, 2]
 ";
-
-fn bin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn setup(dir: &Path) -> PathBuf {
     let stack = Array3::from_shape_fn((6, 8, 8), |(n, r, c)| {

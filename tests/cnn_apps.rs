@@ -6,21 +6,11 @@
 //! refused with their YAML path.
 
 mod common;
+use common::{bin, text};
 
 use common::read_table;
 use polars::prelude::*;
 use std::path::Path;
-use std::process::{Command, Output};
-
-const BIN: &str = env!("CARGO_BIN_EXE_isar-clutter");
-
-fn bin(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().unwrap()
-}
-
-fn text(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout)
-}
 
 fn run(spec: &Path, out: &Path, extra: &[&str]) {
     let mut args = vec![

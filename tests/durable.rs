@@ -2,13 +2,14 @@
 //! moment resumes with the same tables; shards run subsets and `merge` assembles the same
 //! tables as one local run; bad shard arguments and merges are refused clearly.
 
+mod common;
+use common::{bin, text, BIN};
+
 use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-
-const BIN: &str = env!("CARGO_BIN_EXE_isar-clutter");
 
 /// 24 jobs: four datasets under a 6-value sweep, about 0.1-0.3 s each on one thread.
 const SPEC: &str = "name: durable
@@ -52,14 +53,6 @@ sweep:
   grid:
     datasets.*.mean: [0, 1, 2, 3, 4, 5]
 ";
-
-fn bin(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().unwrap()
-}
-
-fn text(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout)
-}
 
 fn spec(dir: &Path) -> PathBuf {
     let p = dir.join("spec.yaml");

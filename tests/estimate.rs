@@ -3,6 +3,9 @@
 //! memory exceeds the machine's or `--max-memory`, naming the YAML path; they print the largest
 //! job's estimate otherwise.
 
+mod common;
+use common::bin;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -30,13 +33,6 @@ const BIG: &str = "  - id: big
     size: [4096, 4096]
     samples: 1000000
 ";
-
-fn bin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn write(dir: &Path, text: &str) -> PathBuf {
     let p = dir.join("spec.yaml");

@@ -19,11 +19,12 @@
 //! where they fail.
 
 mod common;
+use common::bin;
 
 use isar_clutter::io::mat::{MatError, MatFile};
 use isar_clutter::io::npy::Stack;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::sync::OnceLock;
 
 /// The fixture folder, generated once per test process; `None` (skip) without SciPy/h5py.
@@ -63,13 +64,6 @@ fn err(path: &Path, var: Option<&str>) -> String {
         Ok(_) => panic!("{} {var:?} was read", path.display()),
         Err(e) => e.to_string(),
     }
-}
-
-fn bin(args: &[&std::ffi::OsStr]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 /// Runs the binary with `args`, asserting success; its stderr.

@@ -6,12 +6,13 @@
 
 mod common;
 
+use common::bin;
 use common::run_spec as run;
 use std::collections::BTreeMap;
 use std::fs;
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 const SPEC: &str = "name: report_cache
 seed: 5
@@ -41,13 +42,6 @@ const JOB_FIGURES: [&str; 7] = [
     "mean",
     "variance",
 ];
-
-fn bin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn ok(o: &Output) {
     assert!(

@@ -105,3 +105,19 @@ pub fn venv_python(modules: &[&str]) -> Option<std::path::PathBuf> {
     );
     None
 }
+
+/// The tool's binary, as cargo built it for the integration tests.
+pub const BIN: &str = env!("CARGO_BIN_EXE_isar-clutter");
+
+/// Runs the tool with `args` and waits for it.
+pub fn bin<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> std::process::Output {
+    std::process::Command::new(BIN)
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// What a run of the tool printed: its standard error, then its standard output.
+pub fn text(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout)
+}
