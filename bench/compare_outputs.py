@@ -17,8 +17,15 @@ of the same name). For each pair it compares
   files of the models (JSON) with their timing-free keys;
 * the manifest's per-job identities and seeds.
 
-Exit status 0 when everything is identical, 1 with one line per difference otherwise, 2 on
-bad arguments. Needs pyarrow (`make bench-deps` installs it into .venv).
+With `--rtol R` (after the two folders), floating-point values may differ by up to R times the
+largest magnitude of their column (tables) or array (`.npy` of floats or complex numbers): for
+a change that moves results by rounding only (another summation order, another `sin`). The
+largest such difference seen, relative to that scale, is printed. Everything else (integers,
+strings, shapes, the JSON of models) stays exact.
+
+Exit status 0 when everything is identical (within R), 1 with one line per difference
+otherwise, 2 on bad arguments. Needs pyarrow and numpy (`make bench-deps` installs them into
+.venv).
 """
 
 import json
@@ -26,9 +33,13 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pyarrow.parquet as pq
 
 TIMING_SUFFIXES = ("_s",)
+# Set from --rtol; WORST[0] is the largest scaled difference accepted.
+RTOL = 0.0
+WORST = [0.0]
 FILE_FOLDERS = ("maps", "samples", "models", "kspace")
 
 
@@ -40,6 +51,38 @@ def same_value(a, b) -> bool:
     if isinstance(a, float) and isinstance(b, float):
         return (math.isnan(a) and math.isnan(b)) or a == b
     return a == b
+
+
+def close(a, b, scale) -> bool:
+    """Equal, or (with --rtol) two finite floats within RTOL x scale."""
+    if same_value(a, b):
+        return True
+    if RTOL > 0 and isinstance(a, float) and isinstance(b, float) and math.isfinite(a) and math.isfinite(b):
+        d = abs(a - b) / scale if scale > 0 else math.inf
+        if d <= RTOL:
+            WORST[0] = max(WORST[0], d)
+            return True
+    return False
+
+
+def close_npy(pa: Path, pb: Path) -> bool:
+    """Two `.npy` files of one float or complex dtype and shape within RTOL x the largest
+    magnitude of the first, NaN where NaN."""
+    a, b = np.load(pa), np.load(pb)
+    if a.dtype != b.dtype or a.shape != b.shape or a.dtype.kind not in "fc":
+        return False
+    nan_a, nan_b = np.isnan(a), np.isnan(b)
+    if not np.array_equal(nan_a, nan_b):
+        return False
+    fa, fb = a[~nan_a], b[~nan_b]
+    if fa.size == 0:
+        return True
+    scale = float(np.max(np.abs(fa)))
+    d = float(np.max(np.abs(fa - fb))) / scale if scale > 0 else (0.0 if np.array_equal(fa, fb) else math.inf)
+    if d <= RTOL:
+        WORST[0] = max(WORST[0], d)
+        return True
+    return False
 
 
 def compare_table(a: Path, b: Path, out: list) -> None:
@@ -58,7 +101,9 @@ def compare_table(a: Path, b: Path, out: list) -> None:
             out.append(f"{b}: column {c} has type {cb.type}, before {ca.type}")
             continue
         va, vb = ca.to_pylist(), cb.to_pylist()
-        bad = [i for i, (x, y) in enumerate(zip(va, vb)) if not same_value(x, y)]
+        floats = [x for x in va if isinstance(x, float) and math.isfinite(x)]
+        scale = max((abs(x) for x in floats), default=0.0)
+        bad = [i for i, (x, y) in enumerate(zip(va, vb)) if not close(x, y, scale)]
         if bad:
             i = bad[0]
             out.append(
@@ -114,7 +159,7 @@ def compare_run(a: Path, b: Path, out: list) -> int:
             if pa.suffix == ".json":
                 if strip_timing(json.loads(pa.read_text())) != strip_timing(json.loads(pb.read_text())):
                     out.append(f"{pb}: differs")
-            elif pa.read_bytes() != pb.read_bytes():
+            elif pa.read_bytes() != pb.read_bytes() and not (RTOL > 0 and pa.suffix == ".npy" and close_npy(pa, pb)):
                 out.append(f"{pb}: differs")
             n += 1
     compare_manifest(a / "manifest.json", b / "manifest.json", out)
@@ -122,10 +167,19 @@ def compare_run(a: Path, b: Path, out: list) -> int:
 
 
 def main() -> int:
-    if len(sys.argv) != 3:
+    global RTOL
+    args = sys.argv[1:]
+    if len(args) == 4 and args[2] == "--rtol":
+        try:
+            RTOL = float(args[3])
+        except ValueError:
+            print(f"--rtol {args[3]!r} is not a number", file=sys.stderr)
+            return 2
+        args = args[:2]
+    if len(args) != 2:
         print(__doc__, file=sys.stderr)
         return 2
-    a, b = Path(sys.argv[1]), Path(sys.argv[2])
+    a, b = Path(args[0]), Path(args[1])
     if (a / "manifest.json").exists():
         pairs = [(a, b)]
     else:
@@ -143,6 +197,8 @@ def main() -> int:
         print(f"{pb.name}: {n} tables and files compared")
     for line in out:
         print(line)
+    if RTOL > 0 and not out:
+        print(f"largest difference accepted: {WORST[0]:.3g} of its column's or array's scale")
     print("identical" if not out else f"{len(out)} differences")
     return 0 if not out else 1
 

@@ -512,14 +512,18 @@ fn point_response_with(
     // The steps of the uniform recurrence are the same in every block: computed once.
     let dk2 = if nf >= 2 { k2[1] - k2[0] } else { 0.0 };
     let mut steps = vec![Complex64::new(0.0, 0.0); if uniform { points.len() * np } else { 0 }];
-    steps
-        .par_chunks_mut(np)
-        .zip(points)
-        .for_each(|(steps, (_, r))| {
-            for (st, &(c, s)) in steps.iter_mut().zip(&cs) {
-                *st = Complex64::from_polar(1.0, -dk2 * (r[0] * c + r[1] * s));
+    steps.par_chunks_mut(np).zip(points).for_each_init(
+        || Phases::new(np),
+        |ph, (steps, (_, r))| {
+            for (x, &(c, s)) in ph.x.iter_mut().zip(&cs) {
+                *x = -dk2 * (r[0] * c + r[1] * s);
             }
-        });
+            ph.eval();
+            for (st, (&c, &s)) in steps.iter_mut().zip(ph.cos.iter().zip(&ph.sin)) {
+                *st = Complex64::new(c, s);
+            }
+        },
+    );
     let slice = out.as_slice_mut().expect("standard layout");
     slice
         .par_chunks_mut(F_BLOCK * np)
@@ -602,14 +606,20 @@ impl ResponseBlock<'_> {
         let mut im = vec![0.0f64; nb * np];
         let mut u = vec![0.0; np];
         let mut start = vec![Complex64::new(0.0, 0.0); np];
+        let mut ph = Phases::new(np);
         for (p, (a, r)) in self.points.iter().enumerate() {
             for (u, &(c, s)) in u.iter_mut().zip(self.cs) {
                 *u = r[0] * c + r[1] * s;
             }
             let Some(steps) = self.steps else {
                 for ii in 0..nb {
+                    let k = k2[i0 + ii];
+                    for (x, &u) in ph.x.iter_mut().zip(&u) {
+                        *x = -k * u;
+                    }
+                    ph.eval();
                     for j in 0..np {
-                        let v = *a * Complex64::from_polar(1.0, -k2[i0 + ii] * u[j]);
+                        let v = *a * Complex64::new(ph.cos[j], ph.sin[j]);
                         re[ii * np + j] += v.re;
                         im[ii * np + j] += v.im;
                     }
@@ -617,8 +627,12 @@ impl ResponseBlock<'_> {
                 continue;
             };
             let step = &steps[p * np..(p + 1) * np];
-            for j in 0..np {
-                start[j] = *a * Complex64::from_polar(1.0, -k2[i0] * u[j]);
+            for (x, &u) in ph.x.iter_mut().zip(&u) {
+                *x = -k2[i0] * u;
+            }
+            ph.eval();
+            for (st, (&c, &s)) in start.iter_mut().zip(ph.cos.iter().zip(&ph.sin)) {
+                *st = *a * Complex64::new(c, s);
             }
             // Whole groups of `L` azimuths, then the last ones one lane at a time.
             let whole = np / L * L;
@@ -639,6 +653,29 @@ impl ResponseBlock<'_> {
         for (v, (&r, &i)) in chunk.iter_mut().zip(re.iter().zip(&im)) {
             *v = Complex64::new(r, i);
         }
+    }
+}
+
+/// Phases and their sines and cosines ([`crate::physics::trig::sincos_slice`]: the same bits
+/// as `trig::sincos` one by one), buffers reused for every scatterer.
+struct Phases {
+    x: Vec<f64>,
+    sin: Vec<f64>,
+    cos: Vec<f64>,
+}
+
+impl Phases {
+    fn new(n: usize) -> Self {
+        Phases {
+            x: vec![0.0; n],
+            sin: vec![0.0; n],
+            cos: vec![0.0; n],
+        }
+    }
+
+    /// `sin`, `cos` of every phase in `x`.
+    fn eval(&mut self) {
+        crate::physics::trig::sincos_slice(&self.x, &mut self.sin, &mut self.cos);
     }
 }
 
@@ -800,8 +837,15 @@ mod tests {
         }
     }
 
+    /// `exp(i x)` from the forward model's sine and cosine, one phase at a time.
+    fn polar(x: f64) -> Complex64 {
+        let (s, c) = crate::physics::trig::sincos(x);
+        Complex64::new(c, s)
+    }
+
     /// [`point_response`] as first written (one recurrence after another, complex
-    /// arithmetic): the oracle of the lane-parallel form, bit for bit.
+    /// arithmetic, each phase factor on its own): the oracle of the lane-parallel form, bit for
+    /// bit.
     fn point_response_serial(
         points: &[(Complex64, [f64; 3])],
         m: &Measurement,
@@ -816,15 +860,15 @@ mod tests {
             for (a, r) in points {
                 for (j, &(c, s)) in cs.iter().enumerate() {
                     let u = r[0] * c + r[1] * s;
-                    let mut ph = *a * Complex64::from_polar(1.0, -k2[i0] * u);
-                    let st = Complex64::from_polar(1.0, -dk2 * u);
+                    let mut ph = *a * polar(-k2[i0] * u);
+                    let st = polar(-dk2 * u);
                     for ii in 0..nb {
                         out[[i0 + ii, j]] += if uniform {
                             let v = ph;
                             ph *= st;
                             v
                         } else {
-                            *a * Complex64::from_polar(1.0, -k2[i0 + ii] * u)
+                            *a * polar(-k2[i0 + ii] * u)
                         };
                     }
                 }

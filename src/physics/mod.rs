@@ -6,4 +6,5 @@
 pub mod calibration;
 pub mod isar;
 pub mod mie;
+pub mod trig;
 pub mod vegetation;
