@@ -47,6 +47,16 @@ const C: [f64; 6] = [
     -1.1359647557788195e-11,
 ];
 
+/// `k[0] + w (k[1] + w (... + w k[5]))` by Horner's rule with fused multiply-adds.
+#[inline(always)]
+fn horner(w: f64, k: &[f64; 6]) -> f64 {
+    k[5].mul_add(w, k[4])
+        .mul_add(w, k[3])
+        .mul_add(w, k[2])
+        .mul_add(w, k[1])
+        .mul_add(w, k[0])
+}
+
 /// `(sin x, cos x)` for `|x| <= REDUCED` (the caller checks); branch-free, so that loops over
 /// it vectorise.
 #[inline(always)]
@@ -58,20 +68,8 @@ fn reduced(x: f64) -> (f64, f64) {
     let r = (-q).mul_add(PIO2_MID, r);
     let r = (-q).mul_add(PIO2_LO, r);
     let w = r * r;
-    let ps = S[5]
-        .mul_add(w, S[4])
-        .mul_add(w, S[3])
-        .mul_add(w, S[2])
-        .mul_add(w, S[1])
-        .mul_add(w, S[0]);
-    let s = (r * w).mul_add(ps, r);
-    let pc = C[5]
-        .mul_add(w, C[4])
-        .mul_add(w, C[3])
-        .mul_add(w, C[2])
-        .mul_add(w, C[1])
-        .mul_add(w, C[0]);
-    let c = (w * w).mul_add(pc, (-0.5f64).mul_add(w, 1.0));
+    let s = (r * w).mul_add(horner(w, &S), r);
+    let c = (w * w).mul_add(horner(w, &C), (-0.5f64).mul_add(w, 1.0));
     // Quadrant q mod 4 (the low bits of `t`'s mantissa): 0 (s, c), 1 (c, -s), 2 (-s, -c),
     // 3 (-c, s).
     let swap = n & 1 != 0;
