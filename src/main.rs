@@ -565,6 +565,8 @@ fn generate_command(
         isar_clutter::io::mat::write::check_output(mat, (h, w, run.samples))
             .with_context(|| format!("{} was not written", out.display()))?;
     }
+    let record =
+        isar_clutter::io::model::GenerationRecord::new(model, &m, run.seed, run.samples, out);
     let bar = indicatif::ProgressBar::new(run.samples as u64);
     if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
@@ -593,31 +595,11 @@ fn generate_command(
             },
             progress,
         )
-        .and_then(|_| {
-            let name = out.file_name().unwrap_or_default().to_string_lossy();
-            let (h, w) = m.shape();
-            let record = isar_clutter::io::model::GenerationRecord {
-                format: isar_clutter::io::model::GENERATION_FORMAT.into(),
-                file: name.into_owned(),
-                shape: [run.samples, h, w],
-                model: std::path::absolute(model)
-                    .unwrap_or_else(|_| model.to_path_buf())
-                    .display()
-                    .to_string(),
-                model_json_sha256: std::fs::read(model.join("model.json"))
-                    .map(|b| isar_clutter::seeds::sha256_hex(&b))
-                    .unwrap_or_default(),
-                method: m.method,
-                seed: run.seed,
-                sample_format: m.sample_format,
-                version: env!("CARGO_PKG_VERSION").into(),
-            };
-            isar_clutter::io::model::write_generation_record(out, &record)
-        }),
+        .and_then(|_| isar_clutter::io::model::write_generation_record(out, &record)),
     })?;
     bar.finish_and_clear();
     let s = t.elapsed().as_secs_f64();
-    let record = match mat {
+    let again = match mat {
         Some(_) => String::new(),
         None => format!(
             " (how to write it again: {})",
@@ -625,7 +607,7 @@ fn generate_command(
         ),
     };
     eprintln!(
-        "{} sample(s) (format {}) -> {}{record} in {s:.2} s ({:.0} samples/s)",
+        "{} sample(s) (format {}) -> {}{again} in {s:.2} s ({:.0} samples/s)",
         run.samples,
         m.sample_format,
         out.display(),

@@ -493,6 +493,35 @@ pub struct GenerationRecord {
     pub version: String,
 }
 
+impl GenerationRecord {
+    /// The record of samples `0..samples` of `model` (loaded from the folder `dir`, whose
+    /// `model.json` is hashed now, before any sample is drawn) seeded by `seed`, for the `.npy`
+    /// at `npy`.
+    pub fn new(dir: &Path, model: &Model, seed: u64, samples: usize, npy: &Path) -> Self {
+        let (h, w) = model.shape();
+        GenerationRecord {
+            format: GENERATION_FORMAT.into(),
+            file: npy
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned(),
+            shape: [samples, h, w],
+            model: std::path::absolute(dir)
+                .unwrap_or_else(|_| dir.to_path_buf())
+                .display()
+                .to_string(),
+            model_json_sha256: std::fs::read(dir.join("model.json"))
+                .map(|b| crate::seeds::sha256_hex(&b))
+                .unwrap_or_default(),
+            method: model.method,
+            seed,
+            sample_format: model.sample_format,
+            version: env!("CARGO_PKG_VERSION").into(),
+        }
+    }
+}
+
 /// Where the [`GenerationRecord`] of the `.npy` `npy` is: `NAME.npy.json` beside it.
 pub fn record_path(npy: &Path) -> std::path::PathBuf {
     let mut name = npy.file_name().unwrap_or_default().to_os_string();

@@ -161,32 +161,8 @@ pub fn remove_dead_temporaries_of(path: &Path) -> Result<Vec<String>> {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let Ok(entries) = fs::read_dir(dir) else {
-        return Ok(Vec::new());
-    };
     let me = std::process::id();
-    let mut removed = Vec::new();
-    for e in entries.flatten() {
-        let file = e.file_name();
-        let Some(file) = file.to_str() else { continue };
-        match super::temporary_of(file) {
-            Some((base, pid)) if base == name && pid != me && super::lock::is_gone(pid) => {}
-            _ => continue,
-        }
-        let p = e.path();
-        let gone = match fs::symlink_metadata(&p) {
-            Ok(m) if m.is_dir() => fs::remove_dir_all(&p),
-            Ok(_) => fs::remove_file(&p),
-            Err(_) => continue,
-        };
-        match gone {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                return Err(e)
-                    .with_context(|| format!("removing {}, left by a killed writer", p.display()))
-            }
-            _ => removed.push(file.to_string()),
-        }
-    }
-    removed.sort();
-    Ok(removed)
+    super::remove_temporaries(dir, |base, pid, _| {
+        base == name && pid != me && super::lock::is_gone(pid)
+    })
 }

@@ -358,24 +358,56 @@ impl OutDir {
             .map(|p| p.parent().map(Path::to_path_buf).unwrap_or_default())
             .collect();
         for folder in folders {
-            let Ok(entries) = fs::read_dir(self.root.join(&folder)) else {
-                continue;
-            };
-            for e in entries.flatten() {
-                let name = e.file_name();
-                let Some(name) = name.to_str() else { continue };
-                let Some((base, pid)) = temporary_of(name) else {
-                    continue;
-                };
-                if pid != me && owned.contains(&folder.join(base)) && e.path().is_file() {
-                    fs::remove_file(e.path())
-                        .with_context(|| format!("removing temporary {}", e.path().display()))?;
-                    removed += 1;
-                }
-            }
+            removed += remove_temporaries(&self.root.join(&folder), |base, pid, is_dir| {
+                pid != me && !is_dir && owned.contains(&folder.join(base))
+            })?
+            .len();
         }
         Ok(removed)
     }
+}
+
+/// Removes the temporary files and folders of the tool's writes in `dir` (names that
+/// [`temporary_of`] reads) that `select(base, pid, is_dir)` picks; returns their names, sorted.
+/// Nothing when `dir` cannot be read.
+///
+/// # Errors
+/// When a picked one cannot be removed (one already gone is not an error).
+pub(crate) fn remove_temporaries(
+    dir: &Path,
+    select: impl Fn(&str, u32, bool) -> bool,
+) -> Result<Vec<String>> {
+    let Ok(entries) = fs::read_dir(dir) else {
+        return Ok(Vec::new());
+    };
+    let mut removed = Vec::new();
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(name) = name.to_str() else { continue };
+        let Some((base, pid)) = temporary_of(name) else {
+            continue;
+        };
+        let path = e.path();
+        let Ok(meta) = fs::symlink_metadata(&path) else {
+            continue;
+        };
+        if !select(base, pid, meta.is_dir()) {
+            continue;
+        }
+        let gone = if meta.is_dir() {
+            fs::remove_dir_all(&path)
+        } else {
+            fs::remove_file(&path)
+        };
+        match gone {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(e).with_context(|| format!("removing temporary {}", path.display()))
+            }
+            _ => removed.push(name.to_string()),
+        }
+    }
+    removed.sort();
+    Ok(removed)
 }
 
 impl Drop for OutDir {
