@@ -539,6 +539,8 @@ fn generate_command(
     run: &Generation,
     jobs: Option<usize>,
 ) -> Result<()> {
+    // Held until the samples are in place: a second `generate` into `out` is refused.
+    let _lock = isar_clutter::io::outdir::lock_output(out, "generate")?;
     match mat {
         Some(_) => isar_clutter::io::outdir::check_file_output(
             out,
@@ -692,6 +694,8 @@ fn fit_command(
     levels: usize,
 ) -> Result<()> {
     use isar_clutter::synthesis::{fit, FitOptions, Method};
+    // Held until the model folder is in place: a second `fit` into `out` is refused.
+    let _lock = isar_clutter::io::outdir::lock_output(out, "fit")?;
     let method: Method =
         serde_json::from_value(serde_json::Value::String(method.into())).map_err(|_| {
             anyhow::anyhow!(

@@ -3,9 +3,8 @@
 //! tables as one local run; bad shard arguments and merges are refused clearly.
 
 mod common;
-use common::{bin, text, BIN};
+use common::{bin, maps, same_tables, text, BIN};
 
-use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -71,63 +70,6 @@ fn run(spec: &Path, out: &Path, extra: &[&str]) -> Output {
     ];
     args.extend_from_slice(extra);
     bin(&args)
-}
-
-/// Every Parquet table of a results folder, value by value, without the timing columns
-/// (`*_s`, which differ between any two runs).
-fn tables(dir: &Path) -> BTreeMap<String, polars::prelude::DataFrame> {
-    use polars::prelude::*;
-    let mut out = BTreeMap::new();
-    for e in fs::read_dir(dir).unwrap().flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        if !name.ends_with(".parquet") {
-            continue;
-        }
-        let df = ParquetReader::new(fs::File::open(e.path()).unwrap())
-            .finish()
-            .unwrap();
-        let keep: Vec<String> = df
-            .get_column_names()
-            .iter()
-            .map(|c| c.to_string())
-            .filter(|c| !c.ends_with("_s"))
-            .collect();
-        out.insert(name, df.select(keep).unwrap());
-    }
-    assert!(!out.is_empty(), "no tables in {}", dir.display());
-    out
-}
-
-/// Asserts two folders' tables are equal value by value (NaN equal to NaN).
-fn same_tables(a: &Path, b: &Path) {
-    let (x, y) = (tables(a), tables(b));
-    assert_eq!(x.keys().collect::<Vec<_>>(), y.keys().collect::<Vec<_>>());
-    for (name, df) in &x {
-        assert!(
-            df.equals_missing(&y[name]),
-            "{name} differs:\n{df}\n{}",
-            y[name]
-        );
-    }
-}
-
-/// Every `.npy` under `maps/`, by relative path.
-fn maps(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.join("maps")];
-    while let Some(d) = stack.pop() {
-        for e in fs::read_dir(&d).unwrap().flatten() {
-            if e.path().is_dir() {
-                stack.push(e.path());
-            } else {
-                out.insert(
-                    e.path().strip_prefix(dir).unwrap().to_path_buf(),
-                    fs::read(e.path()).unwrap(),
-                );
-            }
-        }
-    }
-    out
 }
 
 fn done_records(out: &Path) -> usize {

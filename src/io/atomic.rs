@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 /// Writes `path` atomically: `write` fills a temporary file in the same folder, which is then
 /// renamed over `path`. The path is noted in the journal of a claimed output folder that holds
-/// it ([`crate::io::outdir::note`]) before anything is written. An output of up to 1 MiB (a
+/// it ([`crate::io::journal::note`]) before anything is written. An output of up to 1 MiB (a
 /// map, a table, a record) is held in memory first, and where `path` already holds exactly
 /// those bytes (a re-run that computed the same result) it is left as it is: replacing a file
 /// made the file system free the old one's blocks, a tenth of a millisecond per file on the
@@ -49,7 +49,7 @@ pub fn atomic_write_durable(
 /// As [`atomic_write`]; the temporary file is removed.
 pub fn atomic_write_path(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let (dir, tmp) = temporary(path);
-    crate::io::outdir::note(path);
+    crate::io::journal::note(path);
     let result = (|| -> Result<()> {
         fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         write(&tmp)?;
@@ -148,7 +148,7 @@ fn write_via_temporary(
     write: impl FnOnce(&mut AtomicWriter) -> Result<()>,
 ) -> Result<()> {
     let (dir, tmp) = temporary(path);
-    crate::io::outdir::note(path);
+    crate::io::journal::note(path);
     let mut w = AtomicWriter {
         held: Vec::new(),
         file: None,

@@ -60,9 +60,23 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
             .filter(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)))
             .collect(),
     };
+    let mut damaged = vec![];
     let (todo, skipped): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| {
-        opts.fresh || !matches!(store::entry(&opts.out, &keys[i]), store::Entry::Done(_))
+        if opts.fresh {
+            return true;
+        }
+        match pool.install(|| store::entry(&opts.out, &keys[i])) {
+            store::Entry::Done(_) => false,
+            store::Entry::Missing(Some(why)) => {
+                damaged.push(format!("{} ({why})", jobs[i].id()));
+                true
+            }
+            _ => true,
+        }
     });
+    if !damaged.is_empty() {
+        notes.push(store::damaged_note(&damaged));
+    }
     if !skipped.is_empty() {
         notes.push(format!(
             "resumed: {} job(s) already done in the job store were skipped (--fresh redoes them)",

@@ -120,7 +120,24 @@ pub fn merge(out: &Path, opts: &RunOptions, partial: bool) -> Result<Merged> {
         }
     }
     let outdir = OutDir::claim(out, Some(&plan.spec.name), Purpose::Run)?;
-    let mut merged = merge_claimed(&plan, &jobs, &keys, &outdir, opts, partial, start, vec![])?;
+    // The folder is ours now (no shard is writing): a job whose stored result does not verify
+    // (damaged, or changed since) is run again here rather than merged.
+    let mut damaged = vec![];
+    let redo: Vec<usize> = (0..jobs.len())
+        .filter(|&i| !matches!(jobs[i].inputs(), Inputs::Rows(_)))
+        .filter(|&i| match store::entry(out, &keys[i]) {
+            store::Entry::Missing(Some(why)) => {
+                damaged.push(format!("{} ({why})", jobs[i].id()));
+                true
+            }
+            _ => false,
+        })
+        .collect();
+    let ran = scheduler::execute(&plan, &jobs, &keys, &[], &redo, opts, &None, true);
+    let mut merged = merge_claimed(&plan, &jobs, &keys, &outdir, opts, partial, start, ran)?;
+    if !damaged.is_empty() {
+        merged.notes.insert(0, store::damaged_note(&damaged));
+    }
     merged.notes.splice(0..0, outdir.notes.iter().cloned());
     Ok(merged)
 }
@@ -130,7 +147,8 @@ fn missing_jobs(out: &Path, jobs: &[&dyn JobKind], keys: &[String]) -> Vec<Strin
     jobs.iter()
         .zip(keys)
         .filter(|(j, _)| !matches!(j.inputs(), Inputs::Rows(_)))
-        .filter(|(_, k)| matches!(store::entry(out, k), store::Entry::Missing(_)))
+        // A stored result that does not verify is redone by the merge itself.
+        .filter(|(_, k)| matches!(store::entry(out, k), store::Entry::Missing(None)))
         .map(|(j, _)| j.id().to_string())
         .collect()
 }

@@ -15,8 +15,10 @@
 //! fragments (`fragments/<n>-<table>.parquet`) and, written last, `done.json` (id, kind, key,
 //! schema, timings, every file with its size). A failed job leaves `failed.json` with its error
 //! instead, and is run again by the next run. Everything is written through the atomic writer;
-//! the records are synced to disk before and after their rename, and the sizes they list are
-//! checked on reading, so a job whose files did not reach the disk is run again.
+//! the records are synced to disk before and after their rename. `done.json` lists the size
+//! and the content hash (XXH3-128) of every file and fragment, checked whenever the entry is
+//! read (to resume, to merge, for `status`), so a job whose files did not reach the disk, or
+//! were changed or damaged since, is run again and never merged.
 
 use crate::io::atomic::{read_parquet, write_parquet};
 use crate::run::jobs::{JobKind, Outcome, Rows};
@@ -31,7 +33,7 @@ use std::sync::Mutex;
 
 /// Version of what a job's record and fragments hold; part of every key, so results of another
 /// schema are never merged.
-pub const SCHEMA: u32 = 1;
+pub const SCHEMA: u32 = 2;
 
 /// The record of a finished job (`done.json`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -53,6 +55,10 @@ pub struct Done {
     /// Files the job wrote (relative to its folder, and to the output folder once merged),
     /// with their sizes.
     pub files: BTreeMap<String, u64>,
+    /// The content hash ([`content_hash_of`]: `xxh3-128:` and 32 hex digits) of every file in
+    /// `files` and of every fragment (`fragments/<file>`), checked whenever the entry is read,
+    /// so that a damaged file is never resumed or merged.
+    pub hashes: BTreeMap<String, String>,
 }
 
 /// The record of a failed job (`failed.json`).
@@ -275,8 +281,51 @@ fn hash_reader(mut r: impl std::io::Read) -> std::io::Result<u128> {
     Ok(root(&leaves))
 }
 
+/// Checks a finished job's files against its record: every file present with its size and
+/// content hash, every fragment present with its content hash. The reason when one is not.
+fn verify(dir: &Path, done: &Done) -> std::result::Result<(), String> {
+    let fragments = done
+        .fragments
+        .iter()
+        .map(|(_, f)| (format!("fragments/{f}"), None));
+    let files = done.files.iter().map(|(rel, b)| (rel.clone(), Some(*b)));
+    let all: Vec<(String, Option<u64>)> = files.chain(fragments).collect();
+    // Hashed on the current pool: a job's maps are many small files.
+    all.par_iter().try_for_each(|(rel, bytes)| {
+        let path = dir.join(rel);
+        match (fs::metadata(&path), bytes) {
+            (Err(_), _) => return Err(format!("{rel} is missing")),
+            (Ok(m), Some(b)) if m.len() != *b => {
+                return Err(format!("{rel} has {} bytes, its record says {b}", m.len()))
+            }
+            _ => {}
+        }
+        let Some(want) = done.hashes.get(rel) else {
+            return Err(format!("{rel} has no content hash in its record"));
+        };
+        match content_hash_of(&path) {
+            Ok(got) if &got == want => Ok(()),
+            Ok(_) => Err(format!(
+                "{rel} differs from what the job wrote (its content hash does not match)"
+            )),
+            Err(e) => Err(format!("{rel} cannot be read: {e:#}")),
+        }
+    })
+}
+
+/// The content hash of a stored file as a job's record keeps it: `xxh3-128:` and the
+/// [`tree_hash`] of its bytes in 32 hex digits (not memoised: a file of the store is read
+/// every time).
+///
+/// # Errors
+/// If the file cannot be read.
+pub fn content_hash_of(path: &Path) -> Result<String> {
+    Ok(format!("{HASH_PREFIX}{:032x}", hash_file(path)?))
+}
+
 /// Reads what the store holds for `key`, verifying a `done.json` (schema, key, every file
-/// present with its size, every fragment present).
+/// and fragment present with its size and content hash): a damaged entry is
+/// [`Entry::Missing`] with the reason, and the job is run again.
 pub fn entry(out: &Path, key: &str) -> Entry {
     let dir = job_dir(out, key);
     let read = |name: &str| fs::read(dir.join(name)).ok();
@@ -291,16 +340,8 @@ pub fn entry(out: &Path, key: &str) -> Entry {
                 done.schema
             )));
         }
-        for (rel, bytes) in &done.files {
-            match fs::metadata(dir.join(rel)) {
-                Ok(m) if m.len() == *bytes => {}
-                _ => return Entry::Missing(Some(format!("{rel} is missing or changed"))),
-            }
-        }
-        for (_, file) in &done.fragments {
-            if !dir.join("fragments").join(file).is_file() {
-                return Entry::Missing(Some(format!("fragments/{file} is missing")));
-            }
+        if let Err(why) = verify(&dir, &done) {
+            return Entry::Missing(Some(why));
         }
         return Entry::Done(done);
     }
@@ -312,6 +353,17 @@ pub fn entry(out: &Path, key: &str) -> Entry {
         }
     }
     Entry::Missing(None)
+}
+
+/// The note of a run or merge that redoes jobs whose stored result did not verify.
+pub fn damaged_note(damaged: &[String]) -> String {
+    let shown: Vec<&str> = damaged.iter().take(5).map(String::as_str).collect();
+    format!(
+        "redone: the job store's result of {} job(s) did not verify and was not used: {}{}",
+        damaged.len(),
+        shown.join("; "),
+        if damaged.len() > 5 { "; ..." } else { "" }
+    )
 }
 
 /// Prepares the folder of a job about to run: its old records go first (a rerun of a failed or
@@ -366,6 +418,18 @@ pub fn save(out: &Path, key: &str, job: &dyn JobKind, outcome: &Outcome) -> Resu
         })?;
     let mut files = BTreeMap::new();
     list_files(&dir, &dir, &mut files)?;
+    let hashed: Vec<String> = files
+        .keys()
+        .cloned()
+        .chain(fragments.iter().map(|(_, f)| format!("fragments/{f}")))
+        .collect();
+    let hashes = hashed
+        .into_par_iter()
+        .map(|rel| {
+            let h = content_hash_of(&dir.join(&rel))?;
+            Ok((rel, h))
+        })
+        .collect::<Result<BTreeMap<_, _>>>()?;
     let done = Done {
         schema: SCHEMA,
         key: key.into(),
@@ -375,6 +439,7 @@ pub fn save(out: &Path, key: &str, job: &dyn JobKind, outcome: &Outcome) -> Resu
         timing: rows.timing.clone(),
         fragments,
         files,
+        hashes,
     };
     write_json(&dir.join("done.json"), &done)
 }

@@ -121,3 +121,62 @@ pub fn bin<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> std::process::Output {
 pub fn text(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout)
 }
+
+/// Every Parquet table of a results folder, value by value, without the timing columns
+/// (`*_s`, which differ between any two runs).
+pub fn tables(
+    dir: &std::path::Path,
+) -> std::collections::BTreeMap<String, polars::prelude::DataFrame> {
+    use polars::prelude::*;
+    let mut out = std::collections::BTreeMap::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if !name.ends_with(".parquet") {
+            continue;
+        }
+        let df = ParquetReader::new(std::fs::File::open(e.path()).unwrap())
+            .finish()
+            .unwrap();
+        let keep: Vec<String> = df
+            .get_column_names()
+            .iter()
+            .map(|c| c.to_string())
+            .filter(|c| !c.ends_with("_s"))
+            .collect();
+        out.insert(name, df.select(keep).unwrap());
+    }
+    assert!(!out.is_empty(), "no tables in {}", dir.display());
+    out
+}
+
+/// Asserts two folders' tables are equal value by value (NaN equal to NaN).
+pub fn same_tables(a: &std::path::Path, b: &std::path::Path) {
+    let (x, y) = (tables(a), tables(b));
+    assert_eq!(x.keys().collect::<Vec<_>>(), y.keys().collect::<Vec<_>>());
+    for (name, df) in &x {
+        assert!(
+            df.equals_missing(&y[name]),
+            "{name} differs:\n{df}\n{}",
+            y[name]
+        );
+    }
+}
+
+/// Every `.npy` under `maps/`, by relative path.
+pub fn maps(dir: &std::path::Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.join("maps")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            if e.path().is_dir() {
+                stack.push(e.path());
+            } else {
+                out.insert(
+                    e.path().strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(e.path()).unwrap(),
+                );
+            }
+        }
+    }
+    out
+}

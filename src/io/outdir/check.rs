@@ -28,21 +28,36 @@ pub fn check_complete(root: &Path) -> Result<()> {
         if let Some(reason) = reason {
             bail!("{} is incomplete: {reason}; {hint}", root.display());
         }
-        let who = serde_json::from_str::<Holder>(&text)
-            .map(|h| {
-                let state = if h.is_dead() {
-                    "was interrupted"
-                } else {
-                    "is still running (or its state is unknown)"
-                };
-                format!("the {} {state}", h.describe())
-            })
-            .unwrap_or_else(|_| "a run was interrupted".into());
-        bail!(
-            "{} is incomplete: {who} before writing its manifest, so its files may mix two \
-             runs; {hint}",
-            root.display()
-        );
+        if let Some(writer) = live_writer(root) {
+            bail!(
+                "{} is incomplete: {writer} is still writing into it; wait for it to finish, or \
+                 pass --allow-incomplete to read what is there",
+                root.display()
+            );
+        }
+        match serde_json::from_str::<Holder>(&text) {
+            Ok(h) if h.command == "shard" => bail!(
+                "{} is incomplete: it is the folder of a sharded run whose shards have not all \
+                 finished or have not been merged (the last shard to start was {}); `isar-clutter \
+                 status {}` lists the jobs still missing; run their shards, then `isar-clutter \
+                 merge {}`; or pass --allow-incomplete to read what is there",
+                root.display(),
+                h.describe(),
+                root.display(),
+                root.display()
+            ),
+            Ok(h) => bail!(
+                "{} is incomplete: the {} was interrupted before writing its manifest, so its \
+                 files may mix two runs; {hint}",
+                root.display(),
+                h.describe()
+            ),
+            Err(_) => bail!(
+                "{} is incomplete: a run was interrupted before writing its manifest, so its \
+                 files may mix two runs; {hint}",
+                root.display()
+            ),
+        }
     }
     let path = root.join("manifest.json");
     let text = fs::read_to_string(&path).with_context(|| {
@@ -90,6 +105,27 @@ pub fn check_complete(root: &Path) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The writer holding one of `root`'s locks now (`lock`, `lock.shard-<i>`), described; `None`
+/// when none is held.
+fn live_writer(root: &Path) -> Option<String> {
+    let state = root.join(STATE);
+    let mut names: Vec<PathBuf> = fs::read_dir(&state)
+        .ok()?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n == "lock" || n.starts_with("lock.shard-"))
+        })
+        .collect();
+    names.sort();
+    names
+        .into_iter()
+        .find(|p| super::is_held(p))
+        .map(|p| super::lock::describe_holder(&super::lock::read_holder(&p)))
 }
 
 /// The `files` entry of a manifest: every file a run wrote (relative path -> bytes, plus the

@@ -1,12 +1,17 @@
-//! The lock of an output folder: who holds it ([`Holder`]: pid, host, boot id and process
-//! start time, so that a dead holder, or a reused pid, is recognised), taking it, and taking
-//! over a dead holder's.
+//! The locks of the tool's outputs (an output folder, a `generate` or `fit` output): taken
+//! atomically with `flock(2)` on a lock file, so that of two writers started at the same
+//! instant exactly one holds it and the kernel releases it when its holder dies; the file
+//! records who holds it ([`Holder`]: pid, host, boot id and process start time), for the
+//! refusal's message and for telling a finished writer from a dead one elsewhere.
 
 use super::STATE;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
-use std::fs::{self, OpenOptions};
-use std::path::Path;
+use std::fs::{self, File, OpenOptions};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::os::fd::AsRawFd;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// Who holds (or held) an output folder: enough to tell a live holder from a dead one.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -71,57 +76,164 @@ impl Holder {
     }
 }
 
-/// Takes the lock of `root` for `me`, taking over a dead holder's.
-pub(super) fn take_lock(
-    root: &Path,
-    name: &str,
+/// A lock this process holds: its lock file, open and locked exclusively with `flock(2)`.
+/// The kernel releases the lock when the process ends, however it ends, so a lock held is a
+/// writer alive (on a network file system, a client alive); the file's content, the
+/// [`Holder`], only says who. Dropping it removes the file while still holding the lock, then
+/// closes it.
+#[derive(Debug)]
+pub struct HeldLock {
+    file: File,
+    path: PathBuf,
+}
+
+impl Drop for HeldLock {
+    fn drop(&mut self) {
+        // Unlinked while held: a taker that opened this file meanwhile finds it replaced or
+        // gone once it gets the lock (the inode check of `take_lock`) and tries again.
+        let _ = fs::remove_file(&self.path);
+        let _ = &self.file; // closed after the unlink: the lock goes with it
+    }
+}
+
+/// How long a taker waits for a lock that is held for a moment only: another process's
+/// liveness probe ([`probe`] holds a shared lock for microseconds). A writer holds its lock for
+/// its whole run, so a lock still held after this is a live writer's.
+const PROBE_GRACE: Duration = Duration::from_millis(300);
+
+/// Takes the lock at `path` for `me`: atomically, with `flock(2)` on a lock file that stays
+/// while it is held. A held lock is refused naming its holder; the file of a holder that died
+/// (killed: the kernel released its lock, the file stayed) is taken over and said in `notes`.
+/// `what` names the locked thing in the refusal (`/data/out`, `samples.npy`).
+///
+/// # Errors
+/// When the lock is held by a live writer (the message names it), or the lock file cannot be
+/// created or locked (a file system without locks).
+pub fn take_lock(
+    path: &Path,
+    what: &str,
     me: &Holder,
     notes: &mut Vec<String>,
-) -> Result<()> {
-    let path = root.join(STATE).join(name);
-    for _ in 0..3 {
-        match OpenOptions::new().write(true).create_new(true).open(&path) {
-            Ok(mut f) => {
-                // Not synced: a lock outlives its holder only while the holder lives, and after
-                // a crash a lock that is missing, empty or half written is taken over (below).
-                serde_json::to_writer_pretty(&mut f, me)?;
-                return Ok(());
+) -> Result<HeldLock> {
+    let waited = Instant::now();
+    loop {
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .with_context(|| format!("cannot create the lock {}", path.display()))?;
+        match flock(&file, libc::LOCK_EX) {
+            Ok(true) => {}
+            Ok(false) if waited.elapsed() < PROBE_GRACE => {
+                std::thread::sleep(Duration::from_millis(2));
+                continue;
             }
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                let holder: Option<Holder> = fs::read_to_string(&path)
-                    .ok()
-                    .and_then(|t| serde_json::from_str(&t).ok());
-                match holder {
-                    Some(h) if !h.is_dead() => bail!(
-                        "{} is locked by a {} that is still writing into it{}: wait for it to \
-                         finish, or use another --out; if it is certainly gone, remove {}",
-                        root.display(),
-                        h.describe(),
-                        if h.host != me.host {
-                            " (on another host: its liveness cannot be checked from here)"
-                        } else {
-                            ""
-                        },
-                        path.display()
-                    ),
-                    Some(h) => notes.push(format!(
-                        "took over the stale lock of a {} that is gone",
-                        h.describe()
-                    )),
-                    None => notes.push(format!(
-                        "took over an unreadable lock {} (a writer killed while taking it)",
-                        path.display()
-                    )),
-                }
-                fs::remove_file(&path)
-                    .with_context(|| format!("cannot remove stale lock {}", path.display()))?;
-            }
+            Ok(false) => bail!(
+                "{what} is locked by {} that is still writing into it: wait for it to finish, \
+                 or choose another --out (nothing was changed)",
+                describe_holder(&read_holder(path)),
+            ),
             Err(e) => {
-                return Err(e).with_context(|| format!("cannot create lock {}", path.display()))
+                return Err(e).with_context(|| {
+                    format!(
+                        "cannot lock {}: the file system refuses flock(2) locks, which the tool \
+                         needs to keep two writers apart",
+                        path.display()
+                    )
+                })
             }
         }
+        // The holder before us may have removed the file between our open and our lock: then
+        // the lock we hold is on a file nobody else will open. Try again on the path's file.
+        if !same_inode(&file, path) {
+            continue;
+        }
+        let mut text = String::new();
+        let _ = file.read_to_string(&mut text);
+        if !text.trim().is_empty() {
+            notes.push(match serde_json::from_str::<Holder>(&text) {
+                Ok(h) => format!("took over the lock of a {} that is gone", h.describe()),
+                Err(_) => format!(
+                    "took over the lock {} of a writer that is gone",
+                    path.display()
+                ),
+            });
+        }
+        let record = serde_json::to_vec_pretty(me)?;
+        file.set_len(0)
+            .and_then(|()| file.seek(SeekFrom::Start(0)))
+            .and_then(|_| file.write_all(&record))
+            .with_context(|| format!("cannot write the lock {}", path.display()))?;
+        return Ok(HeldLock {
+            file,
+            path: path.to_path_buf(),
+        });
     }
-    bail!("cannot take the lock {} (contended)", path.display())
+}
+
+/// `flock(2)` without waiting: `Ok(true)` when taken, `Ok(false)` when another open file holds
+/// a conflicting lock.
+fn flock(file: &File, op: libc::c_int) -> std::io::Result<bool> {
+    loop {
+        // SAFETY: flock on a file descriptor this `File` owns and keeps open for the call.
+        if unsafe { libc::flock(file.as_raw_fd(), op | libc::LOCK_NB) } == 0 {
+            return Ok(true);
+        }
+        let e = std::io::Error::last_os_error();
+        match e.raw_os_error() {
+            Some(libc::EWOULDBLOCK) => return Ok(false),
+            Some(libc::EINTR) => continue,
+            _ => return Err(e),
+        }
+    }
+}
+
+/// Whether `path` still names the file `file` has open.
+fn same_inode(file: &File, path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (file.metadata(), fs::metadata(path)) {
+        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+        _ => false,
+    }
+}
+
+/// Whether the lock at `path` is held now, by a writer alive (see [`HeldLock`]). Takes a
+/// shared lock for a moment to tell (a taker waits [`PROBE_GRACE`] for it); a missing file is
+/// not held.
+pub fn is_held(path: &Path) -> bool {
+    let Ok(file) = File::open(path) else {
+        return false;
+    };
+    !matches!(flock(&file, libc::LOCK_SH), Ok(true))
+}
+
+/// The holder recorded in a held lock: its taker writes it right after taking the lock, so
+/// an empty record is read again for a moment.
+pub(super) fn read_holder(path: &Path) -> Option<Holder> {
+    let t = Instant::now();
+    loop {
+        if let Some(h) = fs::read_to_string(path)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+        {
+            return Some(h);
+        }
+        if t.elapsed() > PROBE_GRACE {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// `a run (pid 12, host h, started ...)`, or what is known of a holder whose record cannot
+/// be read.
+pub(super) fn describe_holder(h: &Option<Holder>) -> String {
+    match h {
+        Some(h) => format!("a {}", h.describe()),
+        None => "another process (its record could not be read)".into(),
+    }
 }
 
 pub(super) fn hostname() -> String {
@@ -183,15 +295,12 @@ pub(super) fn utc(s: u64) -> String {
 }
 
 /// The live holders of the other locks of `root` (`lock`, `lock.shard-<i>`) than `mine`, by
-/// lock name; dead holders' locks are removed (said in `notes`).
+/// lock name, described (`a shard (pid ..., host ..., started ...)`). A lock is live while its
+/// file is locked ([`is_held`]); a dead writer's lock file is left for its next taker.
 ///
 /// # Errors
-/// If the state folder cannot be read or a dead lock removed.
-pub(super) fn other_locks(
-    root: &Path,
-    mine: &str,
-    notes: &mut Vec<String>,
-) -> Result<Vec<(String, Holder)>> {
+/// If the state folder cannot be read.
+pub(super) fn other_locks(root: &Path, mine: &str) -> Result<Vec<(String, String)>> {
     let state = root.join(STATE);
     let mut live = vec![];
     for e in fs::read_dir(&state)
@@ -202,20 +311,10 @@ pub(super) fn other_locks(
         if name == mine || !(name == "lock" || name.starts_with("lock.shard-")) {
             continue;
         }
-        let holder: Option<Holder> = fs::read_to_string(e.path())
-            .ok()
-            .and_then(|t| serde_json::from_str(&t).ok());
-        match holder {
-            Some(h) if !h.is_dead() => live.push((name, h)),
-            Some(h) => {
-                notes.push(format!(
-                    "removed the stale {name} of a {} that is gone",
-                    h.describe()
-                ));
-                let _ = fs::remove_file(e.path());
-            }
-            None => {} // being written by its taker this instant, or unreadable: left alone
+        if is_held(&e.path()) {
+            live.push((name, describe_holder(&read_holder(&e.path()))));
         }
     }
+    live.sort();
     Ok(live)
 }

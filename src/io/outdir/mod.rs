@@ -23,20 +23,18 @@
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::collections::BTreeSet;
-use std::fs::{self, File, OpenOptions};
+use std::fs::{self, OpenOptions};
 use std::io::Write;
-use std::path::{Component, Path, PathBuf};
-use std::sync::Mutex;
+use std::path::{Path, PathBuf};
 
 mod check;
 mod lock;
 
 pub use check::{check_complete, check_file_output, file_records, remove_dead_temporaries_of};
-use lock::take_lock;
-pub use lock::Holder;
+pub use lock::{is_held, take_lock, HeldLock, Holder};
 
-/// The folder of the tool's own state inside an output folder.
-pub const STATE: &str = ".isar-clutter";
+use crate::io::journal::{self, safe_relative};
+pub use crate::io::journal::{note, STATE};
 
 /// A claimed output folder: locked, journaled, and (for a run) marked in progress until
 /// [`OutDir::complete`]. Dropping it releases the lock and stops the journal; a run that did
@@ -45,7 +43,10 @@ pub const STATE: &str = ".isar-clutter";
 pub struct OutDir {
     root: PathBuf,
     abs: PathBuf,
+    /// The name of the lock under the state folder (`lock`, `lock.shard-<i>`).
     lock: String,
+    /// The lock itself, released when the claim is dropped.
+    _held: HeldLock,
     /// Notes for the caller: stale lock taken over, temporary files removed.
     pub notes: Vec<String>,
 }
@@ -69,51 +70,6 @@ pub enum Purpose {
         /// Accept a folder that is in progress or whose files differ from its manifest.
         allow_incomplete: bool,
     },
-}
-
-/// Every active journal of this process: the absolute root and its state.
-static ACTIVE: Mutex<Vec<Journal>> = Mutex::new(Vec::new());
-
-#[derive(Debug)]
-struct Journal {
-    abs: PathBuf,
-    file: File,
-    written: BTreeSet<PathBuf>,
-}
-
-/// Records that the tool is about to write `path` if it lies in a claimed folder of this
-/// process (appends it to the folder's journal before the temporary file exists); nothing
-/// otherwise. Called by every atomic write.
-pub fn note(path: &Path) {
-    let Ok(mut active) = ACTIVE.lock() else {
-        return;
-    };
-    if active.is_empty() {
-        return;
-    }
-    let Ok(abs) = std::path::absolute(path) else {
-        return;
-    };
-    for j in active.iter_mut() {
-        if let Ok(rel) = abs.strip_prefix(&j.abs) {
-            if rel.starts_with(STATE) || !safe_relative(rel) {
-                return;
-            }
-            if j.written.insert(rel.to_path_buf()) {
-                if let Some(s) = rel.to_str() {
-                    // One write call per line (O_APPEND): lines of threads never interleave.
-                    let _ = j.file.write_all(format!("{s}\n").as_bytes());
-                }
-            }
-            return;
-        }
-    }
-}
-
-/// A relative path made of plain names only (no `..`, no root): safe to join to the root
-/// and remove.
-fn safe_relative(rel: &Path) -> bool {
-    rel.components().next().is_some() && rel.components().all(|c| matches!(c, Component::Normal(_)))
 }
 
 impl OutDir {
@@ -158,31 +114,39 @@ impl OutDir {
             Purpose::Shard { index } => format!("lock.shard-{index}"),
             _ => "lock".to_string(),
         };
-        take_lock(root, &lock, &me, &mut notes)?;
+        let held = take_lock(
+            &state.join(&lock),
+            &root.display().to_string(),
+            &me,
+            &mut notes,
+        )?;
         let abs = std::path::absolute(root)
             .with_context(|| format!("cannot resolve {}", root.display()))?;
-        let dir = OutDir {
+        // From here on the lock is ours; dropping `dir` releases it on any error.
+        let mut dir = OutDir {
             root: root.to_path_buf(),
             abs,
             lock,
+            _held: held,
             notes,
         };
-        // From here on the lock is ours; dropping `dir` releases it on any error.
-        let mut dir = dir;
+        // What the folder held may have changed while the lock was not ours (a run of another
+        // experiment that finished a moment ago).
+        check_owner(root, name, purpose)?;
         // A shard runs beside other shards, never beside a whole run or a merge; those run
-        // beside nothing.
-        let conflicts = lock::other_locks(root, &dir.lock, &mut dir.notes)?;
-        let blocking: Vec<Holder> = conflicts
+        // beside nothing. Each writer takes its own lock before it looks at the others', so of
+        // two started at once at least one sees the other.
+        let conflicts = lock::other_locks(root, &dir.lock)?;
+        let blocking: Vec<String> = conflicts
             .into_iter()
             .filter(|(name, _)| !matches!(purpose, Purpose::Shard { .. }) || name == "lock")
             .map(|(_, h)| h)
             .collect();
         if let Some(h) = blocking.first() {
             bail!(
-                "{} is being written by a {} that is still running: wait for it to finish (nothing \
+                "{} is being written by {h} that is still running: wait for it to finish (nothing \
                  was changed)",
                 root.display(),
-                h.describe()
             );
         }
         if let Some(name) = name {
@@ -225,14 +189,7 @@ impl OutDir {
             .append(true)
             .open(state.join("journal"))
             .with_context(|| format!("cannot open {}/{STATE}/journal", root.display()))?;
-        ACTIVE
-            .lock()
-            .map_err(|_| anyhow::anyhow!("journal lock poisoned"))?
-            .push(Journal {
-                abs: dir.abs.clone(),
-                file,
-                written: BTreeSet::new(),
-            });
+        journal::open(&dir.abs, file)?;
         Ok(dir)
     }
 
@@ -243,13 +200,7 @@ impl OutDir {
 
     /// The files noted under this claim so far (relative paths, sorted).
     pub fn written(&self) -> Vec<PathBuf> {
-        self.with_journal(|j| j.written.iter().cloned().collect())
-            .unwrap_or_default()
-    }
-
-    fn with_journal<T>(&self, f: impl FnOnce(&mut Journal) -> T) -> Option<T> {
-        let mut active = ACTIVE.lock().ok()?;
-        active.iter_mut().find(|j| j.abs == self.abs).map(f)
+        journal::written(&self.abs)
     }
 
     /// The relative paths the tool's records say it wrote here (the `owned` list and the
@@ -412,10 +363,8 @@ pub(crate) fn remove_temporaries(
 
 impl Drop for OutDir {
     fn drop(&mut self) {
-        if let Ok(mut active) = ACTIVE.lock() {
-            active.retain(|j| j.abs != self.abs);
-        }
-        let _ = fs::remove_file(self.root.join(STATE).join(&self.lock));
+        journal::close(&self.abs);
+        // The lock goes with `_held`, after this.
     }
 }
 
@@ -453,6 +402,32 @@ pub fn owned(root: &Path) -> Result<BTreeSet<PathBuf>> {
         );
     }
     Ok(set)
+}
+
+/// Takes the lock of a single output of `command` (a `generate`'s samples file, a `fit`'s
+/// model folder): `.NAME.lock` beside it (its folder made if missing), held until the returned
+/// lock is dropped and removed then. Two writers of one output started at once: one is
+/// refused, naming the other.
+///
+/// # Errors
+/// When another live writer holds it, or the lock cannot be taken.
+pub fn lock_output(path: &Path, command: &str) -> Result<HeldLock> {
+    let name = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .with_context(|| format!("{} does not name a file", path.display()))?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut notes = vec![];
+    take_lock(
+        &dir.join(format!(".{name}.lock")),
+        &path.display().to_string(),
+        &Holder::me(command),
+        &mut notes,
+    )
 }
 
 /// Marks `root` (created if missing) as an output folder of the experiment `name` without

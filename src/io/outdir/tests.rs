@@ -2,6 +2,7 @@
 
 use super::lock::utc;
 use super::*;
+use std::fs::File;
 
 #[test]
 fn temporary_names_of_both_writers_are_recognised() {
@@ -138,4 +139,128 @@ fn an_interrupted_run_is_refused_by_readers() {
         }
     )
     .is_ok());
+}
+
+#[test]
+fn claims_started_together_give_the_folder_to_exactly_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("out");
+    for round in 0..5 {
+        let barrier = std::sync::Barrier::new(8);
+        let results: Vec<Result<OutDir>> = std::thread::scope(|s| {
+            let handles: Vec<_> = (0..8)
+                .map(|_| {
+                    s.spawn(|| {
+                        barrier.wait();
+                        OutDir::claim(&root, Some("e"), Purpose::Run)
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let won = results.iter().filter(|r| r.is_ok()).count();
+        assert_eq!(won, 1, "round {round}: {won} claims hold the folder");
+        let me = format!("locked by a run (pid {},", std::process::id());
+        for r in &results {
+            if let Err(e) = r {
+                assert!(format!("{e:#}").contains(&me), "round {round}: {e:#}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_dead_holders_lock_is_taken_over_and_said_and_a_released_one_is_gone() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("out");
+    fs::create_dir_all(root.join(STATE)).unwrap();
+    // What a writer killed after taking the lock leaves: its record, no flock.
+    let mut dead = Holder::me("run");
+    dead.pid = 999_999_999;
+    fs::write(
+        root.join(STATE).join("lock"),
+        serde_json::to_vec(&dead).unwrap(),
+    )
+    .unwrap();
+    let d = OutDir::claim(&root, Some("e"), Purpose::Run).unwrap();
+    assert!(
+        d.notes
+            .iter()
+            .any(|n| n.contains("took over the lock of a run (pid 999999999,")),
+        "{:?}",
+        d.notes
+    );
+    assert!(is_held(&root.join(STATE).join("lock")));
+    drop(d);
+    assert!(!root.join(STATE).join("lock").exists(), "released: removed");
+    // An empty lock file (a writer killed before writing its record) is taken silently.
+    fs::write(root.join(STATE).join("lock"), b"").unwrap();
+    let d = OutDir::claim(&root, Some("e"), Purpose::Run).unwrap();
+    assert!(d.notes.iter().all(|n| !n.contains("lock")), "{:?}", d.notes);
+}
+
+#[test]
+fn a_lock_held_for_a_moment_by_a_probe_is_waited_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.lock");
+    fs::write(&path, b"").unwrap();
+    let probe = File::open(&path).unwrap();
+    // SAFETY: flock on a descriptor `probe` owns.
+    assert_eq!(
+        unsafe {
+            libc::flock(
+                std::os::fd::AsRawFd::as_raw_fd(&probe),
+                libc::LOCK_SH | libc::LOCK_NB,
+            )
+        },
+        0
+    );
+    let t = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        drop(probe);
+    });
+    let mut notes = vec![];
+    let held = take_lock(&path, "x", &Holder::me("run"), &mut notes).unwrap();
+    t.join().unwrap();
+    assert!(is_held(&path));
+    drop(held);
+    assert!(!path.exists());
+}
+
+#[test]
+fn a_second_writer_of_one_output_is_refused_naming_the_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("new/samples.npy");
+    let held = lock_output(&out, "generate").unwrap();
+    let err = lock_output(&out, "generate").unwrap_err();
+    let want = format!("locked by a generate (pid {},", std::process::id());
+    assert!(format!("{err:#}").contains(&want), "{err:#}");
+    drop(held);
+    assert_eq!(
+        fs::read_dir(dir.path().join("new")).unwrap().count(),
+        0,
+        "the lock file goes with the lock"
+    );
+    lock_output(&out, "generate").unwrap();
+}
+
+#[test]
+fn readers_tell_a_live_writer_an_unmerged_sharded_run_and_an_interrupted_run_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("out");
+    let d = OutDir::claim(&root, Some("e"), Purpose::Shard { index: 1 }).unwrap();
+    let err = format!("{:#}", check_complete(&root).unwrap_err());
+    assert!(
+        err.contains("a shard (pid") && err.contains("still writing"),
+        "{err}"
+    );
+    drop(d);
+    let err = format!("{:#}", check_complete(&root).unwrap_err());
+    assert!(
+        err.contains("sharded run") && err.contains("merge") && !err.contains("interrupted"),
+        "{err}"
+    );
+    drop(OutDir::claim(&root, Some("e"), Purpose::Run).unwrap());
+    let err = format!("{:#}", check_complete(&root).unwrap_err());
+    assert!(err.contains("was interrupted"), "{err}");
 }
