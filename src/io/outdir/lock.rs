@@ -1,5 +1,5 @@
 //! The locks of the tool's outputs (an output folder, a `generate` or `fit` output): taken
-//! atomically with `flock(2)` on a lock file, so that of two writers started at the same
+//! atomically with an open-file-description lock (`fcntl(F_OFD_SETLK)`) on a lock file, so that of two writers started at the same
 //! instant exactly one holds it and the kernel releases it when its holder dies; the file
 //! records who holds it ([`Holder`]: pid, host, boot id and process start time), for the
 //! refusal's message and for telling a finished writer from a dead one elsewhere.
@@ -76,11 +76,12 @@ impl Holder {
     }
 }
 
-/// A lock this process holds: its lock file, open and locked exclusively with `flock(2)`.
-/// The kernel releases the lock when the process ends, however it ends, so a lock held is a
-/// writer alive (on a network file system, a client alive); the file's content, the
-/// [`Holder`], only says who. Dropping it removes the file while still holding the lock, then
-/// closes it.
+/// A lock this process holds: its lock file, open and locked for writing with an
+/// open-file-description lock (`fcntl(F_OFD_SETLK)`, Linux 3.15+). The kernel releases it when
+/// the file is closed, so when its holder ends, however it ends: a lock held is a writer alive
+/// (on a network file system, a client alive, through the file system's lock manager). The
+/// file's content, the [`Holder`], only says who. Dropping it removes the file while still
+/// holding the lock, then closes it.
 #[derive(Debug)]
 pub struct HeldLock {
     file: File,
@@ -96,15 +97,10 @@ impl Drop for HeldLock {
     }
 }
 
-/// How long a taker waits for a lock that is held for a moment only: another process's
-/// liveness probe ([`probe`] holds a shared lock for microseconds). A writer holds its lock for
-/// its whole run, so a lock still held after this is a live writer's.
-const PROBE_GRACE: Duration = Duration::from_millis(300);
-
-/// Takes the lock at `path` for `me`: atomically, with `flock(2)` on a lock file that stays
-/// while it is held. A held lock is refused naming its holder; the file of a holder that died
-/// (killed: the kernel released its lock, the file stayed) is taken over and said in `notes`.
-/// `what` names the locked thing in the refusal (`/data/out`, `samples.npy`).
+/// Takes the lock at `path` for `me`, atomically: of two takers at the same instant exactly
+/// one gets it, and the other is refused at once, naming the holder. The lock file of a holder
+/// that died (killed: the kernel released its lock, the file stayed) is taken over and said in
+/// `notes`. `what` names the locked thing in the refusal (`/data/out`, `samples.npy`).
 ///
 /// # Errors
 /// When the lock is held by a live writer (the message names it), or the lock file cannot be
@@ -115,7 +111,6 @@ pub fn take_lock(
     me: &Holder,
     notes: &mut Vec<String>,
 ) -> Result<HeldLock> {
-    let waited = Instant::now();
     loop {
         let mut file = OpenOptions::new()
             .read(true)
@@ -124,12 +119,8 @@ pub fn take_lock(
             .truncate(false)
             .open(path)
             .with_context(|| format!("cannot create the lock {}", path.display()))?;
-        match flock(&file, libc::LOCK_EX) {
+        match ofd_lock(&file, libc::F_OFD_SETLK) {
             Ok(true) => {}
-            Ok(false) if waited.elapsed() < PROBE_GRACE => {
-                std::thread::sleep(Duration::from_millis(2));
-                continue;
-            }
             Ok(false) => bail!(
                 "{what} is locked by {} that is still writing into it: wait for it to finish, \
                  or choose another --out (nothing was changed)",
@@ -138,7 +129,7 @@ pub fn take_lock(
             Err(e) => {
                 return Err(e).with_context(|| {
                     format!(
-                        "cannot lock {}: the file system refuses flock(2) locks, which the tool \
+                        "cannot lock {}: the file system refuses fcntl locks, which the tool \
                          needs to keep two writers apart",
                         path.display()
                     )
@@ -173,17 +164,24 @@ pub fn take_lock(
     }
 }
 
-/// `flock(2)` without waiting: `Ok(true)` when taken, `Ok(false)` when another open file holds
-/// a conflicting lock.
-fn flock(file: &File, op: libc::c_int) -> std::io::Result<bool> {
+/// An open-file-description write lock over the whole file: `F_OFD_SETLK` takes it
+/// (`Ok(true)`, or `Ok(false)` when another open file holds one), `F_OFD_GETLK` only tells
+/// whether it could be taken, without taking it (so a probe never stands in a taker's way).
+fn ofd_lock(file: &File, cmd: libc::c_int) -> std::io::Result<bool> {
     loop {
-        // SAFETY: flock on a file descriptor this `File` owns and keeps open for the call.
-        if unsafe { libc::flock(file.as_raw_fd(), op | libc::LOCK_NB) } == 0 {
-            return Ok(true);
+        // SAFETY: an all-zero `flock` is a valid value of the plain C struct.
+        let mut fl: libc::flock = unsafe { std::mem::zeroed() };
+        fl.l_type = libc::F_WRLCK as libc::c_short;
+        fl.l_whence = libc::SEEK_SET as libc::c_short;
+        // l_start = l_len = 0: the whole file; l_pid = 0, as OFD locks require.
+        // SAFETY: fcntl on a descriptor this `File` owns and keeps open for the call, with a
+        // pointer to a live `flock`.
+        if unsafe { libc::fcntl(file.as_raw_fd(), cmd, &mut fl) } == 0 {
+            return Ok(cmd != libc::F_OFD_GETLK || fl.l_type == libc::F_UNLCK as libc::c_short);
         }
         let e = std::io::Error::last_os_error();
         match e.raw_os_error() {
-            Some(libc::EWOULDBLOCK) => return Ok(false),
+            Some(libc::EAGAIN | libc::EACCES) => return Ok(false),
             Some(libc::EINTR) => continue,
             _ => return Err(e),
         }
@@ -199,18 +197,20 @@ fn same_inode(file: &File, path: &Path) -> bool {
     }
 }
 
-/// Whether the lock at `path` is held now, by a writer alive (see [`HeldLock`]). Takes a
-/// shared lock for a moment to tell (a taker waits [`PROBE_GRACE`] for it); a missing file is
-/// not held.
+/// Whether the lock at `path` is held now, by a writer alive (see [`HeldLock`]); asked with
+/// `F_OFD_GETLK`, which takes nothing. A missing file is not held.
 pub fn is_held(path: &Path) -> bool {
     let Ok(file) = File::open(path) else {
         return false;
     };
-    !matches!(flock(&file, libc::LOCK_SH), Ok(true))
+    !matches!(ofd_lock(&file, libc::F_OFD_GETLK), Ok(true))
 }
 
-/// The holder recorded in a held lock: its taker writes it right after taking the lock, so
-/// an empty record is read again for a moment.
+/// How long a refused taker reads a held lock's record that is still empty: its taker writes
+/// it right after taking the lock.
+const RECORD_WAIT: Duration = Duration::from_millis(300);
+
+/// The holder recorded in a held lock; an empty record is read again for a moment.
 pub(super) fn read_holder(path: &Path) -> Option<Holder> {
     let t = Instant::now();
     loop {
@@ -220,7 +220,7 @@ pub(super) fn read_holder(path: &Path) -> Option<Holder> {
         {
             return Some(h);
         }
-        if t.elapsed() > PROBE_GRACE {
+        if t.elapsed() > RECORD_WAIT {
             return None;
         }
         std::thread::sleep(Duration::from_millis(5));
