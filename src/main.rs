@@ -888,7 +888,7 @@ fn table_command(
     pivot: Option<&str>,
     filters: &[(String, Vec<String>)],
 ) -> Result<()> {
-    use isar_clutter::report::table::{names, render_named};
+    use isar_clutter::report::catalog::{names, render_named};
     if !results.is_dir() {
         anyhow::bail!("{} is not a results folder", results.display());
     }

@@ -374,7 +374,7 @@ fn a_trivially_separable_toy_set_is_learnt() {
     .unwrap();
     let loaded = isar_clutter::apps::cnn::store::load(dir.path()).unwrap();
     let before = t.predict(&va.images);
-    let again = isar_clutter::apps::cnn::train::Trained::from_loaded(loaded).predict(&va.images);
+    let again = loaded.into_trained().predict(&va.images);
     assert_eq!(before, again);
     // The same seed trains the same network.
     let t2 = train(&c, &opts, &tr, &va, 7);

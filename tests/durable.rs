@@ -243,7 +243,10 @@ fn bad_shards_and_merges_are_refused() {
     let text_record = fs::read_to_string(&record).unwrap();
     fs::write(
         &record,
-        text_record.replace("\"schema\": 1", "\"schema\": 99"),
+        text_record.replace(
+            &format!("\"schema\": {}", isar_clutter::run::store::SCHEMA),
+            "\"schema\": 99",
+        ),
     )
     .unwrap();
     let o = bin(&["merge", out.to_str().unwrap()]);

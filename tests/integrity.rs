@@ -39,6 +39,7 @@ synthesis:
   methods: [method1]
   samples: 200
   levels: 2
+  save_samples: true
 sweep:
   grid:
     datasets.*.mean: {means}
@@ -191,8 +192,8 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// One file of each kind in a job's folder of the store: a map, a model file, a table
-/// fragment, and the record itself.
+/// One file of each kind in a job's folder of the store: a map, a model file, the generated
+/// samples, a table fragment, and the record itself.
 fn one_of_each_kind(job: &Path) -> Vec<PathBuf> {
     let files = files_under(job);
     let pick = |f: &dyn Fn(&Path) -> bool| -> PathBuf {
@@ -205,6 +206,7 @@ fn one_of_each_kind(job: &Path) -> Vec<PathBuf> {
     vec![
         pick(&|p| p.starts_with("maps") && p.extension().is_some_and(|e| e == "npy")),
         pick(&|p| p.starts_with("models")),
+        pick(&|p| p.starts_with("samples")),
         pick(&|p| p.starts_with("fragments")),
         PathBuf::from("done.json"),
     ]
@@ -218,13 +220,13 @@ fn flip_byte(path: &Path) {
     fs::write(path, bytes).unwrap();
 }
 
-/// The folder of the store's job that wrote `maps/a-...` files and models (the first such).
+/// The folder of the store's first job (by key) that wrote models and samples.
 fn a_job_with_models(out: &Path) -> PathBuf {
     let mut jobs: Vec<PathBuf> = fs::read_dir(out.join("jobs"))
         .unwrap()
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.join("models").is_dir() && p.join("maps").is_dir())
+        .filter(|p| p.join("models").is_dir() && p.join("samples").is_dir())
         .collect();
     jobs.sort();
     jobs.into_iter().next().expect("a job with maps and models")

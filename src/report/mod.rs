@@ -4,6 +4,7 @@
 //! hold its numbers, the spec and the provenance from `manifest.json`. Everything is rebuilt
 //! from files, so `isar-clutter report DIR` regenerates it without rerunning anything.
 
+pub mod catalog;
 pub mod cnn;
 pub mod figures;
 mod page;

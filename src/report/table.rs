@@ -177,38 +177,6 @@ pub fn standard() -> Vec<TableDef> {
     ]
 }
 
-/// Names of every table `isar-clutter table` prints, in print order: the pivot tables of
-/// [`standard`], then the CNN tables of [`super::cnn::table`].
-pub fn names() -> Vec<&'static str> {
-    standard()
-        .iter()
-        .map(|d| d.name)
-        .chain(super::cnn::table::NAMES.iter().copied())
-        .collect()
-}
-
-/// Renders the table called `name` (one of [`names`]): a pivot table by [`render`], a CNN
-/// table by [`super::cnn::table::render`]. `Ok(None)` as they say.
-///
-/// # Errors
-/// If no table has that name, or as [`render`].
-pub fn render_named(
-    dir: &Path,
-    name: &str,
-    filters: &[(String, Vec<String>)],
-    pivot: Option<&str>,
-    format: Format,
-    strict: bool,
-) -> Result<Option<String>> {
-    match standard().iter().find(|d| d.name == name) {
-        Some(def) => render(dir, def, filters, pivot, format, strict),
-        None if super::cnn::table::NAMES.contains(&name) => {
-            super::cnn::table::render(dir, name, filters, pivot, format, strict)
-        }
-        None => bail!("no table {name:?}; tables: {}", names().join(", ")),
-    }
-}
-
 /// A column read as display strings (`None` for null).
 pub(super) fn strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>> {
     let col = df

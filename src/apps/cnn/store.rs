@@ -123,6 +123,23 @@ pub struct Loaded {
     pub info: NetworkInfo,
 }
 
+impl Loaded {
+    /// The loaded network as a predictor (no training record: no epochs, accuracies `NaN`).
+    pub fn into_trained(self) -> Trained {
+        Trained {
+            cfg: self.info.config,
+            net: self.net,
+            mean: self.mean,
+            epochs: vec![],
+            train_accuracy: f64::NAN,
+            validation_accuracy: f64::NAN,
+            seconds: 0.0,
+            samples_per_second: f64::NAN,
+            batch_size: 0,
+        }
+    }
+}
+
 /// Loads a network saved by [`save`], checking every file's shape and finiteness.
 ///
 /// # Errors

@@ -522,22 +522,6 @@ fn accuracy<B: Backend>(net: &Net<B>, cfg: &NetConfig, set: &Prepared) -> f64 {
 }
 
 impl Trained {
-    /// A network loaded from disk ([`super::store::load`]) as a predictor (no training
-    /// record: no epochs, accuracies `NaN`).
-    pub fn from_loaded(l: super::store::Loaded) -> Trained {
-        Trained {
-            cfg: l.info.config,
-            net: l.net,
-            mean: l.mean,
-            epochs: vec![],
-            train_accuracy: f64::NAN,
-            validation_accuracy: f64::NAN,
-            seconds: 0.0,
-            samples_per_second: f64::NAN,
-            batch_size: 0,
-        }
-    }
-
     /// Predicted classes of `images` (`N * H * W`).
     pub fn predict(&self, images: &[Complex32]) -> Vec<usize> {
         let n = images.len() / (self.cfg.height * self.cfg.width);
