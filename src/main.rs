@@ -205,7 +205,7 @@ enum Command {
         sample_format: Option<u32>,
         /// The .npy or .mat (by its extension) to write. A .npy gets NAME.npy.json beside
         /// it: the model, seed and sample format that write it again. An existing file is
-        /// replaced only if the tool wrote it.
+        /// replaced only if the tool wrote it and it holds nothing the tool did not write.
         #[arg(long)]
         out: PathBuf,
         /// .mat output: the MAT version, 7.3 (default: HDF5, any size; needs the mat73
@@ -238,7 +238,7 @@ fn main() -> ExitCode {
     match real_main() {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", isar_clutter::error_text(&e));
             ExitCode::from(2)
         }
     }
@@ -542,11 +542,7 @@ fn generate_command(
     // Held until the samples are in place: a second `generate` into `out` is refused.
     let _lock = isar_clutter::io::outdir::lock_output(out, "generate")?;
     match mat {
-        Some(_) => isar_clutter::io::outdir::check_file_output(
-            out,
-            "samples .mat",
-            isar_clutter::io::mat::write::is_ours,
-        )?,
+        Some(_) => isar_clutter::io::mat::write::check_replaceable(out)?,
         None => {
             use isar_clutter::io::model::{is_generated_npy, is_generation_record, record_path};
             isar_clutter::io::outdir::check_file_output(out, "samples .npy", is_generated_npy)?;
@@ -717,7 +713,8 @@ fn fit_command(
             half_width,
             levels: depth,
         },
-    )?;
+    )
+    .with_context(|| format!("fitting {} to {source}", method.as_str()))?;
     let info = isar_clutter::io::model::ModelInfo::new(
         &model,
         &analysis,

@@ -348,6 +348,10 @@ impl ClassificationSpec {
             .unwrap_or(0);
         for (i, &n) in self.train_sizes.iter().enumerate() {
             let at_i = format!("{at}.train_sizes[{i}]");
+            if self.train_sizes[..i].contains(&n) {
+                // Two trainings would share a job id and the table would count them twice.
+                return Err(ctx.err(at_i, format!("{n} is listed twice")));
+            }
             if n < k {
                 return Err(ctx.err(
                     at_i,

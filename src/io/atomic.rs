@@ -311,10 +311,13 @@ pub fn write_npy<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
     path: &Path,
     a: &ndarray::Array<A, D>,
 ) -> Result<()> {
-    use ndarray_npy::WriteNpyExt;
-    atomic_write(path, |w| {
-        a.write_npy(w)?;
-        Ok(())
+    use ndarray_npy::{WriteNpyError, WriteNpyExt};
+    atomic_write(path, |w| match a.write_npy(w) {
+        Ok(()) => Ok(()),
+        // The I/O error itself (ndarray-npy's says `I/O error: {e}` and gives `e` as its
+        // cause, which a printed chain repeated).
+        Err(WriteNpyError::Io(e)) => Err(e.into()),
+        Err(e) => Err(e.into()),
     })
 }
 

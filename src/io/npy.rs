@@ -16,12 +16,13 @@ use std::sync::{Arc, Mutex};
 #[derive(Debug, thiserror::Error)]
 pub enum NpyError {
     /// The file cannot be opened or read.
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}: {cause}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, not a `source()`, so that a chain printed with `{:#}`
+        /// says it once).
+        cause: std::io::Error,
     },
     /// The header is not a valid `.npy` header.
     #[error("{path} is not a valid .npy file: {reason}")]
@@ -127,9 +128,9 @@ pub fn element_count(shape: &[usize]) -> Option<usize> {
 /// # Errors
 /// [`NpyError`] if the file is missing or its header is not a valid `.npy` header.
 pub fn read_raw_header(path: &Path) -> Result<RawHeader, NpyError> {
-    let io = |source| NpyError::Io {
+    let io = |cause| NpyError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     };
     let bad = |reason: &str| NpyError::Header {
         path: path.to_path_buf(),
@@ -357,9 +358,9 @@ impl Stack {
                 header.shape
             )));
         }
-        let file = File::open(path).map_err(|source| NpyError::Io {
+        let file = File::open(path).map_err(|cause| NpyError::Io {
             path: path.to_path_buf(),
-            source,
+            cause,
         })?;
         let map =
             match take_map(&file) {
@@ -367,10 +368,10 @@ impl Stack {
                 // SAFETY: the map is read-only and private to this process; it is undefined only
                 // if another process truncates or rewrites the file during the run (documented
                 // above).
-                None => Arc::new(unsafe { memmap2::Mmap::map(&file) }.map_err(|source| {
+                None => Arc::new(unsafe { memmap2::Mmap::map(&file) }.map_err(|cause| {
                     NpyError::Io {
                         path: path.to_path_buf(),
-                        source,
+                        cause,
                     }
                 })?),
             };
@@ -535,9 +536,9 @@ fn read_array<T: Element, D: ndarray::Dimension>(
         path: path.to_path_buf(),
         reason,
     };
-    let io = |source| NpyError::Io {
+    let io = |cause| NpyError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     };
     let count = header.count();
     let need = count.saturating_mul(std::mem::size_of::<T>());

@@ -9,7 +9,7 @@ use crate::run::jobs::{Inputs, Outcome};
 use crate::run::plan::Plan;
 use crate::run::scheduler::{self, RunOptions, RunSummary};
 use crate::run::{merge, store};
-use anyhow::Result;
+use anyhow::{bail, Result};
 use std::time::Instant;
 
 /// Runs the jobs of `plan` (all, or one shard's) into the job store of the output folder,
@@ -19,7 +19,9 @@ use std::time::Instant;
 ///
 /// # Errors
 /// Only for failures outside the jobs (an output folder that is not the tool's or is locked,
-/// the store, tables, manifest); a failed job is recorded in the store, in `jobs.parquet` (or,
+/// the store, tables, manifest), and when jobs of this run failed without a record in the
+/// store (a full disk: the error names them and their causes, and nothing is merged); a
+/// failed job is recorded in the store, in `jobs.parquet` (or,
 /// for a job of the run as a whole, in the manifest) and in the returned summary. A run that
 /// stops with an error leaves its folder marked in progress, which `table` and `report` refuse.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
@@ -115,6 +117,19 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
             claim: None,
         });
     }
+    // A job whose outcome could not be stored (a full disk, say) is missing from the store,
+    // and the merge would refuse it as a shard's job not run yet: say that it failed, and why.
+    let unstored: Vec<String> = done
+        .iter()
+        .filter(|(i, _)| matches!(store::entry(&opts.out, &keys[*i]), store::Entry::Missing(_)))
+        .map(|(i, o)| {
+            let why = o.rows.as_ref().err().map_or("no record", String::as_str);
+            format!("{}: {why}", jobs[*i].id())
+        })
+        .collect();
+    if !unstored.is_empty() {
+        bail!("{}", unstored_message(&opts.out, &unstored));
+    }
     let merged = pool
         .install(|| merge::merge_claimed(plan, &jobs, &keys, &outdir, opts, false, start, done))?;
     notes.extend(merged.notes);
@@ -129,4 +144,22 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         merged: true,
         claim: opts.report_follows.then_some(outdir),
     })
+}
+
+/// The error of a run some of whose jobs failed without a record in the job store: the jobs
+/// and their errors (the first 3), and what to do.
+fn unstored_message(out: &std::path::Path, unstored: &[String]) -> String {
+    let shown: Vec<&str> = unstored.iter().take(3).map(String::as_str).collect();
+    format!(
+        "{} job(s) failed and their outcome could not be saved in the job store {}: {}{}; \
+         nothing was merged: free space (or fix what the errors name) and run again, which \
+         redoes only the jobs not stored",
+        unstored.len(),
+        out.join("jobs").display(),
+        shown.join("; "),
+        match unstored.len() - shown.len() {
+            0 => String::new(),
+            more => format!("; and {more} more"),
+        }
+    )
 }

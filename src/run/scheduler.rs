@@ -163,7 +163,7 @@ fn run_group(
         && matches!(first.inputs(), Inputs::Dataset { shared: true, .. }))
     .then(|| {
         catch_unwind(AssertUnwindSafe(|| {
-            first.materialise().map_err(|e| format!("{e:#}"))
+            first.materialise().map_err(|e| crate::error_text(&e))
         }))
         .unwrap_or_else(|p| Err(format!("dataset panicked: {}", panic_message(&p))))
     });
@@ -176,7 +176,7 @@ fn run_group(
             let rows = match (&shared, too_big(job)) {
                 _ if dir.is_err() => Err(dir
                     .as_ref()
-                    .map_or_else(|e| format!("{e:#}"), |_| String::new())),
+                    .map_or_else(crate::error_text, |_| String::new())),
                 (_, Some(reason)) => Err(reason),
                 (Some(Err(e)), _) => Err(e.clone()),
                 _ => {
@@ -200,7 +200,7 @@ fn run_group(
                         .unwrap_or_else(|p| {
                             Err(anyhow::anyhow!("job panicked: {}", panic_message(&p)))
                         })
-                        .map_err(|e| format!("{e:#}"))
+                        .map_err(|e| crate::error_text(&e))
                 }
             };
             let mut outcome = Outcome {
@@ -209,7 +209,7 @@ fn run_group(
             };
             // Into the store at once; a store that cannot be written fails the job.
             if let Err(e) = store::save(&opts.out, &keys[index], job, &outcome) {
-                outcome.rows = Err(format!("saving the result: {e:#}"));
+                outcome.rows = Err(format!("saving the result: {}", crate::error_text(&e)));
             }
             report(bar, opts, job, &outcome);
             if !keep_rows {

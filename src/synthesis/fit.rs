@@ -262,14 +262,16 @@ pub(super) fn cell_of(i: usize, j: usize, cells: (usize, usize)) -> (usize, usiz
 /// Fits `method` to a stack from its analysis (`stack` is needed by `full_covariance` only).
 ///
 /// # Errors
-/// [`FitError`] if the analysis lacks levels the method needs, or the model's arrays (the
-/// full-covariance deviations) do not fit in memory.
+/// [`FitError`] if the stack has NaN or infinite values ([`check_finite`]: the model would
+/// hold a mean or standard deviation that is not finite), the analysis lacks levels the method
+/// needs, or the model's arrays (the full-covariance deviations) do not fit in memory.
 pub fn fit(
     method: Method,
     analysis: &Analysis,
     stack: Option<ArrayView3<Complex64>>,
     opts: FitOptions,
 ) -> Result<Model, FitError> {
+    super::check_finite(analysis)?;
     let mean = analysis.mean.clone();
     let std = analysis.variance.mapv(f64::sqrt);
     let (h, w) = mean.dim();

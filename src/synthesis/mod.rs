@@ -251,6 +251,68 @@ pub enum FitError {
         /// Needed half-width.
         need: usize,
     },
+    /// Pixels whose mean or variance is NaN or infinite: a sample there is NaN or infinite (or
+    /// the values are so large that their variance overflows), so no model can be fitted (a
+    /// model's mean and standard deviation are finite everywhere, as `generate` requires).
+    #[error(
+        "the stack has NaN or infinite values at {count} of {total} pixel(s) ([row, column] \
+         from 0: {}); a model needs a finite mean and variance at every pixel: replace \
+         those values or crop them out of the stack before fitting",
+        list_pixels(.pixels, .count)
+    )]
+    NonFinite {
+        /// The first bad pixels, `(row, column)`, in row-major order (at most
+        /// [`NON_FINITE_SHOWN`]).
+        pixels: Vec<(usize, usize)>,
+        /// How many pixels are bad.
+        count: usize,
+        /// The pixels of an image, `H * W`.
+        total: usize,
+    },
+}
+
+/// How many bad pixels [`FitError::NonFinite`] lists.
+pub const NON_FINITE_SHOWN: usize = 10;
+
+/// `[2, 5], [3, 1]`, and `, ...` when `count` pixels are more than those listed.
+fn list_pixels(pixels: &[(usize, usize)], count: &usize) -> String {
+    let mut text = pixels
+        .iter()
+        .map(|(i, j)| format!("[{i}, {j}]"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if *count > pixels.len() {
+        text.push_str(", ...");
+    }
+    text
+}
+
+/// Refuses an analysis with a NaN or infinite mean or variance at some pixel, naming the
+/// pixels ([`FitError::NonFinite`]): the check [`fit`] makes first, so that `fit`, a run's
+/// synthesis jobs and the CNN applications never write or use a model that `generate` (which
+/// requires a finite mean and standard deviation) refuses.
+///
+/// # Errors
+/// [`FitError::NonFinite`].
+pub fn check_finite(analysis: &Analysis) -> Result<(), FitError> {
+    let bad = ndarray::Zip::from(&analysis.mean)
+        .and(&analysis.variance)
+        .map_collect(|m, v| !(m.is_finite() && v.is_finite()));
+    let count = bad.iter().filter(|&&b| b).count();
+    if count == 0 {
+        return Ok(());
+    }
+    let pixels = bad
+        .indexed_iter()
+        .filter(|&(_, &b)| b)
+        .map(|(ij, _)| ij)
+        .take(NON_FINITE_SHOWN)
+        .collect();
+    Err(FitError::NonFinite {
+        pixels,
+        count,
+        total: bad.len(),
+    })
 }
 
 /// Samples per task of the full-covariance sampler: each deviation panel serves this many

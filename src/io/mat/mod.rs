@@ -5,10 +5,13 @@
 //! feature `mat73`, a MAT v7.3 file (HDF5 behind a 512-byte MATLAB header; `v73`). Everything
 //! else is a clear error naming the file and the variable: a missing variable lists the file's
 //! variables, and structs, cells, char arrays, sparse matrices, logical arrays, objects and
-//! arrays that are not 3-D are refused by what they are; malformed input (truncated, corrupted,
-//! a MAT v4 file, an HDF5 file without the MATLAB header) is an error, never a panic. Writing
-//! ([`write`]): streamed stacks of generated samples as MATLAB `H x W x M` arrays, v7.3 (with
-//! the feature) or v5.
+//! arrays that are not 3-D are refused by what they are, as are v7.3 datasets whose
+//! `MATLAB_class` is numeric but whose data are stored as strings, booleans or another
+//! compound (when the file is listed, so at `validate`, not when the data are read); malformed
+//! input (truncated, corrupted, a MAT v4 file, an HDF5 file without the MATLAB header) is an
+//! error, never a panic. Writing ([`write`]): streamed stacks of generated samples as MATLAB
+//! `H x W x M` arrays, v7.3 (with the feature) or v5; a `.mat` that holds anything besides the
+//! one variable the tool wrote is never replaced ([`write::is_ours`]).
 
 use ndarray::Array3;
 use num_complex::Complex64;
@@ -26,12 +29,13 @@ pub use write::{MatClass, MatOutput, MatVersion};
 #[derive(Debug, thiserror::Error)]
 pub enum MatError {
     /// The file cannot be opened or read.
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}: {cause}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, not a `source()`, so that a chain printed with `{:#}`
+        /// says it once).
+        cause: std::io::Error,
     },
     /// The file is not a MAT file this build reads, or its bytes are malformed.
     #[error("{path}: {reason}")]
@@ -101,12 +105,16 @@ pub struct Variable {
     pub complex: bool,
     /// Whether it is a logical array.
     pub logical: bool,
+    /// What the data are stored as where that is not numbers although the class is numeric
+    /// (a v7.3 dataset of strings, booleans or an unknown compound whose `MATLAB_class` says
+    /// `double`); `None` where the storage agrees with the class.
+    pub stored_as: Option<String>,
 }
 
 impl Variable {
     /// Whether it is a numeric (not logical) array.
     pub fn is_numeric(&self) -> bool {
-        numeric_class(self.class) && !self.logical
+        numeric_class(self.class) && !self.logical && self.stored_as.is_none()
     }
 
     /// Whether it can be read as a stack.
@@ -114,15 +122,20 @@ impl Variable {
         self.is_numeric() && self.dims.len() == 3
     }
 
-    /// `4x5x3 single complex` (the dimensions left out where unknown).
+    /// `4x5x3 single complex` (the dimensions left out where unknown; `... stored as bool`
+    /// where the data are not numbers).
     pub fn describe(&self) -> String {
         let dims: Vec<String> = self.dims.iter().map(usize::to_string).collect();
         let kind = if self.logical { "logical" } else { self.class };
         let cx = if self.complex { " complex" } else { "" };
+        let stored = match &self.stored_as {
+            Some(s) => format!(" stored as {s}"),
+            None => String::new(),
+        };
         if dims.is_empty() {
-            format!("{kind}{cx}")
+            format!("{kind}{cx}{stored}")
         } else {
-            format!("{} {kind}{cx}", dims.join("x"))
+            format!("{} {kind}{cx}{stored}", dims.join("x"))
         }
     }
 
@@ -137,6 +150,11 @@ impl Variable {
             "char" => "a char array".to_string(),
             "sparse" => "a sparse matrix".to_string(),
             "object" | "opaque" | "function_handle" => format!("a MATLAB {} object", self.class),
+            _ if self.stored_as.is_some() => format!(
+                "stored as {}, not as numbers (its MATLAB_class says {})",
+                self.stored_as.as_deref().unwrap_or_default(),
+                if self.logical { "logical" } else { self.class }
+            ),
             _ if self.logical => "a logical array".to_string(),
             _ if self.is_numeric() => format!("{}-D ({})", self.dims.len(), self.describe()),
             _ => format!("of class {}", self.class),
@@ -218,9 +236,9 @@ fn sniff(head: &[u8], len: u64) -> Result<Kind, String> {
 
 /// The file's first 520 bytes (fewer if it is shorter) and its length.
 fn head(path: &Path) -> Result<(Vec<u8>, u64), MatError> {
-    let io = |source| MatError::Io {
+    let io = |cause| MatError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     };
     let f = std::fs::File::open(path).map_err(io)?;
     let len = f.metadata().map_err(io)?.len();
@@ -438,6 +456,7 @@ mod tests {
             dims: vec![],
             complex: false,
             logical: false,
+            stored_as: None,
         };
         assert_eq!(v.describe(), "struct");
         assert_eq!(v.not_stack_reason().as_deref(), Some("a struct"));

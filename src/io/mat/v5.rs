@@ -123,6 +123,7 @@ impl<R: Read> Elements<R> {
                 dims: Vec::new(),
                 complex: false,
                 logical: false,
+                stored_as: None,
             });
         }
         let t = self.tag()?;
@@ -146,6 +147,7 @@ impl<R: Read> Elements<R> {
             dims,
             complex: flags & 0x0800 != 0,
             logical: flags & 0x0200 != 0,
+            stored_as: None,
         })
     }
 
@@ -234,9 +236,9 @@ impl V5File {
     /// # Errors
     /// [`MatError`] if the file cannot be read or its elements are malformed.
     pub fn open(path: &Path, big: bool) -> Result<(V5File, Vec<Variable>), MatError> {
-        let io = |source| MatError::Io {
+        let io = |cause| MatError::Io {
             path: path.to_path_buf(),
-            source,
+            cause,
         };
         let fmt = |reason: String| MatError::Format {
             path: path.to_path_buf(),

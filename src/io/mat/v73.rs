@@ -159,6 +159,26 @@ fn is_complex(c: &CompoundType) -> bool {
     c.fields.len() == 2 && numeric("real") && numeric("imag")
 }
 
+/// Whether an element type holds numbers: integers, floats, or MATLAB's complex compound.
+fn is_numeric(t: &TypeDescriptor) -> bool {
+    match t {
+        TypeDescriptor::Float(_) | TypeDescriptor::Integer(_) | TypeDescriptor::Unsigned(_) => true,
+        TypeDescriptor::Compound(c) => is_complex(c),
+        _ => false,
+    }
+}
+
+/// An element type in words: `string (len 4)`, `bool`, `a compound of re, im`.
+fn storage(t: &TypeDescriptor) -> String {
+    match t {
+        TypeDescriptor::Compound(c) => {
+            let names: Vec<&str> = c.fields.iter().map(|f| f.name.as_str()).collect();
+            format!("a compound of {}", names.join(", "))
+        }
+        t => t.to_string(),
+    }
+}
+
 /// A string attribute's value (fixed or variable length, ASCII or UTF-8), `None` if absent.
 fn string_attr(loc: &hdf5_metno::Location, name: &str) -> Result<Option<String>, String> {
     if !loc.attr_names().map_err(h5)?.iter().any(|n| n == name) {
@@ -198,6 +218,7 @@ fn variable(file: &hdf5_metno::File, name: &str) -> Result<Variable, String> {
         dims: Vec::new(),
         complex: false,
         logical: false,
+        stored_as: None,
     };
     match file.loc_type_by_name(name).map_err(h5)? {
         LocationType::Group => {
@@ -234,6 +255,11 @@ fn variable(file: &hdf5_metno::File, name: &str) -> Result<Variable, String> {
                 None => inferred_class(&t),
             };
             v.logical = class.as_deref() == Some("logical");
+            if super::numeric_class(v.class) && !is_numeric(&t) {
+                // A numeric MATLAB_class over strings, booleans or another compound: refused
+                // when the variable is listed (at `validate`), not when its data are read.
+                v.stored_as = Some(storage(&t));
+            }
             if has_attr(&ds, "MATLAB_empty")? {
                 // An empty array stores its dimensions as its data.
                 v.dims = ds

@@ -177,9 +177,9 @@ pub fn header(version: MatVersion) -> [u8; 128] {
 /// The platform field of the headers the tool writes.
 const MARK: &str = "Platform: isar-clutter,";
 
-/// Whether `path` is a MAT file the tool wrote (its header names the platform `isar-clutter`),
-/// so that `generate` may replace it.
-pub fn is_ours(path: &Path) -> bool {
+/// Whether the header of `path` names the platform `isar-clutter` (the tool wrote the file,
+/// whatever was added to it since).
+fn has_mark(path: &Path) -> bool {
     let Ok((head, len)) = super::head(path) else {
         return false;
     };
@@ -187,6 +187,66 @@ pub fn is_ours(path: &Path) -> bool {
         && head[..116]
             .windows(MARK.len())
             .any(|w| w == MARK.as_bytes())
+}
+
+/// The variables of a MAT file besides the one the tool writes (the first complex `single` or
+/// `double` 3-D array; every variable when there is none).
+fn added_variables(path: &Path) -> Result<Vec<super::Variable>, super::MatError> {
+    let file = super::MatFile::open(path)?;
+    let ours = file
+        .variables()
+        .iter()
+        .position(|v| v.is_stack() && v.complex && matches!(v.class, "single" | "double"));
+    Ok(file
+        .variables()
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| Some(i) != ours)
+        .map(|(_, v)| v.clone())
+        .collect())
+}
+
+/// Whether `path` is a MAT file as `generate` left it, so that `generate` may replace it: its
+/// header names the platform `isar-clutter` and it holds one variable, a complex `single` or
+/// `double` 3-D array. A file of the tool's to which a variable was added since (MATLAB's
+/// `save(..., '-append')`, h5py) is not: replacing it would drop what the user added.
+pub fn is_ours(path: &Path) -> bool {
+    has_mark(path) && added_variables(path).is_ok_and(|added| added.is_empty())
+}
+
+/// Checks that `generate` may write its `.mat` at `path`: nothing there, or a file
+/// [`is_ours`]. A file the tool wrote that now holds variables it did not write is refused
+/// naming them (anything else that is not ours by [`crate::io::outdir::check_file_output`]),
+/// and is kept untouched.
+///
+/// # Errors
+/// Naming the path, and the added variables where the tool wrote the file.
+pub fn check_replaceable(path: &Path) -> Result<()> {
+    let regular = std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file());
+    if regular && has_mark(path) {
+        let added = added_variables(path).with_context(|| {
+            format!(
+                "{} was written by isar-clutter but cannot be listed now, so it is not \
+                 replaced (nothing was changed)",
+                path.display()
+            )
+        })?;
+        if !added.is_empty() {
+            let names: Vec<String> = added
+                .iter()
+                .map(|v| format!("{} ({})", v.name, v.describe()))
+                .collect();
+            bail!(
+                "{} was written by isar-clutter but now also holds {} variable(s) it did not \
+                 write: {}; writing over it would drop them, so remove them or choose another \
+                 --out (nothing was changed)",
+                path.display(),
+                added.len(),
+                names.join(", ")
+            );
+        }
+    }
+    crate::io::outdir::check_file_output(path, "samples .mat", is_ours)
 }
 
 /// `Mon Nov 24 02:22:00 2025` (UTC) for `secs` since 1970, as MATLAB dates its headers.

@@ -29,13 +29,13 @@ use header::{parse_header, Raw};
 #[derive(Debug, Error)]
 pub enum NcError {
     /// The file could not be read from disk.
-    #[error("{path}: cannot read file: {source}")]
+    #[error("{path}: cannot read file: {cause}")]
     Io {
         /// File concerned.
         path: PathBuf,
-        /// Underlying I/O error.
-        #[source]
-        source: std::io::Error,
+        /// Underlying I/O error (in the message, not a `source()`, so that a chain printed
+        /// with `{:#}` says it once).
+        cause: std::io::Error,
     },
     /// The file does not start with "CDF" followed by a version byte.
     #[error(
@@ -305,9 +305,9 @@ impl NcFile {
     /// truncated headers, and on variables whose data would lie beyond the end
     /// of the file.
     pub fn open(path: &Path) -> Result<NcFile, NcError> {
-        let bytes = std::fs::read(path).map_err(|source| NcError::Io {
+        let bytes = std::fs::read(path).map_err(|cause| NcError::Io {
             path: path.to_path_buf(),
-            source,
+            cause,
         })?;
         Self::from_bytes(path, bytes)
     }

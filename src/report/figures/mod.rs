@@ -62,22 +62,21 @@ pub enum FigureError {
         msg: String,
     },
     /// PNG encoding failed.
-    #[error("{}: PNG encoding failed: {source}", .path.display())]
+    #[error("{}: PNG encoding failed: {cause}", .path.display())]
     Encode {
         /// The file being encoded.
         path: PathBuf,
-        /// The encoder's error.
-        #[source]
-        source: png::EncodingError,
+        /// The encoder's error (in the message, not a `source()`, so that a chain printed
+        /// with `{:#}` says it once).
+        cause: png::EncodingError,
     },
     /// Creating the folder, writing or renaming the file failed.
-    #[error("{}: {source}", .path.display())]
+    #[error("{}: {cause}", .path.display())]
     Io {
         /// The folder or file concerned.
         path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: io::Error,
+        /// The I/O error (in the message, not a `source()`).
+        cause: io::Error,
     },
 }
 
@@ -427,9 +426,9 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
                 true,
                 &png_path,
             )?;
-            encode_png(&buf, w, h).map_err(|source| FigureError::Encode {
+            encode_png(&buf, w, h).map_err(|cause| FigureError::Encode {
                 path: png_path.clone(),
-                source,
+                cause,
             })
         },
         || -> Result<String, FigureError> {
@@ -440,9 +439,9 @@ fn render(dir: &Path, stem: &str, fig: &impl Figure) -> Result<[PathBuf; 2], Fig
                 false,
                 &svg_path,
             )?;
-            embed_rasters(&svg, w, h, &rasters).map_err(|source| FigureError::Encode {
+            embed_rasters(&svg, w, h, &rasters).map_err(|cause| FigureError::Encode {
                 path: svg_path.clone(),
-                source,
+                cause,
             })
         },
     );
@@ -483,7 +482,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FigureError> {
     crate::io::atomic::atomic_write(path, |w| Ok(w.write_all(bytes)?)).map_err(|e| {
         FigureError::Io {
             path: path.to_path_buf(),
-            source: io::Error::other(format!("{e:#}")),
+            cause: io::Error::other(format!("{e:#}")),
         }
     })
 }
