@@ -18,12 +18,14 @@ use num_complex::Complex64;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+pub mod format;
 pub mod v5;
 #[cfg(feature = "mat73")]
 pub mod v73;
 pub mod write;
 
-pub use write::{MatClass, MatOutput, MatVersion};
+pub use format::{MatClass, MatVersion};
+pub use write::MatOutput;
 
 /// Problems reading a `.mat` file; every variant names the file.
 #[derive(Debug, thiserror::Error)]

@@ -9,7 +9,7 @@
 //! [`super::MatFile`] prefixes with the file and the variable; libhdf5's own error printing is
 //! silenced by `hdf5-metno`.
 
-use super::write::{Blocks, Part};
+use super::format::{Blocks, Part};
 use super::{Variable, CLASSES};
 use anyhow::{Context, Result};
 use hdf5_metno::types::{CompoundField, CompoundType, FixedAscii, TypeDescriptor};
@@ -343,7 +343,7 @@ where
         drop(ds);
         file.close().context("closing the HDF5 file")?;
         let mut f = std::fs::OpenOptions::new().write(true).open(tmp)?;
-        std::io::Write::write_all(&mut f, &super::write::header(super::MatVersion::V73))?;
+        std::io::Write::write_all(&mut f, &super::format::header(super::MatVersion::V73))?;
         Ok(())
     })
     .with_context(|| format!("writing the MAT v7.3 file {}", path.display()))
