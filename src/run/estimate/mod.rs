@@ -1,11 +1,15 @@
 //! Memory and work of every job, estimated from its validated parameters before anything is
 //! allocated, and the check that refuses a plan whose largest job cannot fit: in the machine's
-//! memory ([`machine_memory`]) or under `--max-memory` ([`parse_size`]).
+//! memory ([`machine_memory`]) or under `--max-memory` ([`parse_size`]), or whose work passes
+//! [`MAX_FLOPS`].
 //!
-//! `validate` and `run --dry-run` call [`check`], which refuses the spec (naming the dataset's
-//! YAML path) when a job cannot fit; `run` itself fails only the job that cannot fit (the
-//! scheduler asks [`crate::run::jobs::JobKind::estimate`] and [`Estimate::exceeds`]), so the
-//! other jobs still write their tables.
+//! `validate` and `run --dry-run` call [`check`], which refuses the spec when a job cannot fit,
+//! at the YAML path of the size furthest above its usual value ([`Blame`]: `calibration.points`,
+//! `datasets[0].samples`), or at the job's section when no size is unusual; `run` itself fails
+//! only the job that cannot fit (the scheduler asks [`crate::run::jobs::JobKind::estimate`] and
+//! [`Estimate::exceeds`]), so the other jobs still write their tables. Every numeric spec key
+//! that scales memory or work enters an estimate (`tests/estimate_every_key` walks the schema and sets
+//! each to an absurd value); the others are values, not sizes.
 //!
 //! # The model
 //!
@@ -18,11 +22,14 @@
 //!   stack nothing (it is mapped from the file; the page cache holds it); NetCDF `32 N P` while
 //!   the two variables are combined, `16 N P` kept; `kspace` the file as complex128 `16 N k`
 //!   (plus the file's own element size while it is widened) and the images twice, `32 N S^2`;
-//!   `vegetation_isar` `16 N (k + S^2)`, twice that with a calibration chain;
+//!   `vegetation_isar` `16 N (k + S^2)`, twice that with a calibration chain, plus the plant's
+//!   scatterers (about `100 + 16 n_phi` bytes each) and the chain's Mie series (below);
 //! - the complex128 copy of the stack (`16 N P`, plus one element-size copy for a mapped
 //!   stack) that the noise floor, the hypotheses, `full_covariance`, `fourth_order` and every
 //!   metric read;
-//! - the analysis maps (about `96 P`);
+//! - the analysis maps (about `96 P`), the filter's lag rows (`outputs.filter_lags`, about
+//!   `200` bytes a lag) and the hypotheses' correlating function (`(2 max_offset + 1)^2` cells
+//!   of about `100` bytes);
 //! - a synthesis model: `full_covariance` keeps the centred samples (`16 N P`) and packs them
 //!   for its sampler (`8 N P`; the `P x P` covariance is never formed); Methods 1 and 2 their
 //!   filter bank as above; `fourth_order` `82 P`;
@@ -30,36 +37,97 @@
 //! - the metrics: the CMD's normalised stacks and their packings (`16 (N1 + N2) P`), the KL
 //!   histograms (`16 bins W / block` per band, 16 bands at a time) and maps;
 //! - a noise floor by `draws`: an independent draw of `M` samples (`16 M P`, or a second
-//!   simulation of the plants) and its comparison with the original.
+//!   simulation of the plants) and its comparison with the original;
+//! - a calibration (the `calibration` section, or a plant dataset's chain): about `256` bytes a
+//!   frequency point, and the Mie series of the sphere, `ka + 6 ka^(1/3) + 8` terms of about
+//!   `28` bytes at the largest `ka = 2 pi f_stop sphere_radius / c`;
+//! - a CNN training: its datasets as materialised and concatenated (`32 N P` over the classes),
+//!   its model, the training, validation and test sets (`8 P` plus the prepared input each) and a
+//!   mini-batch's activations (`8 P f_1` a sample, `min(batch_size, training set)` samples).
 //!
 //! Work is counted in floating-point operations of the dominant kernels (filtering, imaging,
-//! analysis, sampling, the CMD by the forms of [`crate::stats::cmd::choose_forms`]); it is a
-//! guide to run time, good to a factor of a few. All arithmetic is in `f64` and converted to
-//! `u64` with saturation, so absurd sizes give huge estimates, never an overflow.
+//! analysis, sampling, the CMD by the forms of [`crate::stats::cmd::choose_forms`], the plants'
+//! scatterers and wind sub-steps, the Mie series, the correlating function, a training's
+//! `6 x` forward multiply-adds per sample and epoch, a thirtieth of that on a GPU); sequential
+//! code (the wind, the Mie recurrences) is counted at what its time would allow a reference
+//! core of 30 Gflop/s. It is a guide to run time, good to a factor of a few. All arithmetic is in `f64` and converted to `u64` with saturation, so
+//! absurd sizes give huge estimates, never an overflow.
 
-use crate::experiment::{Dataset, FilterParams, Map, SpecError};
+mod apps;
+mod dataset;
+
+pub use apps::{calibration, classification, hypotheses, location};
+pub use dataset::dataset_job;
+
+use crate::experiment::SpecError;
 use crate::run::jobs::all::AllJobs;
-use crate::run::plan::{Job, NoiseFloorPlan, Plan};
-use crate::stats::cmd::{choose_forms, Form};
-use crate::stats::metrics::Metric;
-use crate::synthesis::Method;
+use crate::run::plan::Plan;
 use std::fmt;
 
+/// Most work one job may take, in operations of the reference core (30 Gflop/s): about 40
+/// days of that core, a few days of a whole large machine, far beyond any study the tool is
+/// meant for (the shipped experiments' largest job takes under 10^13); a job past it comes
+/// from an absurd size and is refused like one that cannot fit in memory.
+pub const MAX_FLOPS: f64 = 1e17;
+
 /// Peak memory and work of one job.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Estimate {
     /// Peak bytes allocated while the job runs (see the module's model).
     pub bytes: u64,
     /// Floating-point operations of its dominant kernels.
     pub flops: f64,
+    /// The size of the spec furthest above its usual value, when one is above it: what to lower
+    /// when the job cannot fit.
+    pub blame: Option<Blame>,
+}
+
+/// A size of the spec that an estimate reads, located in the spec.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Blame {
+    /// YAML path of the key (`datasets[0].samples`, `calibration.points`).
+    pub path: String,
+    /// Its value as written (`1000000000000`, `[4096, 4096]`).
+    pub value: String,
+    /// How many times its usual value it is (the default, or a typical study's value).
+    pub ratio: f64,
+}
+
+/// The sizes an estimate reads, each with how far it is above its usual value.
+#[derive(Debug, Clone, Default)]
+pub struct Sizes(Vec<Blame>);
+
+impl Sizes {
+    /// Records the size at `path` with value `value` (as written) and `ratio` = value / usual
+    /// value (for a spacing or another size whose smaller values cost more: usual / value).
+    pub fn add(&mut self, path: impl Into<String>, value: impl fmt::Display, ratio: f64) {
+        self.0.push(Blame {
+            path: path.into(),
+            value: value.to_string(),
+            ratio: if ratio.is_nan() { 0.0 } else { ratio },
+        });
+    }
+
+    /// The size furthest above its usual value, if any is above it.
+    pub fn furthest(&self) -> Option<&Blame> {
+        self.0
+            .iter()
+            .filter(|b| b.ratio > 1.0)
+            .fold(None, |best: Option<&Blame>, b| match best {
+                Some(a) if a.ratio >= b.ratio => Some(a),
+                _ => Some(b),
+            })
+    }
 }
 
 impl Estimate {
-    /// What a job without a dataset needs at most (the calibration, the hypothesis tests, the
-    /// default of [`crate::run::jobs::JobKind::estimate`]): 8 MiB and 10^8 operations.
+    /// What a job without a dataset needs at most (the hypothesis tests with the usual
+    /// `max_offset`, the location summary, the default of
+    /// [`crate::run::jobs::JobKind::estimate`]): 8 MiB and 10^8 operations.
     pub const SMALL: Estimate = Estimate {
         bytes: 8 << 20,
         flops: 1e8,
+        blame: None,
     };
 
     /// An estimate from byte and operation counts in `f64` (negative or NaN counts give 0,
@@ -68,18 +136,49 @@ impl Estimate {
         Estimate {
             bytes: bytes as u64,
             flops: if flops.is_nan() { 0.0 } else { flops.max(0.0) },
+            blame: None,
         }
     }
 
-    /// Why the job cannot run under `limit`, or `None` when it fits.
-    pub fn exceeds(&self, limit: &Limit) -> Option<String> {
-        (self.bytes > limit.bytes).then(|| {
-            format!(
+    /// The estimate blaming the size of `sizes` furthest above its usual value.
+    pub fn blaming(mut self, sizes: &Sizes) -> Estimate {
+        self.blame = sizes.furthest().cloned();
+        self
+    }
+
+    /// Why the job cannot run: its memory is more than `limit` (when one is known) or its work
+    /// more than [`MAX_FLOPS`]; `None` when it fits. The reason names the blamed size.
+    pub fn exceeds(&self, limit: Option<&Limit>) -> Option<String> {
+        let why = match limit {
+            Some(l) if self.bytes > l.bytes => format!(
                 "needs about {} of memory (estimated before allocating), more than {}",
                 human_bytes(self.bytes),
-                limit
-            )
+                l
+            ),
+            _ if self.flops > MAX_FLOPS => format!(
+                "needs about {:.1e} flop of work (estimated before running), more than the {:.0e} one job may take (weeks of one core)",
+                self.flops, MAX_FLOPS
+            ),
+            _ => return None,
+        };
+        Some(match &self.blame {
+            Some(b) => format!(
+                "{why}; {} = {} is {} times its usual value",
+                b.path,
+                b.value,
+                times(b.ratio)
+            ),
+            None => why,
         })
+    }
+}
+
+/// A ratio as a readable multiple (`250`, `1.2e9`).
+fn times(ratio: f64) -> String {
+    if ratio < 1e4 {
+        format!("{ratio:.0}")
+    } else {
+        format!("{ratio:.1e}")
     }
 }
 
@@ -241,25 +340,27 @@ impl fmt::Display for Largest {
 }
 
 /// Estimates every job of `plan` and refuses the plan when one cannot fit under `limit`
-/// (see [`limit`]); returns the largest job.
+/// (see [`limit`]) or passes [`MAX_FLOPS`]; returns the largest job.
 ///
 /// # Errors
-/// A [`SpecError`] at the dataset's YAML path (`datasets[i]`) naming the job, its estimate and
-/// the limit.
+/// A [`SpecError`] at the YAML path of the blamed size ([`Estimate::blame`]), or at the
+/// dataset's path (`datasets[i]`) or the job's section when no size is above its usual value,
+/// naming the job, its estimate and the limit.
 pub fn check(plan: &Plan, limit: Option<Limit>) -> Result<Largest, SpecError> {
     let all = AllJobs::new(plan);
     let mut largest: Option<Largest> = None;
     for job in all.list() {
         let e = job.estimate(plan);
-        if let Some(why) = limit.as_ref().and_then(|l| e.exceeds(l)) {
+        if let Some(why) = e.exceeds(limit.as_ref()) {
             let dataset = plan
                 .jobs
                 .iter()
                 .find(|j| j.id == job.id())
                 .and_then(|j| plan.spec.datasets.iter().position(|d| d.id == j.dataset_id));
-            let (at, advice) = match dataset {
-                Some(i) => (format!("datasets[{i}]"), "; make the dataset smaller"),
-                None => (job.kind().to_string(), ""),
+            let (at, advice) = match (&e.blame, dataset) {
+                (Some(b), _) => (b.path.clone(), ""),
+                (None, Some(i)) => (format!("datasets[{i}]"), "; make the dataset smaller"),
+                (None, None) => (job.kind().to_string(), ""),
             };
             return Err(SpecError::at(
                 &plan.file,
@@ -280,306 +381,6 @@ pub fn check(plan: &Plan, limit: Option<Limit>) -> Result<Largest, SpecError> {
         estimate: Estimate::new(0.0, 0.0),
         limit,
     }))
-}
-
-/// Bytes of one complex128 value.
-const C128: f64 = 16.0;
-/// Bytes of one complex64 value.
-const C64: f64 = 8.0;
-/// KL histogram bands counted in flight at once (one per worker thread of a large machine).
-const KL_BANDS: f64 = 16.0;
-
-/// What a dataset costs to materialise.
-struct Data {
-    /// Bytes alive at the peak of the materialisation.
-    peak: f64,
-    /// Bytes the materialised dataset keeps (stack, truth, k-space).
-    kept: f64,
-    /// Extra bytes of its complex128 copy beyond `16 N P` (a mapped stack's element copy).
-    widen: f64,
-    /// Work of the materialisation.
-    flops: f64,
-}
-
-/// The estimate of a dataset job (analysis or synthesis) of `plan`.
-pub fn dataset_job(plan: &Plan, job: &Job) -> Estimate {
-    let (n, h, w) = job.dataset.shape();
-    let (n, p) = (n as f64, h as f64 * w as f64);
-    let data = data(&job.dataset);
-    let maps = 96.0 * p;
-    let analysis_flops = 20.0 * n * p;
-    let copy = C128 * n * p + data.widen;
-    let (bytes, flops) = match (job.method, &job.synthesis) {
-        (Some(method), Some(syn)) => {
-            let m = syn.samples as f64;
-            let k = syn.half_width as f64;
-            let needs_copy = matches!(method, Method::FullCovariance | Method::FourthOrder)
-                || !plan.metrics.is_empty();
-            let (model, fit_flops) = model(method, n, p, k);
-            let generated = C64 * m * p;
-            let (cmp, cmp_flops) = compare(&plan.metrics, n, m, h, w);
-            let bytes = data.kept
-                + maps * 2.0
-                + if needs_copy { copy } else { 0.0 }
-                + model
-                + generated
-                + cmp;
-            let flops = data.flops
-                + analysis_flops * 2.0
-                + fit_flops
-                + generate_flops(method, n, m, p, k)
-                + cmp_flops;
-            (bytes.max(data.peak), flops)
-        }
-        _ => {
-            let original = job.noise_floor.is_some() || plan.spec.hypotheses.is_some();
-            let (floor, floor_flops) = noise_floor(plan, job, n, h, w);
-            let kspace_copy = match &job.dataset {
-                Dataset::Vegetation(v) if v.save_kspace => {
-                    C64 * n * v.measurement.frequencies as f64 * v.measurement.azimuths as f64
-                }
-                _ => 0.0,
-            };
-            let bytes =
-                data.kept + maps + if original { copy } else { 0.0 } + floor.max(kspace_copy);
-            (
-                bytes.max(data.peak),
-                data.flops + analysis_flops + floor_flops,
-            )
-        }
-    };
-    Estimate::new(bytes, flops)
-}
-
-/// Bytes and work of materialising `d` (see the module's model).
-fn data(d: &Dataset) -> Data {
-    let (n, h, w) = d.shape();
-    let (n, p) = (n as f64, h as f64 * w as f64);
-    match d {
-        Dataset::FilteredNoise(f) => {
-            let k = f.half_width as f64;
-            let varying = !uniform(&f.filter);
-            let bank = bank_bytes(p, k, varying);
-            let kept = C128 * n * p + bank + 48.0 * p;
-            Data {
-                peak: kept,
-                kept,
-                widen: 0.0,
-                flops: n * p * filter_flops(k, varying),
-            }
-        }
-        Dataset::Npy(npy) => {
-            let elem = npy.header.dtype.size() as f64;
-            Data {
-                peak: 0.0,
-                kept: 0.0,
-                widen: elem * n * p,
-                flops: 0.0,
-            }
-        }
-        Dataset::Mat(_) => Data {
-            // The complex128 stack, filled in place (v5 inflates in small blocks, libhdf5
-            // converts through its own small buffer).
-            peak: C128 * n * p,
-            kept: C128 * n * p,
-            widen: 0.0,
-            flops: 2.0 * n * p,
-        },
-        Dataset::Netcdf(_) => Data {
-            peak: 32.0 * n * p,
-            kept: C128 * n * p,
-            widen: 0.0,
-            flops: 4.0 * n * p,
-        },
-        Dataset::Kspace(ks) => {
-            let file: f64 = ks.header.shape.iter().map(|&s| s as f64).product();
-            let elem = ks.header.dtype.size() as f64;
-            let k = (ks.measurement.n_f() * ks.measurement.n_phi()) as f64;
-            let s2 = (ks.image_size * ks.image_size) as f64;
-            let widen = (elem + C128) * file;
-            Data {
-                peak: widen.max(C128 * file + 2.0 * C128 * n * s2),
-                kept: C128 * n * s2,
-                widen: 0.0,
-                flops: n * imaging_flops(k, s2),
-            }
-        }
-        Dataset::Vegetation(v) => {
-            let k = v.measurement.frequencies as f64 * v.measurement.azimuths as f64;
-            let s2 = (v.image_size * v.image_size) as f64;
-            let both = C128 * n * (k + s2);
-            let chain = if v.calibration.is_some() { 2.0 } else { 1.0 };
-            let kept = C128 * n * s2 + if v.save_kspace { C128 * n * k } else { 0.0 };
-            let points = scatterers(&v.scene.plant);
-            Data {
-                peak: chain * both + 100.0 * points,
-                kept,
-                widen: 0.0,
-                flops: n * (8.0 * points * k + imaging_flops(k, s2)),
-            }
-        }
-    }
-}
-
-/// Whether every filter parameter of a `filtered_noise` dataset is one value (a uniform bank).
-fn uniform(f: &FilterParams) -> bool {
-    let constant = |m: &Map| matches!(m, Map::Constant(_));
-    match f {
-        FilterParams::Exponential { alpha_h, alpha_v } => constant(alpha_h) && constant(alpha_v),
-        FilterParams::Dyadic { r_h, r_v } => r_h.iter().chain(r_v).all(constant),
-    }
-}
-
-/// Bytes of a per-pixel filter bank: two tap vectors of `2K + 1` per pixel (with their
-/// headers), plus the planar copy a spatially varying bank builds for its kernel.
-fn bank_bytes(p: f64, k: f64, varying: bool) -> f64 {
-    let taps = 8.0 * (2.0 * k + 1.0);
-    2.0 * p * (taps + 48.0) + if varying { 2.0 * p * taps } else { 0.0 }
-}
-
-/// Operations per output pixel of the separable filter: two passes of `2K + 1` complex
-/// multiply-adds (uniform), or `(2K + 1)^2` for a spatially varying bank.
-fn filter_flops(k: f64, varying: bool) -> f64 {
-    let taps = 2.0 * k + 1.0;
-    if varying {
-        8.0 * taps * taps
-    } else {
-        16.0 * taps
-    }
-}
-
-/// Operations to image one measurement of `k` points into `s2` pixels (polar reformatting and
-/// a 2-D FFT).
-fn imaging_flops(k: f64, s2: f64) -> f64 {
-    20.0 * k + 5.0 * s2 * s2.max(2.0).log2()
-}
-
-/// Point scatterers of a simulated plant: stem and branch points at their spacing, leaf
-/// clusters of `leaf_points` each.
-fn scatterers(plant: &crate::physics::vegetation::PlantParams) -> f64 {
-    let spacing = plant.scatterer_spacing_m.max(1e-9);
-    let stems = plant.n_stems as f64;
-    let branches = stems * plant.branches_per_stem as f64;
-    stems * plant.stem_height_m / spacing
-        + branches * plant.branch_length_m / spacing
-        + branches * plant.leaves_per_branch as f64 * plant.leaf_points as f64
-}
-
-/// Bytes and fitting work of a model of `method` fitted to `n` samples of `p` pixels.
-fn model(method: Method, n: f64, p: f64, k: f64) -> (f64, f64) {
-    let base = 24.0 * p;
-    match method {
-        Method::Uncorrelated => (base, 4.0 * n * p),
-        Method::FourthOrder => (base + 82.0 * p, 30.0 * n * p),
-        // The centred samples, and their f32 packing (16-column panels) for the sampler.
-        Method::FullCovariance => (
-            base + C128 * n * p + 4.0 * n * (2.0 * p / 16.0).ceil() * 16.0,
-            4.0 * n * p,
-        ),
-        // Per level-1 cell (P / 4) and direction, the inversion or the dyadic solve.
-        Method::Method1 => (base + bank_bytes(p, k, true), p / 4.0 * 2.0 * 2e4),
-        Method::Method2 => (base + bank_bytes(p, k, true), p / 4.0 * 2.0 * 5e6),
-    }
-}
-
-/// Work of generating `m` samples of `p` pixels.
-fn generate_flops(method: Method, n: f64, m: f64, p: f64, k: f64) -> f64 {
-    match method {
-        Method::Method1 | Method::Method2 => m * p * filter_flops(k, true),
-        Method::FullCovariance => 4.0 * n * m * p,
-        Method::FourthOrder => 60.0 * m * p,
-        Method::Uncorrelated => 20.0 * m * p,
-    }
-}
-
-/// Bytes and work of comparing `n1` with `n2` samples of `h x w` under `metrics`.
-fn compare(metrics: &[Metric], n1: f64, n2: f64, h: usize, w: usize) -> (f64, f64) {
-    let p = h as f64 * w as f64;
-    let (mut bytes, mut flops) = (0.0f64, 0.0);
-    for m in metrics {
-        let (b, f) = match *m {
-            Metric::KlPixel(o) => kl(o.bins, 1, n1 + n2, h, w),
-            Metric::KlArea(o, block) => kl(o.bins, block, n1 + n2, h, w),
-            // The normalised stacks (f32 pairs) and their V-side packings.
-            Metric::Cmd => (2.0 * C64 * (n1 + n2) * p, cmd_flops(n1, n2, p)),
-            Metric::MultiscaleRmse => (0.0, 10.0 * p),
-        };
-        // Metrics run one after the other: the largest is the peak.
-        bytes = bytes.max(b);
-        flops += f;
-    }
-    (bytes, flops)
-}
-
-/// Bytes (histograms of the bands in flight, and the maps) and work of a KL metric.
-fn kl(bins: usize, block: usize, samples: f64, h: usize, w: usize) -> (f64, f64) {
-    let block = block.max(1) as f64;
-    let (rows, units) = ((h as f64 / block).floor(), (w as f64 / block).floor());
-    let band = 2.0 * 4.0 * 2.0 * units * bins as f64;
-    (
-        band * rows.min(KL_BANDS) + 16.0 * rows * units,
-        12.0 * samples * h as f64 * w as f64,
-    )
-}
-
-/// Work of the CMD with the forms [`choose_forms`] picks (8 operations per complex
-/// multiply-add).
-fn cmd_flops(n1: f64, n2: f64, p: f64) -> f64 {
-    let forms = choose_forms(n1 as usize, n2 as usize, p as usize);
-    let norm = |n: f64, f: Form| match f {
-        Form::Gram => n * n * p / 2.0,
-        Form::Full => p * p * n / 2.0,
-    };
-    let cross = match forms[2] {
-        Form::Gram => n1 * n2 * p,
-        Form::Full => 0.0,
-    };
-    8.0 * (norm(n1, forms[0]) + norm(n2, forms[1]) + cross)
-}
-
-/// Bytes and work of an analysis job's noise floor (beyond the original's copy).
-fn noise_floor(plan: &Plan, job: &Job, n: f64, h: usize, w: usize) -> (f64, f64) {
-    let p = h as f64 * w as f64;
-    match job.noise_floor {
-        None => (0.0, 0.0),
-        Some(NoiseFloorPlan::Halves) => {
-            let half = (n / 2.0).floor();
-            let (b, f) = compare(&plan.metrics, half, half, h, w);
-            (b + 192.0 * p, f + 20.0 * n * p)
-        }
-        Some(NoiseFloorPlan::Draws { samples, .. }) => {
-            let m = samples as f64;
-            let draw = match &job.dataset {
-                Dataset::Vegetation(v) => {
-                    let mut spec = (**v).clone();
-                    spec.samples = samples;
-                    spec.save_kspace = false;
-                    let d = data(&Dataset::Vegetation(Box::new(spec)));
-                    Data {
-                        peak: d.peak.max(2.0 * C128 * m * p),
-                        ..d
-                    }
-                }
-                Dataset::FilteredNoise(f) => Data {
-                    peak: C128 * m * p,
-                    kept: C128 * m * p,
-                    widen: 0.0,
-                    flops: m * p * filter_flops(f.half_width as f64, !uniform(&f.filter)),
-                },
-                _ => Data {
-                    peak: 0.0,
-                    kept: 0.0,
-                    widen: 0.0,
-                    flops: 0.0,
-                },
-            };
-            let (b, f) = compare(&plan.metrics, n, m, h, w);
-            (
-                draw.peak.max(draw.kept + 96.0 * p + b),
-                draw.flops + 20.0 * m * p + f,
-            )
-        }
-    }
 }
 
 #[cfg(test)]
@@ -624,24 +425,46 @@ mod tests {
             bytes: 8 << 30,
             source: LimitSource::Flag,
         };
-        let why = e.exceeds(&limit).expect("too large");
+        let why = e.exceeds(Some(&limit)).expect("too large");
         assert!(
             why.contains("16.0 EiB") && why.contains("--max-memory 8.00 GiB"),
             "{why}"
         );
-        assert_eq!(Estimate::SMALL.exceeds(&limit), None);
+        assert_eq!(Estimate::SMALL.exceeds(Some(&limit)), None);
     }
 
     #[test]
-    fn the_cmd_work_follows_the_cheaper_form() {
-        // 100 samples of 4096 pixels: Gram norms (N^2 P / 2 each) and the Gram cross term.
-        let (n, p) = (100.0, 4096.0);
+    fn absurd_work_is_refused_without_a_memory_limit() {
+        let e = Estimate::new(1.0, 2.0 * MAX_FLOPS);
+        let why = e.exceeds(None).expect("too much work");
+        assert!(why.contains("2.0e17 flop of work"), "{why}");
+        assert_eq!(Estimate::new(1e30, MAX_FLOPS).exceeds(None), None);
+    }
+
+    #[test]
+    fn the_blamed_size_is_the_one_furthest_above_its_usual_value() {
+        let mut sizes = Sizes::default();
+        sizes.add("datasets[0].samples", 2000, 2.0);
+        sizes.add("datasets[0].size", "[4096, 4096]", 4096.0);
+        sizes.add("datasets[0].half_width", 4, 0.5);
+        let e = Estimate::new(1e30, 1.0).blaming(&sizes);
+        let b = e.blame.as_ref().expect("a size above its usual value");
         assert_eq!(
-            cmd_flops(n, n, p),
-            8.0 * (n * n * p / 2.0 * 2.0 + n * n * p)
+            (b.path.as_str(), b.value.as_str()),
+            ("datasets[0].size", "[4096, 4096]")
         );
-        // 10^5 samples of 16 pixels: the joint Full form, P^2 (N1 + N2) / 2.
-        let (n, p) = (1e5, 16.0);
-        assert_eq!(cmd_flops(n, n, p), 8.0 * p * p * n);
+        let limit = Limit {
+            bytes: 1 << 30,
+            source: LimitSource::Machine,
+        };
+        let why = e.exceeds(Some(&limit)).expect("too large");
+        assert!(
+            why.ends_with("; datasets[0].size = [4096, 4096] is 4096 times its usual value"),
+            "{why}"
+        );
+        // Nothing above its usual value: nothing to blame.
+        let mut usual = Sizes::default();
+        usual.add("calibration.points", 801, 1.0);
+        assert_eq!(usual.furthest(), None);
     }
 }
