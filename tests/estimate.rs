@@ -1,7 +1,8 @@
 //! Sizes are estimated before anything is allocated: `validate` and `run --dry-run` refuse a
 //! sweep of too many points at once (counted, not expanded) and a job whose estimated peak
-//! memory exceeds the machine's or `--max-memory`, naming the YAML path; they print the largest
-//! job's estimate otherwise.
+//! memory exceeds the machine's or `--max-memory`, naming the YAML path of the size furthest
+//! above its usual value (or the dataset's); they print the largest job's estimate otherwise.
+//! Every size key's absurd value: `tests/estimate_every_key`.
 
 mod common;
 use common::bin;
@@ -121,11 +122,17 @@ fn validate_refuses_a_dataset_no_machine_holds() {
     let o = bin(&["validate", spec.to_str().unwrap()]);
     let (out, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{out}{err}");
+    // At the size furthest above its usual value: 4096 x 4096 pixels are 4096 times 64 x 64,
+    // 10^6 samples 1000 times 1000.
     assert!(
-        err.contains("spec.yaml: datasets[1]: job big needs about"),
+        err.contains("spec.yaml: datasets[1].size: job big needs about"),
         "{err}"
     );
     assert!(err.contains("TiB"), "{err}");
+    assert!(
+        err.contains("datasets[1].size = [4096, 4096] is 4096 times its usual value"),
+        "{err}"
+    );
     assert!(t.elapsed() < Duration::from_secs(5));
 }
 
@@ -137,7 +144,9 @@ fn max_memory_refuses_and_admits() {
     let o = bin(&["validate", s, "--max-memory", "1K"]);
     let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
+    // No size is above its usual value: the dataset is named.
     assert!(err.contains("datasets[0]: job small needs about"), "{err}");
+    assert!(err.ends_with("make the dataset smaller\n"), "{err}");
     assert!(err.contains("--max-memory 1.00 KiB"), "{err}");
     let o = bin(&["validate", s, "--max-memory", "512M"]);
     assert_eq!(o.status.code(), Some(0), "{}", text_of(&o).1);
@@ -159,7 +168,10 @@ fn dry_run_prints_the_largest_job_and_refuses_the_big_one() {
     let o = bin(&["run", spec.to_str().unwrap(), "--dry-run"]);
     let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("datasets[1]: job big needs about"), "{err}");
+    assert!(
+        err.contains("datasets[1].size: job big needs about"),
+        "{err}"
+    );
     assert!(!dir.path().join("outputs").exists());
 }
 

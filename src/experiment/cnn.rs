@@ -202,6 +202,22 @@ fn check_common(
     Ok(())
 }
 
+/// The error of a section asking for more than [`MAX_TRAININGS`] trainings: at `repeats` when
+/// the repeats alone pass the limit, at the section otherwise.
+fn too_many_trainings(ctx: &Ctx, at: &str, trainings: usize, repeats: usize) -> SpecError {
+    let path = if repeats > MAX_TRAININGS {
+        format!("{at}.repeats")
+    } else {
+        at.to_string()
+    };
+    let count = if trainings == usize::MAX {
+        format!("{} or more", usize::MAX)
+    } else {
+        trainings.to_string()
+    };
+    ctx.err(path, format!("{count} trainings; at most {MAX_TRAININGS}"))
+}
+
 /// The dataset `id` among the plan's analysis jobs, refused when it is missing or swept.
 fn data_ref(
     ctx: &Ctx,
@@ -371,12 +387,10 @@ impl ClassificationSpec {
                 ));
             }
         }
-        let trainings = normalise.len() * sources.len() * self.train_sizes.len() * self.repeats;
+        let trainings =
+            (normalise.len() * sources.len() * self.train_sizes.len()).saturating_mul(self.repeats);
         if trainings > MAX_TRAININGS {
-            return Err(ctx.err(
-                at,
-                format!("{trainings} trainings; at most {MAX_TRAININGS}"),
-            ));
+            return Err(too_many_trainings(ctx, at, trainings, self.repeats));
         }
         Ok(ClassificationPlan {
             spec: self.clone(),
@@ -434,14 +448,14 @@ impl LocationSpec {
         if self.fit_samples < 4 {
             return Err(ctx.err(format!("{at}.fit_samples"), "must be at least 4"));
         }
-        if n < self.fit_samples + 1 {
+        if n <= self.fit_samples {
             return Err(ctx.err(
                 format!("{at}.fit_samples"),
                 format!(
                     "dataset {} has {n} samples; fitting on {} leaves none to test on (it needs at least {})",
                     clutter.id,
                     self.fit_samples,
-                    self.fit_samples + 1
+                    self.fit_samples.saturating_add(1)
                 ),
             ));
         }
@@ -495,12 +509,10 @@ impl LocationSpec {
                 ));
             }
         }
-        let trainings = self.targets.len() * sources.len() * self.scr_db.len() * self.repeats;
+        let trainings =
+            (self.targets.len() * sources.len() * self.scr_db.len()).saturating_mul(self.repeats);
         if trainings > MAX_TRAININGS {
-            return Err(ctx.err(
-                at,
-                format!("{trainings} trainings; at most {MAX_TRAININGS}"),
-            ));
+            return Err(too_many_trainings(ctx, at, trainings, self.repeats));
         }
         Ok(LocationPlan {
             spec: self.clone(),

@@ -356,6 +356,23 @@ impl MeasurementSpec {
             self.azimuths,
         )
     }
+
+    /// Checks the grid's parameters without building it: its size is the job's to estimate
+    /// (a grid of 10^12 points is refused by the estimate, not allocated by the check).
+    ///
+    /// # Errors
+    /// The imaging chain's error naming the bad parameter.
+    pub fn check(&self) -> Result<(), crate::physics::isar::IsarError> {
+        // Four points of each axis meet every rule a larger grid meets.
+        crate::physics::isar::Measurement::uniform(
+            self.f_start,
+            self.f_stop,
+            self.frequencies.min(4),
+            self.azimuth_span_deg.to_radians(),
+            self.azimuths.min(4),
+        )
+        .map(|_| ())
+    }
 }
 
 /// A validated `vegetation_isar` dataset.

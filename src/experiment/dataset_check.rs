@@ -179,9 +179,15 @@ impl DatasetSpec {
             .map(|d| d.to_radians())
             .collect();
         let measurement = crate::physics::isar::Measurement { freqs, azimuths };
-        measurement
-            .validate()
-            .map_err(|e| ctx.err(format!("{at}.freqs"), e.to_string()))?;
+        measurement.validate().map_err(|e| {
+            let field = match &e {
+                crate::physics::isar::IsarError::InvalidParameter {
+                    name: "azimuths", ..
+                } => "azimuths_deg",
+                _ => "freqs",
+            };
+            ctx.err(format!("{at}.{field}"), e.to_string())
+        })?;
         let image_size = self.image_size.unwrap_or(64);
         if image_size < 2 {
             return Err(ctx.err(format!("{at}.image_size"), "image_size must be at least 2"));
@@ -225,14 +231,26 @@ impl DatasetSpec {
                 let mut base = serde_yaml_ng::to_value(&preset).expect("scene serialises");
                 merge(&mut base, over);
                 let s: SceneParams = serde_path_to_error::deserialize(base).map_err(|e| {
-                    ctx.err(format!("{at}.scene.{}", e.path()), e.inner().to_string())
+                    let path = e.path().to_string();
+                    let at = match path.as_str() {
+                        "." => format!("{at}.scene"),
+                        p => format!("{at}.scene.{p}"),
+                    };
+                    ctx.err(at, e.inner().to_string())
                 })?;
                 s
             }
         };
-        scene
-            .validate()
-            .map_err(|e| ctx.err(format!("{at}.scene"), e.to_string()))?;
+        // Each parameter's error at its own path (`scene.plant.n_stems`).
+        let located = |part: &str, e: crate::physics::vegetation::VegError| match e {
+            crate::physics::vegetation::VegError::InvalidParameter { name, .. } => {
+                ctx.err(format!("{at}.scene.{part}{name}"), e.to_string())
+            }
+            _ => ctx.err(format!("{at}.scene"), e.to_string()),
+        };
+        scene.plant.validate().map_err(|e| located("plant.", e))?;
+        scene.wind.validate().map_err(|e| located("wind.", e))?;
+        scene.validate().map_err(|e| located("", e))?;
         let mut measurement = self.measurement.clone().unwrap_or_default();
         if let Some(c) = &self.calibration {
             c.check()
@@ -242,7 +260,7 @@ impl DatasetSpec {
             measurement.frequencies = c.points;
         }
         measurement
-            .grid()
+            .check()
             .map_err(|e| ctx.err(format!("{at}.measurement"), e.to_string()))?;
         let samples = self.samples.ok_or_else(|| {
             ctx.err(

@@ -62,12 +62,13 @@ impl SynthesisSpec {
         }
         if self.methods.contains(&Method::Method2) {
             let l = self.dyadic_levels(analysis);
+            // The levels first: an absurd `levels` is named as such, not as a short half-width.
+            check_levels(l, h, w)
+                .map_err(|e| ctx.err("synthesis.levels", format!("method2: {e}")))?;
             let need = crate::stats::filters::dyadic_reach(l);
             if self.half_width < need {
                 return Err(ctx.err("synthesis.half_width", format!("method2 with {l} level(s) reaches offset {need}; half_width {} would truncate it", self.half_width)));
             }
-            check_levels(l, h, w)
-                .map_err(|e| ctx.err("synthesis.levels", format!("method2: {e}")))?;
         }
         Ok(())
     }

@@ -1,7 +1,7 @@
 //! Executes jobs: every job through the one seam ([`JobKind`]), in parallel on the installed
 //! rayon pool; jobs that read the same dataset run as one group (the stack materialised once
-//! when it is worth sharing); a job whose memory estimate exceeds the limit fails before it
-//! allocates; each finished job is saved in the job store at once ([`crate::run::store`]). A
+//! when it is worth sharing); a job whose memory estimate exceeds the limit, or whose work is
+//! absurd, fails before it allocates; each finished job is saved in the job store at once ([`crate::run::store`]). A
 //! progress bar on a terminal (plain lines otherwise); a failed or panicking job is recorded
 //! without stopping the others. Also the options of a run, its summary, and writing the
 //! assembled tables. The order of a whole run is in [`crate::run::driver`].
@@ -36,7 +36,8 @@ pub struct RunOptions {
     /// Redo every job, even those the job store holds.
     pub fresh: bool,
     /// Memory limit in bytes (`--max-memory`; the machine's memory when lower or unset): a job
-    /// whose estimate ([`JobKind::estimate`]) exceeds it fails without allocating anything.
+    /// whose estimate ([`JobKind::estimate`]) exceeds it, or whose work passes
+    /// [`crate::run::estimate::MAX_FLOPS`], fails without allocating anything.
     pub max_memory: Option<u64>,
     /// A report follows the run (`run` and `merge` without `--no-report`): the merge leaves
     /// an earlier report's figures in `figures/` for it, which keeps those whose inputs did
@@ -156,7 +157,7 @@ fn run_group(
 ) -> Vec<(usize, Outcome)> {
     let limit = crate::run::estimate::limit(opts.max_memory);
     // A job that cannot fit fails before anything is allocated for it.
-    let too_big = |job: &dyn JobKind| limit.as_ref().and_then(|l| job.estimate(plan).exceeds(l));
+    let too_big = |job: &dyn JobKind| job.estimate(plan).exceeds(limit.as_ref());
     let first = jobs[group[0]];
     let shared = (group.len() > 1
         && group.iter().all(|&i| too_big(jobs[i]).is_none())

@@ -66,9 +66,14 @@ pub fn dyadic_taps(r: &[f64], half_width: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Largest offset with a non-zero tap for an `levels`-parameter dyadic filter: `2^L - 1`.
+/// Largest offset with a non-zero tap for an `levels`-parameter dyadic filter: `2^L - 1`
+/// (`usize::MAX` from `L = 64` on, where `2^L` passes `usize`).
 pub fn dyadic_reach(levels: usize) -> usize {
-    (1usize << levels) - 1
+    if levels >= usize::BITS as usize {
+        usize::MAX
+    } else {
+        (1usize << levels) - 1
+    }
 }
 
 /// Autocorrelation sum `R(d) = sum_n f(n) f(n + d)` of centred taps.

@@ -308,11 +308,7 @@ impl PlantParams {
             ("base_radius_m", nonneg(self.base_radius_m)),
             ("stem_lean_rad", nonneg(self.stem_lean_rad)),
             ("stem_crookedness_m", nonneg(self.stem_crookedness_m)),
-            (
-                "scatterer_spacing_m",
-                pos(self.scatterer_spacing_m)
-                    && self.stem_height_m / self.scatterer_spacing_m < 1e5,
-            ),
+            ("scatterer_spacing_m", pos(self.scatterer_spacing_m)),
             ("stem_amplitude", nonneg(self.stem_amplitude)),
             (
                 "branch_start_frac",
@@ -361,9 +357,44 @@ impl PlantParams {
         if self.leaf_points == 0 || self.leaf_points > 10_000 {
             return Err(bad("leaf_points", "must be in 1..=10000"));
         }
-        let n_leaves = self.n_stems * self.branches_per_stem * self.leaves_per_branch;
-        if n_leaves > 1_000_000 {
-            return Err(bad("leaves_per_branch", "too many leaves in total"));
+        // Counted with saturation: an absurd count is refused, never wrapped around.
+        let n_branches = self.n_stems.saturating_mul(self.branches_per_stem);
+        if n_branches > 1_000_000 {
+            return Err(bad(
+                "branches_per_stem",
+                "too many branches in total (n_stems x branches_per_stem > 1000000)",
+            ));
+        }
+        if n_branches.saturating_mul(self.leaves_per_branch) > 1_000_000 {
+            return Err(bad(
+                "leaves_per_branch",
+                "too many leaves in total (> 1000000)",
+            ));
+        }
+        // At most 1e5 scatterers a stem or a branch, the one further above its usual value
+        // (1 m, 0.08 m; spacing 0.01 m) named.
+        for (name, length, usual) in [
+            ("stem_height_m", self.stem_height_m, 1.0),
+            ("branch_length_m", self.branch_length_m, 0.08),
+        ] {
+            if length / self.scatterer_spacing_m >= 1e5 {
+                let culprit = if length / usual >= 0.01 / self.scatterer_spacing_m {
+                    name
+                } else {
+                    "scatterer_spacing_m"
+                };
+                return Err(bad(
+                    culprit,
+                    &format!(
+                        "{name} / scatterer_spacing_m gives 1e5 or more scatterers along one {}",
+                        if name == "stem_height_m" {
+                            "stem"
+                        } else {
+                            "branch"
+                        }
+                    ),
+                ));
+            }
         }
         Ok(())
     }

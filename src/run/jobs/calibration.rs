@@ -5,6 +5,7 @@
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::physics::calibration::{calibrate, simulate, summary, CalibrationRow, ChainParams};
+use crate::run::estimate::Estimate;
 use crate::run::plan::Plan;
 use anyhow::Result;
 use polars::prelude::*;
@@ -33,6 +34,10 @@ impl JobKind for CalibrationJob {
 
     fn seed(&self) -> Option<u64> {
         Some(self.seed)
+    }
+
+    fn estimate(&self, _plan: &Plan) -> Estimate {
+        crate::run::estimate::calibration(&self.chain)
     }
 
     fn key_material(&self, plan: &Plan) -> String {

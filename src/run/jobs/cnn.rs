@@ -92,24 +92,6 @@ fn stacks_of<'a>(
     ))
 }
 
-/// Rough peak memory and work of one training: the sets as complex64 and prepared float32,
-/// activations of a batch with their gradients, and `6 x` the forward multiply-adds per
-/// trained sample.
-fn training_estimate(net: &NetConfig, train_n: usize, other_n: usize, epochs: usize) -> Estimate {
-    let pixels = (net.height * net.width) as u64;
-    let prepared = net.prepared_len() as u64 * 4;
-    let sets = (2 * train_n + other_n) as u64 * (pixels * 8 + prepared);
-    let f = net.arch.filters();
-    let act = 128 * pixels * (f[0] as u64) * 4 / 4 * 8;
-    let macs = (pixels / 4) as f64 * (f[0] * 2 * 64) as f64
-        + (pixels / 64) as f64 * (f[1] * f[0] * 16) as f64
-        + (pixels / 1024) as f64 * (f[2] * f[1] * 4) as f64;
-    Estimate {
-        bytes: sets + act + (64 << 20),
-        flops: 6.0 * macs * (train_n * epochs) as f64,
-    }
-}
-
 /// The fragments every training leaves besides its own table: its epochs and its confusion
 /// matrix.
 fn record_tables(
@@ -296,17 +278,7 @@ impl JobKind for ClassificationJob {
     }
 
     fn estimate(&self, plan: &Plan) -> Estimate {
-        let cp = plan
-            .classification
-            .as_ref()
-            .expect("a classification section");
-        let originals: usize = self.classes.iter().map(|c| c.dataset.shape().0).sum();
-        // `original` trains on the fit originals at most.
-        let train_n = match self.source {
-            Source::Original => self.train_size.min(originals),
-            Source::Generated(_) => self.train_size,
-        };
-        training_estimate(&cp.net, train_n, originals, cp.spec.training.epochs)
+        crate::run::estimate::classification(plan, self)
     }
 
     fn key_material(&self, plan: &Plan) -> String {
@@ -575,13 +547,7 @@ impl JobKind for LocationJob {
     }
 
     fn estimate(&self, plan: &Plan) -> Estimate {
-        let lp = plan.location.as_ref().expect("a location section");
-        let n = self.clutter[0].dataset.shape().0;
-        let train_n = match self.source {
-            Source::Original => lp.spec.fit_samples / 2,
-            Source::Generated(_) => lp.spec.generated_samples / 2,
-        };
-        training_estimate(&lp.net, train_n, n, lp.spec.training.epochs)
+        crate::run::estimate::location(plan, self)
     }
 
     fn key_material(&self, plan: &Plan) -> String {

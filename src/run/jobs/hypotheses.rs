@@ -126,6 +126,10 @@ impl JobKind for HypothesesJob {
         None
     }
 
+    fn estimate(&self, plan: &Plan) -> crate::run::estimate::Estimate {
+        crate::run::estimate::hypotheses(plan, self.inputs.len())
+    }
+
     fn key_material(&self, plan: &Plan) -> String {
         format!("{self:?}\n{:?}", plan.spec.hypotheses)
     }
