@@ -3,7 +3,7 @@
 //! memory ([`machine_memory`]) or under `--max-memory` ([`parse_size`]), or whose work passes
 //! [`MAX_FLOPS`].
 //!
-//! `validate` and `run --dry-run` call [`check`], which refuses the spec when a job cannot fit,
+//! `validate` and `run --dry-run` call [`crate::run::check::check`], which refuses the spec when a job cannot fit,
 //! at the YAML path of the size furthest above its usual value ([`Blame`]: `calibration.points`,
 //! `datasets[0].samples`), or at the job's section when no size is unusual; `run` itself fails
 //! only the job that cannot fit (the scheduler asks [`crate::run::jobs::JobKind::estimate`] and
@@ -59,9 +59,6 @@ mod dataset;
 pub use apps::{calibration, classification, hypotheses, location};
 pub use dataset::dataset_job;
 
-use crate::experiment::SpecError;
-use crate::run::jobs::all::AllJobs;
-use crate::run::plan::Plan;
 use std::fmt;
 
 /// Most work one job may take, in operations of the reference core (30 Gflop/s): about 40
@@ -316,71 +313,6 @@ pub fn human_bytes(bytes: u64) -> String {
     } else {
         format!("{v:.0} {}", UNITS[unit])
     }
-}
-
-/// The job of a plan with the largest peak memory.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Largest {
-    /// The job's id.
-    pub id: String,
-    /// Its estimate.
-    pub estimate: Estimate,
-    /// The limit it was checked against (`None`: none known).
-    pub limit: Option<Limit>,
-}
-
-impl fmt::Display for Largest {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "largest job {}: {}", self.id, self.estimate)?;
-        if let Some(l) = &self.limit {
-            write!(f, " (limit: {l})")?;
-        }
-        Ok(())
-    }
-}
-
-/// Estimates every job of `plan` and refuses the plan when one cannot fit under `limit`
-/// (see [`limit`]) or passes [`MAX_FLOPS`]; returns the largest job.
-///
-/// # Errors
-/// A [`SpecError`] at the YAML path of the blamed size ([`Estimate::blame`]), or at the
-/// dataset's path (`datasets[i]`) or the job's section when no size is above its usual value,
-/// naming the job, its estimate and the limit.
-pub fn check(plan: &Plan, limit: Option<Limit>) -> Result<Largest, SpecError> {
-    let all = AllJobs::new(plan);
-    let mut largest: Option<Largest> = None;
-    for job in all.list() {
-        let e = job.estimate(plan);
-        if let Some(why) = e.exceeds(limit.as_ref()) {
-            let dataset = plan
-                .jobs
-                .iter()
-                .find(|j| j.id == job.id())
-                .and_then(|j| plan.spec.datasets.iter().position(|d| d.id == j.dataset_id));
-            let (at, advice) = match (&e.blame, dataset) {
-                (Some(b), _) => (b.path.clone(), ""),
-                (None, Some(i)) => (format!("datasets[{i}]"), "; make the dataset smaller"),
-                (None, None) => (job.kind().to_string(), ""),
-            };
-            return Err(SpecError::at(
-                &plan.file,
-                at,
-                format!("job {} {why}{advice}", job.id()),
-            ));
-        }
-        if largest.as_ref().is_none_or(|l| e.bytes > l.estimate.bytes) {
-            largest = Some(Largest {
-                id: job.id().to_string(),
-                estimate: e,
-                limit,
-            });
-        }
-    }
-    Ok(largest.unwrap_or(Largest {
-        id: "(none)".into(),
-        estimate: Estimate::new(0.0, 0.0),
-        limit,
-    }))
 }
 
 #[cfg(test)]
