@@ -751,3 +751,35 @@ fn model_folders_carry_their_sample_format() {
         "{err}"
     );
 }
+
+/// With `mat73` built through the Makefile (Debian's static libhdf5.a, `make hdf5`), the binary
+/// needs no libhdf5 (nor libcurl and the 31 libraries that the shared one brings) at start; a
+/// dynamic build is refused under `CI=true`, which builds through the Makefile.
+#[cfg(feature = "mat73")]
+#[test]
+fn the_binary_does_not_load_libhdf5_at_start() {
+    let link = env!("ISAR_CLUTTER_HDF5_LINK");
+    if link != "static" {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "CI builds with `make`, which links libhdf5 statically (HDF5_DIR from `make hdf5`)"
+        );
+        eprintln!("skipped: libhdf5 is linked dynamically (build with `make` for a static one)");
+        return;
+    }
+    let out = std::process::Command::new("readelf")
+        .args(["-d", env!("CARGO_BIN_EXE_isar-clutter")])
+        .output()
+        .expect("readelf (binutils) runs");
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let needed: Vec<&str> = text.lines().filter(|l| l.contains("(NEEDED)")).collect();
+    assert!(!needed.is_empty(), "no NEEDED entries read:\n{text}");
+    for lib in ["libhdf5", "libcurl", "libssl", "libcrypto"] {
+        assert!(
+            needed.iter().all(|l| !l.contains(lib)),
+            "the binary needs {lib}:\n{}",
+            needed.join("\n")
+        );
+    }
+}

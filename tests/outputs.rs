@@ -404,7 +404,7 @@ fn a_run_killed_while_writing_is_refused_by_table_and_report_until_rerun() {
     ]);
     assert!(o.status.success(), "{}", text(&o));
     let msg = text(&o);
-    assert!(msg.contains("stale lock"), "{msg}");
+    assert!(msg.contains("took over the lock of a run"), "{msg}");
     assert!(!tmp.exists());
     assert!(bin(&["table", out.to_str().unwrap()]).status.success());
 }

@@ -1,0 +1,282 @@
+//! One classification training (ch. 5.3.1) as a job: its datasets' stacks, its method's fit,
+//! its training, validation and test sets, the training, and its rows.
+
+use super::common::{
+    group_seed, materialise_all, nan_none, record_tables, stacks_of, training_status, TrainingRow,
+    CLASSIFICATION,
+};
+use crate::apps::cnn::classification::{
+    compose, fit_model, labelled, split_class, Normalise, Source,
+};
+use crate::apps::cnn::train::{train_on_device, Labelled};
+use crate::data::Materialised;
+use crate::experiment::DataRef;
+use crate::run::estimate::Estimate;
+use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
+use crate::run::plan::Plan;
+use crate::seeds::derive_seed;
+use crate::synthesis::FitOptions;
+use anyhow::{Context, Result};
+use ndarray::s;
+use polars::prelude::*;
+use serde_json::json;
+use std::sync::Arc;
+
+/// One classification training.
+#[derive(Debug, Clone)]
+pub struct ClassificationJob {
+    /// `classification.<normalise>.<method>.n<size>.r<repeat>`.
+    pub id: String,
+    /// Canonical identity (JSON).
+    pub identity: String,
+    /// Seed of the network's initial weights and shuffles.
+    pub seed: u64,
+    /// Seed of the samples (identity without the method).
+    pub data_seed: u64,
+    /// Normalisation.
+    pub normalise: Normalise,
+    /// Training-set source.
+    pub source: Source,
+    /// Total training-set size.
+    pub train_size: usize,
+    /// Repeat number, from 0.
+    pub repeat: usize,
+    /// The class datasets.
+    pub classes: Arc<Vec<DataRef>>,
+}
+
+impl ClassificationJob {
+    /// Every training of the plan's `classification` section, in order normalisation,
+    /// method, size, repeat.
+    pub fn all(plan: &Plan) -> Vec<ClassificationJob> {
+        let Some(cp) = &plan.classification else {
+            return vec![];
+        };
+        let classes = Arc::new(cp.classes.clone());
+        let mut out = vec![];
+        for &normalise in &cp.normalise {
+            for &source in &cp.sources {
+                for &n in &cp.spec.train_sizes {
+                    for repeat in 0..cp.spec.repeats {
+                        let paired = format!(
+                            "{{\"app\":\"classification\",\"normalise\":\"{}\",\"train_size\":{n},\"repeat\":{repeat}}}",
+                            normalise.as_str()
+                        );
+                        let identity = json!({
+                            "app": "classification",
+                            "normalise": normalise.as_str(),
+                            "method": source.as_str(),
+                            "train_size": n,
+                            "repeat": repeat,
+                        })
+                        .to_string();
+                        out.push(ClassificationJob {
+                            id: format!(
+                                "classification.{}.{}.n{n}.r{repeat}",
+                                normalise.as_str(),
+                                source.as_str()
+                            ),
+                            seed: derive_seed(plan.spec.seed, "cnn", &identity),
+                            data_seed: derive_seed(plan.spec.seed, "cnn/samples", &paired),
+                            identity,
+                            normalise,
+                            source,
+                            train_size: n,
+                            repeat,
+                            classes: classes.clone(),
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+impl JobKind for ClassificationJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "classification"
+    }
+
+    fn identity(&self) -> &str {
+        &self.identity
+    }
+
+    fn seed(&self) -> Option<u64> {
+        Some(self.seed)
+    }
+
+    fn inputs(&self) -> Inputs {
+        Inputs::Dataset {
+            data_seed: group_seed("cnn/classes", &self.classes),
+            shared: true,
+        }
+    }
+
+    fn estimate(&self, plan: &Plan) -> Estimate {
+        crate::run::estimate::classification(plan, self)
+    }
+
+    fn key_material(&self, plan: &Plan) -> String {
+        let cp = plan
+            .classification
+            .as_ref()
+            .expect("a classification section");
+        format!("{self:?}\n{:?}\n{:?}", cp.spec, cp.net)
+    }
+
+    fn input_files(&self) -> Vec<std::path::PathBuf> {
+        self.classes
+            .iter()
+            .flat_map(|c| c.dataset.input_files())
+            .collect()
+    }
+
+    fn materialise(&self) -> Result<Materialised> {
+        materialise_all(&self.classes)
+    }
+
+    fn run(&self, cx: &JobContext) -> Result<Rows> {
+        let plan = cx.plan;
+        let cp = plan
+            .classification
+            .as_ref()
+            .expect("a classification section");
+        let mut owned = None;
+        let all = stacks_of(cx.shared, &self.classes, &mut owned)?;
+        let k = self.classes.len();
+        let (mut train_set, mut validation, mut test) = (
+            Labelled::default(),
+            Labelled::default(),
+            Labelled::default(),
+        );
+        let mut first = 0;
+        let (mut generated, mut originals, mut reused) = (0, 0, false);
+        for (c, class) in self.classes.iter().enumerate() {
+            let n = class.dataset.shape().0;
+            let stack = all.slice(s![first..first + n, .., ..]);
+            first += n;
+            let split_seed = derive_seed(plan.spec.seed, "cnn/classification/split", &class.id);
+            let data = split_class(stack, cp.spec.holdout, self.normalise, split_seed);
+            let model = match self.source {
+                Source::Original => None,
+                Source::Generated(m) => Some(
+                    fit_model(
+                        data.fit.view(),
+                        m,
+                        FitOptions {
+                            half_width: cp.spec.half_width,
+                            levels: cp.spec.levels,
+                        },
+                    )
+                    .with_context(|| format!("class {}", class.id))?,
+                ),
+            };
+            // Balanced: N / k per class, the remainder to the first classes.
+            let per_class = self.train_size / k + usize::from(c < self.train_size % k);
+            let composition = compose(
+                c,
+                data.fit.view(),
+                model.as_ref(),
+                per_class,
+                cp.spec.original_fraction,
+                derive_seed(self.data_seed, "originals", &class.id),
+                derive_seed(self.data_seed, "generate", &class.id),
+                &mut train_set,
+                &mut validation,
+            );
+            generated += composition.generated;
+            originals += composition.originals;
+            reused |= composition.reused;
+            labelled(data.test.view(), c, &mut test);
+        }
+        let trained = train_on_device(
+            &cp.net,
+            &cp.spec.training,
+            &train_set,
+            &validation,
+            self.seed,
+        )?;
+        let (test_accuracy, confusion) = trained.evaluate(&test);
+        let mut files = vec![];
+        if cp.spec.save_networks {
+            let dir = cx.out.join("networks").join(&self.id);
+            let names: Vec<String> = self.classes.iter().map(|c| c.id.clone()).collect();
+            crate::apps::cnn::store::save(&trained, &names, &self.id, self.seed, &dir)?;
+            files.push(dir);
+        }
+        let protocol = if cp.spec.holdout > 0.0 {
+            "holdout"
+        } else {
+            "dissertation (test = fit data)"
+        };
+        let row = DataFrame::new_infer_height(vec![
+            Column::new("job".into(), [self.id.as_str()]),
+            Column::new("method".into(), [self.source.as_str()]),
+            Column::new("normalise".into(), [self.normalise.as_str()]),
+            Column::new("train_size".into(), [self.train_size as i64]),
+            Column::new("repeat".into(), [self.repeat as i64]),
+            Column::new("seed".into(), [self.seed]),
+            Column::new("train_accuracy".into(), [trained.train_accuracy]),
+            Column::new(
+                "validation_accuracy".into(),
+                [nan_none(trained.validation_accuracy)],
+            ),
+            Column::new("test_accuracy".into(), [test_accuracy]),
+            Column::new("test_samples".into(), [test.len() as i64]),
+            Column::new("epochs".into(), [trained.epochs.len() as i64]),
+            Column::new("train_seconds".into(), [trained.seconds]),
+            Column::new(
+                "train_samples_per_second".into(),
+                [trained.samples_per_second],
+            ),
+            Column::new("train_samples".into(), [train_set.len() as i64]),
+            Column::new("train_generated".into(), [generated as i64]),
+            Column::new("train_originals".into(), [originals as i64]),
+            Column::new("validation_samples".into(), [validation.len() as i64]),
+            Column::new("validation_reuses_originals".into(), [reused]),
+            Column::new("protocol".into(), [protocol]),
+        ])?;
+        let mut tables = vec![(CLASSIFICATION, row)];
+        tables.extend(record_tables(&self.id, &trained, &confusion)?);
+        Ok(Rows {
+            tables,
+            files,
+            timing: Some(json!({
+                "train_s": trained.seconds,
+                "train_samples_per_s": trained.samples_per_second,
+            })),
+        })
+    }
+
+    fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>> {
+        let cp = plan.classification.as_ref()?;
+        let names: Vec<&str> = self.classes.iter().map(|c| c.id.as_str()).collect();
+        Some(training_status(
+            TrainingRow {
+                id: &self.id,
+                kind: "classification",
+                dataset: &names.join(","),
+                method: self.source.as_str(),
+                seed: self.seed,
+                samples: self.train_size,
+            },
+            &cp.net,
+            status,
+        ))
+    }
+
+    fn manifest(&self) -> serde_json::Value {
+        json!({
+            "normalise": self.normalise.as_str(),
+            "method": self.source.as_str(),
+            "train_size": self.train_size,
+            "repeat": self.repeat,
+            "samples_seed": self.data_seed,
+        })
+    }
+}
