@@ -251,6 +251,12 @@ fn a_damaged_job_store_is_redone_by_the_next_run_or_merge_never_merged() {
         let job = a_job_with_models(&out);
         for kind in one_of_each_kind(&job) {
             flip_byte(&job.join(&kind));
+            let status = text(&bin(&["status", out.to_str().unwrap()]));
+            assert!(
+                status.contains(" damaged "),
+                "{}: status does not say it: {status}",
+                kind.display()
+            );
             // A sharded folder is redone by its merge, a local one by the next run.
             let o = if sharded {
                 bin(&["merge", out.to_str().unwrap(), "--no-report"])

@@ -341,7 +341,9 @@ pub fn status(out: &Path) -> Result<String> {
         let (state, detail, n) = match store::entry(out, &key) {
             store::Entry::Done(d) => ("done", format!("{:.2} s", d.elapsed_s), 0),
             store::Entry::Failed(f) => ("failed", f.error, 1),
-            store::Entry::Missing(why) => ("missing", why.unwrap_or_default(), 2),
+            // A stored result that does not verify: the next run or merge redoes it.
+            store::Entry::Missing(Some(why)) => ("damaged", why, 2),
+            store::Entry::Missing(None) => ("missing", String::new(), 2),
         };
         let shard = match assigned[i] {
             Some(s) => {
