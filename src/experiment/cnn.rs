@@ -218,24 +218,13 @@ fn too_many_trainings(ctx: &Ctx, at: &str, trainings: usize, repeats: usize) -> 
     ctx.err(path, format!("{count} trainings; at most {MAX_TRAININGS}"))
 }
 
-/// The dataset `id` among the plan's analysis jobs, refused when it is missing or swept.
-fn data_ref(
-    ctx: &Ctx,
-    at: String,
-    id: &str,
-    jobs: &[crate::run::plan::Job],
-) -> Result<DataRef, SpecError> {
-    let found: Vec<&crate::run::plan::Job> = jobs
-        .iter()
-        .filter(|j| j.dataset_id == id && j.method.is_none())
-        .collect();
+/// The dataset `id` among the stacks the plan's analysis jobs read (one per dataset and sweep
+/// point), refused when it is missing or swept.
+fn data_ref(ctx: &Ctx, at: String, id: &str, stacks: &[DataRef]) -> Result<DataRef, SpecError> {
+    let found: Vec<&DataRef> = stacks.iter().filter(|d| d.id == id).collect();
     match found.as_slice() {
         [] => Err(ctx.err(at, format!("{id:?} is not the id of a dataset in `datasets`"))),
-        [j] => Ok(DataRef {
-            id: id.to_string(),
-            dataset: j.dataset.clone(),
-            data_seed: j.data_seed,
-        }),
+        [d] => Ok((*d).clone()),
         _ => Err(ctx.err(
             at,
             format!("dataset {id} is swept ({} sweep points): a CNN section needs one stack per dataset", found.len()),
@@ -259,15 +248,12 @@ pub struct ClassificationPlan {
 }
 
 impl ClassificationSpec {
-    /// Validates the section against the plan's dataset jobs.
+    /// Validates the section against the stacks of the plan's analysis jobs (`stacks`: one per
+    /// dataset and sweep point).
     ///
     /// # Errors
     /// A [`SpecError`] with the YAML path of the first problem.
-    pub fn validate(
-        &self,
-        ctx: &Ctx,
-        jobs: &[crate::run::plan::Job],
-    ) -> Result<ClassificationPlan, SpecError> {
+    pub fn validate(&self, ctx: &Ctx, stacks: &[DataRef]) -> Result<ClassificationPlan, SpecError> {
         let at = "classification";
         if self.classes.len() < 2 {
             return Err(ctx.err(
@@ -283,7 +269,7 @@ impl ClassificationSpec {
                     format!("{id} is listed twice"),
                 ));
             }
-            classes.push(data_ref(ctx, format!("{at}.classes[{i}]"), id, jobs)?);
+            classes.push(data_ref(ctx, format!("{at}.classes[{i}]"), id, stacks)?);
         }
         let (_, h, w) = classes[0].dataset.shape();
         for (i, c) in classes.iter().enumerate() {
@@ -416,17 +402,14 @@ pub struct LocationPlan {
 }
 
 impl LocationSpec {
-    /// Validates the section against the plan's dataset jobs.
+    /// Validates the section against the stacks of the plan's analysis jobs (`stacks`: one per
+    /// dataset and sweep point).
     ///
     /// # Errors
     /// A [`SpecError`] with the YAML path of the first problem.
-    pub fn validate(
-        &self,
-        ctx: &Ctx,
-        jobs: &[crate::run::plan::Job],
-    ) -> Result<LocationPlan, SpecError> {
+    pub fn validate(&self, ctx: &Ctx, stacks: &[DataRef]) -> Result<LocationPlan, SpecError> {
         let at = "location";
-        let clutter = data_ref(ctx, format!("{at}.clutter"), &self.clutter, jobs)?;
+        let clutter = data_ref(ctx, format!("{at}.clutter"), &self.clutter, stacks)?;
         let (n, h, w) = clutter.dataset.shape();
         if h < MIN_SIDE || w < MIN_SIDE {
             return Err(ctx.err(

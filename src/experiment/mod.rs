@@ -166,10 +166,7 @@ pub struct SweepSpec {
     pub zip: BTreeMap<String, Vec<serde_yaml_ng::Value>>,
 }
 
-/// The text without a leading UTF-8 byte-order mark (some editors write one).
-pub fn strip_bom(text: &str) -> &str {
-    text.strip_prefix('\u{feff}').unwrap_or(text)
-}
+pub use crate::io::strip_bom;
 
 /// Parses spec text, reporting errors against `file`. A leading UTF-8 byte-order mark is
 /// ignored; a number that is not finite is refused wherever it appears (see

@@ -31,3 +31,8 @@ pub(crate) fn file_id(m: &std::fs::Metadata) -> FileId {
         ns(m.ctime(), m.ctime_nsec()),
     )
 }
+
+/// The text without a leading UTF-8 byte-order mark (some editors write one).
+pub fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}

@@ -235,15 +235,25 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         check_job_metrics(&spec, &metrics, &ctx, job)?;
     }
     assign_ids(&mut jobs);
+    // The stacks the analysis jobs read, which the CNN sections name by dataset id.
+    let stacks: Vec<crate::experiment::DataRef> = jobs
+        .iter()
+        .filter(|j| j.method.is_none())
+        .map(|j| crate::experiment::DataRef {
+            id: j.dataset_id.clone(),
+            dataset: j.dataset.clone(),
+            data_seed: j.data_seed,
+        })
+        .collect();
     let classification = spec
         .classification
         .as_ref()
-        .map(|c| c.validate(&ctx, &jobs))
+        .map(|c| c.validate(&ctx, &stacks))
         .transpose()?;
     let location = spec
         .location
         .as_ref()
-        .map(|l| l.validate(&ctx, &jobs))
+        .map(|l| l.validate(&ctx, &stacks))
         .transpose()?;
     let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
     param_keys.sort();

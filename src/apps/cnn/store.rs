@@ -148,7 +148,7 @@ pub fn load(dir: &Path) -> Result<Loaded> {
     let json = dir.join("network.json");
     let text = std::fs::read_to_string(&json)
         .with_context(|| format!("{}: cannot read", json.display()))?;
-    let info: NetworkInfo = serde_json::from_str(crate::experiment::strip_bom(&text))
+    let info: NetworkInfo = serde_json::from_str(crate::io::strip_bom(&text))
         .with_context(|| format!("{}: not a network description", json.display()))?;
     if info.format != FORMAT {
         bail!(
