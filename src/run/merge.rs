@@ -148,7 +148,12 @@ fn missing_jobs(out: &Path, jobs: &[&dyn JobKind], keys: &[String]) -> Vec<Strin
         .zip(keys)
         .filter(|(j, _)| !matches!(j.inputs(), Inputs::Rows(_)))
         // A stored result that does not verify is redone by the merge itself.
-        .filter(|(_, k)| matches!(store::entry(out, k), store::Entry::Missing(None)))
+        .filter(|(_, k)| {
+            matches!(
+                store::entry_verified_earlier(out, k),
+                store::Entry::Missing(None)
+            )
+        })
         .map(|(j, _)| j.id().to_string())
         .collect()
 }
@@ -171,7 +176,9 @@ fn missing_message(out: &Path, missing: &[String]) -> String {
 /// store), writes the manifest and marks the folder complete. `ran`: the outcomes of the jobs
 /// this process has just run and stored, whose rows are taken as they are instead of read back
 /// from their fragments (the same rows); every job's record is read from the store all the
-/// same.
+/// same, but its files are not hashed again: the caller has verified every entry under this
+/// claim ([`store::entry`]: `run` before it decides what to redo, `merge` before it redoes the
+/// damaged ones) or has just written it.
 ///
 /// # Errors
 /// If a job is missing and not `partial`, or a file cannot be read or written.
@@ -200,7 +207,8 @@ pub fn merge_claimed(
             second.push(i);
             continue;
         }
-        outcomes[i] = Some(match store::entry(out, &keys[i]) {
+        // Verified under this claim already (see above), or written by this process.
+        outcomes[i] = Some(match store::entry_verified_earlier(out, &keys[i]) {
             store::Entry::Done(d) => {
                 let rows = match kept[i].take() {
                     // As `load_rows` gives them: the files as the record lists them.
@@ -239,7 +247,7 @@ pub fn merge_claimed(
     // The jobs over other jobs' rows (cheap): run now, from the merged rows.
     let ran = scheduler::execute(plan, jobs, keys, &outcomes, &second, opts, &None, true);
     for (i, o) in ran {
-        if let store::Entry::Done(d) = store::entry(out, &keys[i]) {
+        if let store::Entry::Done(d) = store::entry_verified_earlier(out, &keys[i]) {
             done.push(d);
         }
         outcomes[i] = Some(o);
