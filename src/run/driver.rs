@@ -121,7 +121,13 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     // and the merge would refuse it as a shard's job not run yet: say that it failed, and why.
     let unstored: Vec<String> = done
         .iter()
-        .filter(|(i, _)| matches!(store::entry(&opts.out, &keys[*i]), store::Entry::Missing(_)))
+        // Written a moment ago by this process: the record's presence, not its files' hashes.
+        .filter(|(i, _)| {
+            matches!(
+                store::entry_verified_earlier(&opts.out, &keys[*i]),
+                store::Entry::Missing(_)
+            )
+        })
         .map(|(i, o)| {
             let why = o.rows.as_ref().err().map_or("no record", String::as_str);
             format!("{}: {why}", jobs[*i].id())

@@ -110,22 +110,9 @@ pub fn check_complete(root: &Path) -> Result<()> {
 /// The writer holding one of `root`'s locks now (`lock`, `lock.shard-<i>`), described; `None`
 /// when none is held.
 fn live_writer(root: &Path) -> Option<String> {
-    let state = root.join(STATE);
-    let mut names: Vec<PathBuf> = fs::read_dir(&state)
-        .ok()?
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n == "lock" || n.starts_with("lock.shard-"))
-        })
-        .collect();
-    names.sort();
-    names
-        .into_iter()
-        .find(|p| super::is_held(p))
-        .map(|p| super::lock::describe_holder(&super::lock::read_holder(&p)))
+    // No lock is this reader's: every held one counts.
+    let live = super::lock::other_locks(root, "").ok()?;
+    live.into_iter().next().map(|(_, holder)| holder)
 }
 
 /// The `files` entry of a manifest: every file a run wrote (relative path -> bytes, plus the

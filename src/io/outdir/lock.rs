@@ -13,17 +13,18 @@ use std::os::fd::AsRawFd;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// Who holds (or held) an output folder: enough to tell a live holder from a dead one.
+/// Who holds (or held) an output folder, as its lock file records it for a refusal's message
+/// and a take-over's note (whether a holder is alive is the lock's to say, not the record's).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Holder {
     /// Process id.
     pub pid: u32,
     /// Host name.
     pub host: String,
-    /// The kernel's boot id (`/proc/sys/kernel/random/boot_id`): a pid of another boot is dead.
+    /// The kernel's boot id (`/proc/sys/kernel/random/boot_id`).
     pub boot_id: String,
-    /// Start time of the process in clock ticks after boot (`/proc/<pid>/stat` field 22): a
-    /// reused pid has another.
+    /// Start time of the process in clock ticks after boot (`/proc/<pid>/stat` field 22), which
+    /// tells the holder from a later process with the same pid.
     pub process_start: u64,
     /// Wall-clock start of the claim, seconds since the Unix epoch.
     pub started_unix_s: u64,
@@ -48,22 +49,6 @@ impl Holder {
         }
     }
 
-    /// Whether the holder is certainly dead: same host, and another boot, or no process with
-    /// its pid, or one that started at another time, or a zombie (killed, not yet reaped by
-    /// its parent: it writes nothing more). `false` for another host, and without `/proc`
-    /// (unknowable).
-    pub fn is_dead(&self) -> bool {
-        if self.host != hostname() {
-            return false;
-        }
-        if !self.boot_id.is_empty() && self.boot_id != boot_id() {
-            return true;
-        }
-        is_gone(self.pid)
-            || process_start(self.pid)
-                .is_some_and(|start| self.process_start != 0 && start != self.process_start)
-    }
-
     /// `run (pid 12, host h, started 2026-11-23 23:51:20 UTC)`.
     pub fn describe(&self) -> String {
         format!(
@@ -84,7 +69,8 @@ impl Holder {
 /// holding the lock, then closes it.
 #[derive(Debug)]
 pub struct HeldLock {
-    file: File,
+    /// Closed when dropped, after the unlink (the lock goes with it).
+    _file: File,
     path: PathBuf,
 }
 
@@ -93,7 +79,6 @@ impl Drop for HeldLock {
         // Unlinked while held: a taker that opened this file meanwhile finds it replaced or
         // gone once it gets the lock (the inode check of `take_lock`) and tries again.
         let _ = fs::remove_file(&self.path);
-        let _ = &self.file; // closed after the unlink: the lock goes with it
     }
 }
 
@@ -158,7 +143,7 @@ pub fn take_lock(
             .and_then(|_| file.write_all(&record))
             .with_context(|| format!("cannot write the lock {}", path.display()))?;
         return Ok(HeldLock {
-            file,
+            _file: file,
             path: path.to_path_buf(),
         });
     }

@@ -1,8 +1,9 @@
 //! Output folders the tool owns, and nothing else. A run (or a report) claims its folder
 //! before it writes: the folder must be new, empty, or carry the tool's marker of the same
 //! experiment (`.isar-clutter/owner.json`, or the `manifest.json` of an earlier version);
-//! anything else is refused and left untouched. The claim takes a lock (pid, host, boot and
-//! process start time, so a dead holder is recognised as stale), marks the folder in progress
+//! anything else is refused and left untouched. The claim takes a lock ([`take_lock`]: an `fcntl`
+//! lock the kernel frees when its holder ends, whose file records the holder's pid, host and
+//! start for messages), marks the folder in progress
 //! until the run's manifest is written, and keeps a journal of every file the tool writes
 //! there ([`note`], called by every atomic write before it creates its temporary file).
 //! Cleaning removes only what that journal says the tool wrote; the temporary files of dead
@@ -11,7 +12,8 @@
 //!
 //! State, all under `.isar-clutter/` in the output folder:
 //! - `owner.json`: `{"tool": "isar-clutter", "name": <experiment>}`, the marker;
-//! - `lock`: the [`Holder`] of the run writing now (removed when it ends);
+//! - `lock`: locked by the run writing now, recording its [`Holder`] (removed when it ends;
+//!   `lock.shard-<i>` for shard `i`);
 //! - `in-progress`: the [`Holder`] of a run that has not written its manifest yet;
 //! - `owned`: the relative paths the tool wrote, one per line, as of the last finished claim;
 //! - `journal`: paths noted since then (appended before each write, so a killed run's files

@@ -21,24 +21,14 @@ fn utc_formats_known_instants() {
 
 #[test]
 fn this_process_is_alive_and_a_dead_pid_is_not() {
-    let me = Holder::me("run");
-    assert!(!me.is_dead());
-    let mut gone = me.clone();
-    gone.process_start += 1; // a reused pid: another start time
-    assert!(gone.is_dead());
-    let mut other_boot = me.clone();
-    other_boot.boot_id = "another boot".into();
-    assert!(other_boot.is_dead());
-    let mut elsewhere = gone;
-    elsewhere.host = "another-host".into();
-    assert!(
-        !elsewhere.is_dead(),
-        "another host's holder cannot be judged"
-    );
+    // What decides whether a temporary file's writer is gone (`remove_dead_temporaries_of`);
+    // a lock's holder is alive while its lock is held (`is_held`).
+    assert!(!super::lock::is_gone(std::process::id()));
+    assert!(super::lock::is_gone(999_999_999));
 }
 
 #[test]
-fn a_killed_holder_not_yet_reaped_is_dead() {
+fn a_killed_writer_not_yet_reaped_is_gone() {
     // A writer killed a moment ago whose parent has not reaped it yet is a zombie: it still
     // answers `kill(pid, 0)` and keeps its /proc entry, but it writes nothing more.
     let mut child = std::process::Command::new("sleep")
@@ -46,10 +36,7 @@ fn a_killed_holder_not_yet_reaped_is_dead() {
         .spawn()
         .unwrap();
     let pid = child.id();
-    let mut holder = Holder::me("run");
-    holder.pid = pid;
-    holder.process_start = super::lock::process_stat(pid).unwrap().1;
-    assert!(!holder.is_dead(), "a running holder");
+    assert!(!super::lock::is_gone(pid), "a running writer");
     // SAFETY: `kill` on our own child's pid; the child is not reaped before the check below.
     assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
     let t = std::time::Instant::now();
@@ -60,9 +47,9 @@ fn a_killed_holder_not_yet_reaped_is_dead() {
         );
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
-    assert!(holder.is_dead(), "an unreaped, killed holder");
+    assert!(super::lock::is_gone(pid), "an unreaped, killed writer");
     child.wait().unwrap();
-    assert!(holder.is_dead(), "a reaped holder");
+    assert!(super::lock::is_gone(pid), "a reaped writer");
 }
 
 #[test]
