@@ -72,6 +72,9 @@ pub struct HeldLock {
     /// Closed when dropped, after the unlink (the lock goes with it).
     _file: File,
     path: PathBuf,
+    /// Folders made to hold the lock file, deepest first: removed when dropped if nothing else
+    /// was put in them (a refused `generate` leaves no empty folder behind).
+    made: Vec<PathBuf>,
 }
 
 impl Drop for HeldLock {
@@ -79,6 +82,11 @@ impl Drop for HeldLock {
         // Unlinked while held: a taker that opened this file meanwhile finds it replaced or
         // gone once it gets the lock (the inode check of `take_lock`) and tries again.
         let _ = fs::remove_file(&self.path);
+        for folder in &self.made {
+            if fs::remove_dir(folder).is_err() {
+                break; // not empty: the writer's output is in it
+            }
+        }
     }
 }
 
@@ -145,6 +153,7 @@ pub fn take_lock(
         return Ok(HeldLock {
             _file: file,
             path: path.to_path_buf(),
+            made: Vec::new(),
         });
     }
 }
@@ -170,6 +179,15 @@ fn ofd_lock(file: &File, cmd: libc::c_int) -> std::io::Result<bool> {
             Some(libc::EINTR) => continue,
             _ => return Err(e),
         }
+    }
+}
+
+impl HeldLock {
+    /// Records that the folders `made` (deepest first) were created for this lock, so that
+    /// dropping it removes those it leaves empty.
+    pub(super) fn made_folders(mut self, made: Vec<PathBuf>) -> HeldLock {
+        self.made = made;
+        self
     }
 }
 

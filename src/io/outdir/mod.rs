@@ -407,8 +407,8 @@ pub fn owned(root: &Path) -> Result<BTreeSet<PathBuf>> {
 }
 
 /// Takes the lock of a single output of `command` (a `generate`'s samples file, a `fit`'s
-/// model folder): `.NAME.lock` beside it (its folder made if missing), held until the returned
-/// lock is dropped and removed then. Two writers of one output started at once: one is
+/// model folder): `.NAME.lock` beside it (its folder made if missing, and removed with the
+/// lock if it is still empty then), held until the returned lock is dropped and removed then. Two writers of one output started at once: one is
 /// refused, naming the other.
 ///
 /// # Errors
@@ -422,14 +422,21 @@ pub fn lock_output(path: &Path, command: &str) -> Result<HeldLock> {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
+    // The folders missing now, deepest first: the lock removes them again if they stay empty.
+    let made: Vec<PathBuf> = dir
+        .ancestors()
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .map(Path::to_path_buf)
+        .collect();
     fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut notes = vec![];
-    take_lock(
+    let held = take_lock(
         &dir.join(format!(".{name}.lock")),
         &path.display().to_string(),
         &Holder::me(command),
         &mut notes,
-    )
+    );
+    Ok(held?.made_folders(made))
 }
 
 /// Marks `root` (created if missing) as an output folder of the experiment `name` without

@@ -218,12 +218,19 @@ fn a_second_writer_of_one_output_is_refused_naming_the_first() {
     let want = format!("locked by a generate (pid {},", std::process::id());
     assert!(format!("{err:#}").contains(&want), "{err:#}");
     drop(held);
-    assert_eq!(
-        fs::read_dir(dir.path().join("new")).unwrap().count(),
-        0,
-        "the lock file goes with the lock"
+    assert!(
+        !dir.path().join("new").exists(),
+        "the lock file goes with the lock, and the folder made for it while it is empty"
     );
-    lock_output(&out, "generate").unwrap();
+    // A folder the writer put its output in stays, without the lock file.
+    let held = lock_output(&out, "generate").unwrap();
+    fs::write(&out, b"samples").unwrap();
+    drop(held);
+    let left: Vec<_> = fs::read_dir(dir.path().join("new"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["samples.npy"], "the lock file goes with the lock");
 }
 
 #[test]
