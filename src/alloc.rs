@@ -118,14 +118,22 @@ pub const LARGE: usize = 2 << 20;
 /// raises them only after a large mapped block is freed, so a per-sample buffer of a few
 /// hundred KiB on a worker thread was given back and faulted in again for every sample unless
 /// some earlier 1 MiB buffer happened to raise them: 14,100 page faults against 1,800 in the
-/// Table 4 run, 8 % of its CPU time zeroing pages. Call it at the start of `main` (the binary
-/// and the benchmarks do); nothing elsewhere.
+/// Table 4 run, 8 % of its CPU time zeroing pages. Also at most one heap (arena) per CPU,
+/// not glibc's eight: a merge decodes job results on the pool's threads (and polars' own) and
+/// frees them on its main thread, and the memory each of a dozen arenas kept made the resident
+/// size of a merge grow with its jobs (170 MB for 300 tiny jobs, 186-212 MB for 1,200; with
+/// one arena per CPU, 167 and 169 MB on the 2-core development VM). Call it at the start of
+/// `main` (the binary and the benchmarks do); nothing elsewhere.
 pub fn tune_malloc() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: `mallopt` only sets allocator parameters; it is called before other threads.
-    unsafe {
-        libc::mallopt(libc::M_MMAP_THRESHOLD, LARGE as i32);
-        libc::mallopt(libc::M_TRIM_THRESHOLD, 2 * LARGE as i32);
+    {
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        // SAFETY: `mallopt` only sets allocator parameters; it is called before other threads.
+        unsafe {
+            libc::mallopt(libc::M_MMAP_THRESHOLD, LARGE as i32);
+            libc::mallopt(libc::M_TRIM_THRESHOLD, 2 * LARGE as i32);
+            libc::mallopt(libc::M_ARENA_MAX, cpus.clamp(1, 64) as i32);
+        }
     }
 }
 

@@ -334,6 +334,7 @@ fn real_main() -> Result<ExitCode> {
                 .len();
             println!("{}: valid, {all} job(s)", spec.display());
             println!("{largest}");
+            println!("{}", estimate::footprint(&plan, all));
             Ok(ExitCode::SUCCESS)
         }
         Command::Slurm {

@@ -76,7 +76,7 @@ fn done_records(out: &Path) -> usize {
     fs::read_dir(out.join("jobs"))
         .map(|r| {
             r.flatten()
-                .filter(|e| e.path().join("done.json").is_file())
+                .filter(|e| e.path().join("job.pack").is_file())
                 .count()
         })
         .unwrap_or(0)

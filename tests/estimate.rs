@@ -81,7 +81,7 @@ fn a_sweep_of_12_to_the_8_points_is_refused_at_once() {
         err.contains("spec.yaml: sweep: sweep gives 429981696 points"),
         "{err}"
     );
-    assert!(err.contains("at most 100000 (split the spec)"), "{err}");
+    assert!(err.contains("at most 1000000 (split the spec)"), "{err}");
     assert!(elapsed < Duration::from_secs(1), "took {elapsed:?}");
 }
 
@@ -176,10 +176,10 @@ fn dry_run_prints_the_largest_job_and_refuses_the_big_one() {
 }
 
 #[test]
-fn a_plan_of_more_than_100000_jobs_is_refused() {
-    // 50001 sweep points (under the point limit) on a field both datasets take: 100002 jobs.
+fn a_plan_of_more_than_a_million_jobs_is_refused() {
+    // 500001 sweep points (under the point limit) on a field both datasets take: 1000002 jobs.
     let dir = tempfile::tempdir().unwrap();
-    let values: Vec<String> = (0..50001).map(|v| v.to_string()).collect();
+    let values: Vec<String> = (0..500001).map(|v| v.to_string()).collect();
     let second = GOOD
         .split("datasets:\n")
         .nth(1)
@@ -198,7 +198,7 @@ fn a_plan_of_more_than_100000_jobs_is_refused() {
     let (_, err) = text_of(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("sweep: the sweep gives more than 100000 jobs (up to 100002"),
+        err.contains("sweep: the sweep gives more than 1000000 jobs (up to 1000002"),
         "{err}"
     );
 }

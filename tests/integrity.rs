@@ -193,7 +193,7 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
 }
 
 /// One file of each kind in a job's folder of the store: a map, a model file, the generated
-/// samples, a table fragment, and the record itself.
+/// samples, and the pack (the record and the table fragments).
 fn one_of_each_kind(job: &Path) -> Vec<PathBuf> {
     let files = files_under(job);
     let pick = |f: &dyn Fn(&Path) -> bool| -> PathBuf {
@@ -207,8 +207,7 @@ fn one_of_each_kind(job: &Path) -> Vec<PathBuf> {
         pick(&|p| p.starts_with("maps") && p.extension().is_some_and(|e| e == "npy")),
         pick(&|p| p.starts_with("models")),
         pick(&|p| p.starts_with("samples")),
-        pick(&|p| p.starts_with("fragments")),
-        PathBuf::from("done.json"),
+        PathBuf::from("job.pack"),
     ]
 }
 

@@ -147,26 +147,40 @@ fn write_via_temporary(
     durable: bool,
     write: impl FnOnce(&mut AtomicWriter) -> Result<()>,
 ) -> Result<()> {
-    let (dir, tmp) = temporary(path);
-    crate::io::journal::note(path);
-    let mut w = AtomicWriter {
-        held: Vec::new(),
-        file: None,
-        dir: dir.to_path_buf(),
-        tmp: tmp.clone(),
-    };
-    let result = (|| -> Result<()> {
-        write(&mut w)?;
-        let file = match w.file.take() {
+    let mut w = AtomicWriter::new(path);
+    let result = write(&mut w).and_then(|()| w.finish(path, durable));
+    if result.is_err() {
+        let _ = fs::remove_file(&w.tmp);
+    }
+    result.with_context(|| format!("writing {}", path.display()))
+}
+
+impl AtomicWriter {
+    /// The writer of `path` (noted in the journal now, before its temporary file exists).
+    fn new(path: &Path) -> Self {
+        let (dir, tmp) = temporary(path);
+        crate::io::journal::note(path);
+        AtomicWriter {
+            held: Vec::new(),
+            file: None,
+            dir: dir.to_path_buf(),
+            tmp,
+        }
+    }
+
+    /// Puts what was written at `path`: the temporary file renamed over it (synced before and
+    /// after when `durable`), or nothing where `path` holds the same bytes already.
+    fn finish(&mut self, path: &Path, durable: bool) -> Result<()> {
+        let file = match self.file.take() {
             Some(f) => f
                 .into_inner()
                 .map_err(std::io::IntoInnerError::into_error)?,
             // The same bytes are there already (written, and synced if durable, by the run
             // that made them).
-            None if holds(path, &w.held) => return Ok(()),
+            None if holds(path, &self.held) => return Ok(()),
             None => {
-                let mut f = w.create()?;
-                f.write_all(&w.held)?;
+                let mut f = self.create()?;
+                f.write_all(&self.held)?;
                 f
             }
         };
@@ -174,17 +188,66 @@ fn write_via_temporary(
             file.sync_all()?;
         }
         drop(file);
-        replace(&tmp, path)
-            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
+        replace(&self.tmp, path).with_context(|| {
+            format!("cannot rename {} to {}", self.tmp.display(), path.display())
+        })?;
         if durable {
-            File::open(dir).and_then(|d| d.sync_all())?;
+            File::open(&self.dir).and_then(|d| d.sync_all())?;
         }
         Ok(())
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
     }
-    result.with_context(|| format!("writing {}", path.display()))
+}
+
+/// A file written piece by piece over a long time (a table assembled job by job, the
+/// manifest's list of jobs) that appears at its path, whole, only when [`Staged::commit`] is
+/// called; dropped uncommitted, its temporary file goes and the path is left as it was.
+pub struct Staged {
+    path: PathBuf,
+    writer: AtomicWriter,
+    committed: bool,
+}
+
+impl Staged {
+    /// Starts the file `path` (noted in the journal of a claimed folder that holds it).
+    pub fn new(path: &Path) -> Self {
+        Staged {
+            path: path.to_path_buf(),
+            writer: AtomicWriter::new(path),
+            committed: false,
+        }
+    }
+
+    /// Puts the file in place, as [`atomic_write`] does.
+    ///
+    /// # Errors
+    /// If the temporary file cannot be written or renamed; it is removed then.
+    pub fn commit(mut self) -> Result<()> {
+        self.committed = true;
+        let result = self.writer.finish(&self.path, false);
+        if result.is_err() {
+            let _ = fs::remove_file(&self.writer.tmp);
+        }
+        result.with_context(|| format!("writing {}", self.path.display()))
+    }
+}
+
+impl Write for Staged {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.writer.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.writer.flush()
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.committed {
+            self.writer.file = None;
+            let _ = fs::remove_file(&self.writer.tmp);
+        }
+    }
 }
 
 /// Moves the finished file `tmp` to `path`. Where `path` exists (a re-run into the same

@@ -86,11 +86,10 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         ));
     }
     let bar = scheduler::progress(todo.len(), opts);
-    // A run that merges keeps its jobs' rows for the merge (which would read the same rows
-    // back from the store's fragments); a shard's go as soon as they are stored.
-    let merges = opts.shard.is_none();
+    // Every job's rows go as soon as they are stored: the merge streams them back from the
+    // store, so that a run's memory does not grow with its jobs.
     let done: Vec<(usize, Outcome)> =
-        pool.install(|| scheduler::execute(plan, &jobs, &keys, &[], &todo, opts, &bar, merges));
+        pool.install(|| scheduler::execute(plan, &jobs, &keys, &[], &todo, opts, &bar, false));
     if let Some(b) = &bar {
         b.finish_and_clear();
     }

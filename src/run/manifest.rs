@@ -1,12 +1,13 @@
 //! `manifest.json`: the provenance of a run (tool, git state at build time, the spec and its
 //! hash, the master seed and how every seed derives from it, threads, timings) and every job
-//! with its identity, seeds, status, error and timings.
+//! with its identity, seeds, status, error and timings; written as a stream, job by job.
 
-use crate::io::atomic::atomic_write;
-use crate::run::jobs::{JobKind, Outcome};
+use crate::io::atomic::Staged;
+use crate::run::jobs::JobKind;
 use crate::run::plan::Plan;
 use anyhow::Result;
 use serde_json::json;
+use std::io::Write;
 use std::path::Path;
 
 /// Commit and dirty flag of the source tree when the binary was built (null outside git).
@@ -22,69 +23,132 @@ fn git_state() -> serde_json::Value {
     }
 }
 
-/// Writes `manifest.json`, last of a run's outputs: the tool, git state, spec, seeds and their
-/// derivation, threads, timings and every job with its seeds, status and error.
-///
-/// `jobs` and `outcomes` are every job of the run and its outcome, in plan order; `timings`
-/// the run's total and table-writing seconds; `written` the files the run wrote (relative to
-/// `out`), listed with their sizes (and the tables' SHA-256) so that a reader can tell a
-/// folder that was changed afterwards.
-///
-/// # Errors
-/// If the file cannot be written.
-pub fn write(
-    plan: &Plan,
-    jobs: &[&dyn JobKind],
-    outcomes: &[Outcome],
-    threads: usize,
-    out: &Path,
-    (total_s, tables_s): (f64, f64),
-    written: &[std::path::PathBuf],
-) -> Result<()> {
-    let jobs: Vec<serde_json::Value> = jobs
-        .iter()
-        .zip(outcomes)
-        .map(|(job, o)| {
-            let mut entry = json!({
-                "job": job.id(),
-                "kind": job.kind(),
-                "identity": job.identity(),
-                "seed": job.seed(),
-            });
-            if let serde_json::Value::Object(fields) = job.manifest() {
-                entry.as_object_mut().expect("an object").extend(fields);
-            }
-            let timing = o.rows.as_ref().ok().and_then(|r| r.timing.clone());
-            entry["status"] = json!(if o.rows.is_ok() { "ok" } else { "failed" });
-            entry["error"] = json!(o.rows.as_ref().err());
-            entry["elapsed_s"] = json!(o.elapsed_s);
-            entry["timing"] = json!(timing);
-            entry
+/// `manifest.json`, written as the merge goes: the provenance first ([`Manifest::start`]),
+/// then every job in plan order as the merge reads it ([`Manifest::job`]: its id, kind,
+/// identity, seed, its own fields, status, error and timings, one line each), then the files
+/// the run wrote ([`Manifest::file`]) and the timings ([`Manifest::finish`]), which puts the file in place: last of
+/// a run's outputs. Nothing of it is held in memory but the line being written, so that a
+/// sweep of 100,000 jobs writes its manifest in bounded memory.
+pub struct Manifest {
+    file: Staged,
+    jobs: usize,
+    /// Files written so far (`None`: the list is not open yet).
+    files: Option<usize>,
+}
+
+impl Manifest {
+    /// Starts the manifest of `plan` in `out`: the tool, git state, spec, seeds and their
+    /// derivation, threads.
+    ///
+    /// # Errors
+    /// If the file cannot be written.
+    pub fn start(plan: &Plan, threads: usize, out: &Path) -> Result<Manifest> {
+        let head = json!({
+            "format": "isar-clutter-manifest/1",
+            "tool": { "name": env!("CARGO_PKG_NAME"), "version": env!("CARGO_PKG_VERSION") },
+            "git": git_state(),
+            "spec_file": plan.file.display().to_string(),
+            "spec_hash_sha256": plan.spec_hash,
+            "spec": plan.spec,
+            "master_seed": plan.spec.seed,
+            "seed_derivation": "first 8 bytes (LE) of SHA-256('isar-clutter/v1/<job|data>/<master seed>/<identity>'); simulated data use ChaCha20 seeded with data_seed, stream = sample index; generated samples use the sample format below, seeded with generation_seed, stream = sample index",
+            "sample_format": crate::synthesis::SAMPLE_FORMAT,
+            "threads": threads,
+            "calibration_seed": plan.spec.calibration.as_ref().map(|_| plan.calibration_seed()),
+        });
+        let text = serde_json::to_string_pretty(&head)?;
+        let mut file = Staged::new(&out.join("manifest.json"));
+        // The object left open after its last field, for the jobs.
+        let open = text.strip_suffix("\n}").unwrap_or(&text);
+        write!(file, "{open},\n  \"jobs\": [")?;
+        Ok(Manifest {
+            file,
+            jobs: 0,
+            files: None,
         })
-        .collect();
-    let unix = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
-    let manifest = json!({
-        "format": "isar-clutter-manifest/1",
-        "tool": { "name": env!("CARGO_PKG_NAME"), "version": env!("CARGO_PKG_VERSION") },
-        "git": git_state(),
-        "spec_file": plan.file.display().to_string(),
-        "spec_hash_sha256": plan.spec_hash,
-        "spec": plan.spec,
-        "master_seed": plan.spec.seed,
-        "seed_derivation": "first 8 bytes (LE) of SHA-256('isar-clutter/v1/<job|data>/<master seed>/<identity>'); simulated data use ChaCha20 seeded with data_seed, stream = sample index; generated samples use the sample format below, seeded with generation_seed, stream = sample index",
-        "sample_format": crate::synthesis::SAMPLE_FORMAT,
-        "threads": threads,
-        "calibration_seed": plan.spec.calibration.as_ref().map(|_| plan.calibration_seed()),
-        "finished_unix_s": unix,
-        "timings": { "total_s": total_s, "tables_s": tables_s },
-        "jobs": jobs,
-        "files": crate::io::outdir::file_records(out, written)?,
-    });
-    atomic_write(&out.join("manifest.json"), |w| {
-        serde_json::to_writer_pretty(&mut *w, &manifest)?;
+    }
+
+    /// Appends the entry of `job`: its outcome (`Ok` with its timings, or the error) and wall
+    /// time.
+    ///
+    /// # Errors
+    /// If the file cannot be written.
+    pub fn job(
+        &mut self,
+        job: &dyn JobKind,
+        outcome: std::result::Result<Option<&serde_json::Value>, &str>,
+        elapsed_s: f64,
+    ) -> Result<()> {
+        let mut entry = json!({
+            "job": job.id(),
+            "kind": job.kind(),
+            "identity": job.identity(),
+            "seed": job.seed(),
+        });
+        if let serde_json::Value::Object(fields) = job.manifest() {
+            entry.as_object_mut().expect("an object").extend(fields);
+        }
+        entry["status"] = json!(if outcome.is_ok() { "ok" } else { "failed" });
+        entry["error"] = json!(outcome.err());
+        entry["elapsed_s"] = json!(elapsed_s);
+        entry["timing"] = json!(outcome.ok().flatten());
+        let sep = if self.jobs == 0 { "" } else { "," };
+        write!(self.file, "{sep}\n    {}", serde_json::to_string(&entry)?)?;
+        self.jobs += 1;
         Ok(())
-    })
+    }
+
+    /// Appends a file the run wrote (`rel`, relative to `out`) with its size and, for a table,
+    /// its SHA-256, so that a reader can tell a folder that was changed afterwards; a file
+    /// that is not there is left out.
+    ///
+    /// # Errors
+    /// If the file cannot be written, or a table read for its hash.
+    pub fn file(&mut self, out: &Path, rel: &Path) -> Result<()> {
+        let Some((key, rec)) = crate::io::outdir::file_record(out, rel)? else {
+            return Ok(());
+        };
+        let sep = match self.files {
+            None => {
+                let end = if self.jobs == 0 { "]" } else { "\n  ]" };
+                write!(self.file, "{end},\n  \"files\": {{")?;
+                ""
+            }
+            Some(_) => ",",
+        };
+        write!(
+            self.file,
+            "{sep}\n    {}: {}",
+            serde_json::to_string(&key)?,
+            serde_json::to_string(&rec)?
+        )?;
+        self.files = Some(self.files.unwrap_or(0) + 1);
+        Ok(())
+    }
+
+    /// Ends the manifest with the run's total and table-writing seconds and the time it
+    /// finished, and puts it in place.
+    ///
+    /// # Errors
+    /// If the file cannot be written.
+    pub fn finish(mut self, (total_s, tables_s): (f64, f64)) -> Result<()> {
+        match self.files {
+            None => {
+                let end = if self.jobs == 0 { "]" } else { "\n  ]" };
+                write!(self.file, "{end},\n  \"files\": {{}}")?;
+            }
+            Some(_) => write!(self.file, "\n  }}")?,
+        }
+        let unix = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0);
+        let timings = json!({ "total_s": total_s, "tables_s": tables_s });
+        write!(
+            self.file,
+            ",\n  \"timings\": {},\n  \"finished_unix_s\": {unix}\n}}\n",
+            serde_json::to_string(&timings)?
+        )?;
+        self.file.commit()
+    }
 }

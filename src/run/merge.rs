@@ -8,15 +8,18 @@
 //! its SHA-256, the schema and the shard count), so that `merge OUT` and `status OUT` need
 //! nothing else, and refuse when the spec changed since the shards ran.
 
+use crate::io::atomic::write_parquet;
 use crate::io::outdir::{OutDir, Purpose, STATE};
 use crate::run::jobs::all::AllJobs;
-use crate::run::jobs::{Inputs, JobKind, Outcome, Rows};
+use crate::run::jobs::{Inputs, JobKind, Outcome, Status};
 use crate::run::plan::{self, Plan};
 use crate::run::scheduler::{self, RunOptions};
-use crate::run::{manifest, store};
+use crate::run::{assembly, manifest, store, tables};
 use anyhow::{bail, Context, Result};
+use polars::prelude::DataFrame;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -133,7 +136,7 @@ pub fn merge(out: &Path, opts: &RunOptions, partial: bool) -> Result<Merged> {
             _ => false,
         })
         .collect();
-    let ran = scheduler::execute(&plan, &jobs, &keys, &[], &redo, opts, &None, true);
+    let ran = scheduler::execute(&plan, &jobs, &keys, &[], &redo, opts, &None, false);
     let mut merged = merge_claimed(&plan, &jobs, &keys, &outdir, opts, partial, start, ran)?;
     if !damaged.is_empty() {
         merged.notes.insert(0, store::damaged_note(&damaged));
@@ -171,13 +174,17 @@ fn missing_message(out: &Path, missing: &[String]) -> String {
     )
 }
 
-/// Merges the store of a claimed folder: reads every job's outcome, runs the jobs that read
-/// other jobs' rows, publishes the files, writes the tables, removes stale files (never the
-/// store), writes the manifest and marks the folder complete. `ran`: the outcomes of the jobs
-/// this process has just run and stored, whose rows are taken as they are instead of read back
-/// from their fragments (the same rows); every job's record is read from the store all the
-/// same, but its files are not hashed again: the caller has verified every entry under this
-/// claim ([`store::entry`]: `run` before it decides what to redo, `merge` before it redoes the
+/// Merges the store of a claimed folder: runs the jobs that read other jobs' rows, reads every
+/// job's record (publishing its files, learning each table's layout), streams the tables and
+/// the manifest's jobs from the packs in plan order ([`crate::run::assembly`]), removes stale
+/// files (never the store), ends the manifest and marks the folder complete. Memory holds the
+/// jobs in flight and one row group per table, not the run.
+///
+/// `ran`: the outcomes of the jobs this process has just run (their rows are not used: every
+/// row is read from the store); a job among them that failed and could not be stored counts as
+/// failed with its error instead of missing. Every job's record is read from the store, but its
+/// files are not hashed again: the caller has verified every entry under this claim
+/// ([`store::entry`]: `run` before it decides what to redo, `merge` before it redoes the
 /// damaged ones) or has just written it.
 ///
 /// # Errors
@@ -195,76 +202,87 @@ pub fn merge_claimed(
 ) -> Result<Merged> {
     let out = outdir.root();
     let mut merged = Merged::default();
-    let mut kept: Vec<Option<Rows>> = (0..jobs.len()).map(|_| None).collect();
-    for (i, o) in ran {
-        kept[i] = o.rows.ok();
+    let mut unsaved: HashMap<usize, String> = ran
+        .into_iter()
+        .filter_map(|(i, o)| o.rows.err().map(|e| (i, e)))
+        .collect();
+    // The jobs over other jobs' rows (cheap): run now, from the rows of the jobs they read.
+    let second: Vec<usize> = (0..jobs.len())
+        .filter(|&i| matches!(jobs[i].inputs(), Inputs::Rows(_)))
+        .collect();
+    if !second.is_empty() {
+        let earlier = rows_read_by(out, jobs, keys, &second)?;
+        let ran = scheduler::execute(plan, jobs, keys, &earlier, &second, opts, &None, false);
+        unsaved.extend(
+            ran.into_iter()
+                .filter_map(|(i, o)| o.rows.err().map(|e| (i, e))),
+        );
     }
-    let mut outcomes: Vec<Option<Outcome>> = (0..jobs.len()).map(|_| None).collect();
-    let mut done = vec![];
-    let mut second = vec![];
-    for (i, job) in jobs.iter().enumerate() {
-        if matches!(job.inputs(), Inputs::Rows(_)) {
-            second.push(i);
-            continue;
-        }
-        // Verified under this claim already (see above), or written by this process.
-        outcomes[i] = Some(match store::entry_verified_earlier(out, &keys[i]) {
-            store::Entry::Done(d) => {
-                let rows = match kept[i].take() {
-                    // As `load_rows` gives them: the files as the record lists them.
-                    Some(rows) => Rows {
-                        files: d.files.keys().map(PathBuf::from).collect(),
-                        ..rows
-                    },
-                    None => store::load_rows(out, &d)?,
-                };
-                let o = Outcome {
-                    rows: Ok(rows),
-                    elapsed_s: d.elapsed_s,
-                };
-                done.push(d);
-                o
-            }
-            store::Entry::Failed(f) => Outcome {
-                rows: Err(f.error),
-                elapsed_s: f.elapsed_s,
-            },
-            store::Entry::Missing(why) => {
-                merged.missing.push(job.id().to_string());
-                Outcome {
-                    rows: Err(format!(
-                        "missing from the job store (merged with --partial){}",
-                        why.map(|w| format!(": {w}")).unwrap_or_default()
-                    )),
-                    elapsed_s: 0.0,
+    // Pass 1, the records: files put in place, the tables' layout, what failed or is missing.
+    let mut layout = assembly::Layout::new(tables::table_names(plan));
+    let order: Vec<usize> = (0..jobs.len()).collect();
+    for chunk in order.chunks(256) {
+        let states: Vec<(State, Option<DataFrame>)> = chunk
+            .par_iter()
+            .map(|&i| {
+                let state = state(out, &keys[i], unsaved.get(&i));
+                if let State::Done(d) = &state {
+                    store::publish(out, d).context("putting the jobs' files in place")?;
+                }
+                let row = status_row(plan, jobs[i], &state)?;
+                Ok((state, row))
+            })
+            .collect::<Result<_>>()?;
+        for (&i, (state, row)) in chunk.iter().zip(states) {
+            match state {
+                State::Done(d) => {
+                    for (n, f) in d.fragments.iter().enumerate() {
+                        layout.stored(&f.table, f.columns, f.rows, i, n);
+                    }
+                }
+                State::Failed(error, _) => merged.failed.push((jobs[i].id().to_string(), error)),
+                State::Missing(why) => {
+                    merged.missing.push(jobs[i].id().to_string());
+                    merged
+                        .failed
+                        .push((jobs[i].id().to_string(), missing_error(why)));
                 }
             }
-        });
+            if let Some(row) = row {
+                layout.made("jobs", &row);
+            }
+        }
     }
     if !merged.missing.is_empty() && !partial {
         bail!("{}", missing_message(out, &merged.missing));
     }
-    // The jobs over other jobs' rows (cheap): run now, from the merged rows.
-    let ran = scheduler::execute(plan, jobs, keys, &outcomes, &second, opts, &None, true);
-    for (i, o) in ran {
-        if let store::Entry::Done(d) = store::entry_verified_earlier(out, &keys[i]) {
-            done.push(d);
-        }
-        outcomes[i] = Some(o);
-    }
-    let outcomes: Vec<Outcome> = outcomes
-        .into_iter()
-        .map(|o| o.expect("every job has an outcome"))
-        .collect();
-    done.par_iter()
-        .try_for_each(|d| store::publish(out, d))
-        .context("putting the jobs' files in place")?;
+    // Pass 2, the rows: every table and the manifest's jobs, streamed in plan order.
     let t_tables = Instant::now();
-    let run_opts = RunOptions {
-        out: out.to_path_buf(),
-        ..opts.clone()
-    };
-    scheduler::write_tables(plan, jobs, &outcomes, &run_opts)?;
+    let mut sinks = open_tables(plan, out, keys, &layout)?;
+    let mut manifest = manifest::Manifest::start(plan, opts.threads, out)?;
+    let in_flight = (4 * opts.threads).max(8);
+    for chunk in order.chunks(in_flight) {
+        let loaded: Vec<Loaded> = chunk
+            .par_iter()
+            .map(|&i| load(plan, out, jobs[i], &keys[i], unsaved.get(&i)))
+            .collect::<Result<_>>()?;
+        for (&i, l) in chunk.iter().zip(loaded) {
+            for (table, df) in l.tables.iter().chain(l.status.iter()) {
+                if let Some(sink) = sinks.get_mut(table.as_str()) {
+                    sink.push(df)?;
+                }
+            }
+            let outcome = match &l.error {
+                Some(e) => Err(e.as_str()),
+                None => Ok(l.timing.as_ref()),
+            };
+            manifest.job(jobs[i], outcome, l.elapsed_s)?;
+        }
+        release_free_memory(chunk[0] / in_flight);
+    }
+    for (_, sink) in sinks {
+        sink.finish()?;
+    }
     let tables_s = t_tables.elapsed().as_secs_f64();
     // Everything an earlier run wrote that this one did not (the store stays: its keys are a
     // cache that a later run of an earlier spec reads again; so do the figures when a report
@@ -281,30 +299,13 @@ pub fn merge_claimed(
             "removed {stale} file(s) an earlier run wrote that this run does not have"
         ));
     }
-    merged.failed = jobs
-        .iter()
-        .zip(&outcomes)
-        .filter_map(|(job, o)| {
-            o.rows
-                .as_ref()
-                .err()
-                .map(|e| (job.id().to_string(), e.clone()))
-        })
-        .collect();
-    let written: Vec<PathBuf> = outdir
-        .written()
-        .into_iter()
-        .filter(|p| !p.starts_with("jobs"))
-        .collect();
-    manifest::write(
-        plan,
-        jobs,
-        &outcomes,
-        opts.threads,
-        out,
-        (start.elapsed().as_secs_f64(), tables_s),
-        &written,
-    )?;
+    outdir.each_written(|rel| {
+        if !rel.starts_with("jobs") && rel != Path::new("manifest.json") {
+            manifest.file(out, rel)?;
+        }
+        Ok(())
+    })?;
+    manifest.finish((start.elapsed().as_secs_f64(), tables_s))?;
     if merged.missing.is_empty() {
         outdir.complete()?;
     } else {
@@ -326,6 +327,200 @@ pub fn merge_claimed(
         ));
     }
     Ok(merged)
+}
+
+/// Hands the allocator's free memory back to the system every 64 calls (`n` counts them):
+/// fragments are decoded on the pool's threads and freed on this one, and glibc's per-thread
+/// arenas kept what they freed, so the resident memory of a merge grew with its jobs (by
+/// 30 MB a thousand tiny jobs) while its heap did not.
+fn release_free_memory(n: usize) {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    if n % 64 == 63 {
+        // SAFETY: no arguments beyond the padding to keep; glibc's own locking.
+        unsafe { libc::malloc_trim(0) };
+    }
+    #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+    let _ = n;
+}
+
+/// A job's state in the store, as the merge reads it.
+enum State {
+    /// Its record (files not hashed again).
+    Done(Box<store::Done>),
+    /// Failed: the error and the wall time.
+    Failed(String, f64),
+    /// Not in the store: the reason where a record does not verify.
+    Missing(Option<String>),
+}
+
+/// The state of the job with `key`; `unsaved`: the error of a job of this process whose
+/// outcome could not be stored.
+fn state(out: &Path, key: &str, unsaved: Option<&String>) -> State {
+    match store::entry_verified_earlier(out, key) {
+        store::Entry::Done(d) => State::Done(Box::new(d)),
+        store::Entry::Failed(f) => State::Failed(f.error, f.elapsed_s),
+        store::Entry::Missing(_) if unsaved.is_some() => {
+            State::Failed(unsaved.cloned().unwrap_or_default(), 0.0)
+        }
+        store::Entry::Missing(why) => State::Missing(why),
+    }
+}
+
+/// The error a job missing from the store gets in the tables of a partial merge.
+fn missing_error(why: Option<String>) -> String {
+    format!(
+        "missing from the job store (merged with --partial){}",
+        why.map(|w| format!(": {w}")).unwrap_or_default()
+    )
+}
+
+/// The status row of a job in `jobs.parquet` (jobs of the run as a whole have none).
+fn status_row(plan: &Plan, job: &dyn JobKind, state: &State) -> Result<Option<DataFrame>> {
+    let missing;
+    let (error, elapsed_s) = match state {
+        State::Done(d) => (None, d.elapsed_s),
+        State::Failed(e, s) => (Some(e.as_str()), *s),
+        State::Missing(why) => {
+            missing = missing_error(why.clone());
+            (Some(missing.as_str()), 0.0)
+        }
+    };
+    job.status_row(plan, &Status { error, elapsed_s })
+        .transpose()
+}
+
+/// What pass 2 needs of one job: its fragments (read from its pack), its status row, and its
+/// manifest entry's outcome.
+struct Loaded {
+    tables: Vec<(String, DataFrame)>,
+    status: Option<(String, DataFrame)>,
+    error: Option<String>,
+    timing: Option<serde_json::Value>,
+    elapsed_s: f64,
+}
+
+/// Reads one job for pass 2.
+fn load(
+    plan: &Plan,
+    out: &Path,
+    job: &dyn JobKind,
+    key: &str,
+    unsaved: Option<&String>,
+) -> Result<Loaded> {
+    let state = match store::read_pack(out, key) {
+        Ok(Some((done, body))) => {
+            let tables = (0..done.fragments.len())
+                .map(|n| {
+                    Ok((
+                        done.fragments[n].table.clone(),
+                        store::fragment(&done, &body, n)?,
+                    ))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let row = job.status_row(
+                plan,
+                &Status {
+                    error: None,
+                    elapsed_s: done.elapsed_s,
+                },
+            );
+            return Ok(Loaded {
+                tables,
+                status: row.transpose()?.map(|df| ("jobs".to_string(), df)),
+                error: None,
+                timing: done.timing,
+                elapsed_s: done.elapsed_s,
+            });
+        }
+        Ok(None) => state(out, key, unsaved),
+        Err(why) => bail!(
+            "{}: the job store's result of {} changed during the merge: {why}; merge again",
+            out.display(),
+            job.id()
+        ),
+    };
+    let row = status_row(plan, job, &state)?;
+    let (error, elapsed_s) = match state {
+        State::Failed(e, s) => (e, s),
+        State::Missing(why) => (missing_error(why), 0.0),
+        State::Done(_) => unreachable!("a pack was read above"),
+    };
+    Ok(Loaded {
+        tables: vec![],
+        status: row.map(|df| ("jobs".to_string(), df)),
+        error: Some(error),
+        timing: None,
+        elapsed_s,
+    })
+}
+
+/// The rows of the jobs that `second`'s jobs read, loaded from the store (the others `None`).
+fn rows_read_by(
+    out: &Path,
+    jobs: &[&dyn JobKind],
+    keys: &[String],
+    second: &[usize],
+) -> Result<Vec<Option<Outcome>>> {
+    let mut earlier: Vec<Option<Outcome>> = (0..jobs.len()).map(|_| None).collect();
+    for &i in second {
+        let Inputs::Rows(from) = jobs[i].inputs() else {
+            continue;
+        };
+        for k in from {
+            if earlier[k].is_some() {
+                continue;
+            }
+            if let store::Entry::Done(d) = store::entry_verified_earlier(out, &keys[k]) {
+                earlier[k] = Some(Outcome {
+                    rows: Ok(store::load_rows(out, &d)?),
+                    elapsed_s: d.elapsed_s,
+                });
+            }
+        }
+    }
+    Ok(earlier)
+}
+
+/// The writers of the tables that have fragments (the others are written empty now, with
+/// their columns), by name.
+fn open_tables(
+    plan: &Plan,
+    out: &Path,
+    keys: &[String],
+    layout: &assembly::Layout,
+) -> Result<BTreeMap<String, assembly::Sink>> {
+    let mut sinks = BTreeMap::new();
+    for t in &layout.tables {
+        let widest = match &t.widest {
+            None => {
+                let mut df = tables::empty(plan, &t.name)?;
+                write_parquet(&out.join(format!("{}.parquet", t.name)), &mut df)?;
+                continue;
+            }
+            Some(assembly::Widest::Made(df)) => df.clone(),
+            Some(assembly::Widest::Stored { job, index }) => {
+                let (done, body) = store::read_pack(out, &keys[*job])
+                    .map_err(|why| anyhow::anyhow!("{}: {why}", out.display()))?
+                    .with_context(|| {
+                        format!("{}: a job's result went during the merge", out.display())
+                    })?;
+                store::fragment(&done, &body, *index)?.clear()
+            }
+        };
+        if t.rows == 0 {
+            // Fragments without rows: the table is their widest columns.
+            write_parquet(
+                &out.join(format!("{}.parquet", t.name)),
+                &mut widest.clone(),
+            )?;
+            continue;
+        }
+        sinks.insert(
+            t.name.clone(),
+            assembly::Sink::new(out, &t.name, &widest, t.rows)?,
+        );
+    }
+    Ok(sinks)
 }
 
 /// One line per job of a folder's plan: id, shard, state (`done`, `failed`, `missing`) and the

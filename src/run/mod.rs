@@ -2,9 +2,10 @@
 //! kinds behind one seam ([`jobs`]), every job's memory and work estimated before anything is
 //! allocated ([`estimate`]) and the plan checked against the machine ([`check`]), the scheduler that fans jobs out over a thread pool (a whole run
 //! or one shard), the durable job store every finished job is saved in ([`store`]: resume,
-//! shards), the merge of the store into the Parquet tables ([`merge`]), the manifest, and the
+//! shards), the merge of the store into the Parquet tables ([`merge`], streamed by [`assembly`]), the manifest, and the
 //! Slurm scripts that run a spec's shards as an array job and merge them ([`slurm`]).
 
+pub mod assembly;
 pub mod check;
 pub mod driver;
 pub mod estimate;

@@ -6,13 +6,10 @@
 //! without stopping the others. Also the options of a run, its summary, and writing the
 //! assembled tables. The order of a whole run is in [`crate::run::driver`].
 
-use crate::io::atomic::write_parquet;
-use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Rows, Status};
+use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Rows};
 use crate::run::plan::Plan;
-use crate::run::{store, tables};
-use anyhow::Result;
+use crate::run::store;
 use indicatif::{ProgressBar, ProgressStyle};
-use polars::prelude::DataFrame;
 use rayon::prelude::*;
 use std::io::IsTerminal;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -136,10 +133,13 @@ pub fn execute(
     bar: &Option<ProgressBar>,
     keep_rows: bool,
 ) -> Vec<(usize, Outcome)> {
-    groups(jobs, indices)
+    let commits = store::Commits::new(&opts.out);
+    let done = groups(jobs, indices)
         .par_iter()
-        .flat_map_iter(|g| run_group(plan, jobs, keys, earlier, g, opts, bar, keep_rows))
-        .collect()
+        .flat_map_iter(|g| run_group(plan, jobs, keys, earlier, g, opts, bar, keep_rows, &commits))
+        .collect();
+    commits.flush();
+    done
 }
 
 /// Runs one group of jobs: its shared dataset materialised once (no lock: the group owns it)
@@ -154,6 +154,7 @@ fn run_group(
     opts: &RunOptions,
     bar: &Option<ProgressBar>,
     keep_rows: bool,
+    commits: &store::Commits,
 ) -> Vec<(usize, Outcome)> {
     let limit = crate::run::estimate::limit(opts.max_memory);
     // A job that cannot fit fails before anything is allocated for it.
@@ -209,8 +210,11 @@ fn run_group(
                 elapsed_s: t.elapsed().as_secs_f64(),
             };
             // Into the store at once; a store that cannot be written fails the job.
-            if let Err(e) = store::save(&opts.out, &keys[index], job, &outcome) {
-                outcome.rows = Err(format!("saving the result: {}", crate::error_text(&e)));
+            match store::save(&opts.out, &keys[index], job, &outcome) {
+                Ok(()) => commits.saved(),
+                Err(e) => {
+                    outcome.rows = Err(format!("saving the result: {}", crate::error_text(&e)))
+                }
             }
             report(bar, opts, job, &outcome);
             if !keep_rows {
@@ -220,36 +224,6 @@ fn run_group(
             (index, outcome)
         })
         .collect()
-}
-
-/// Assembles the tables from every job's rows and status row and writes them, in parallel.
-pub fn write_tables(
-    plan: &Plan,
-    jobs: &[&dyn JobKind],
-    outcomes: &[Outcome],
-    opts: &RunOptions,
-) -> Result<()> {
-    let status: Vec<Option<(&'static str, DataFrame)>> = jobs
-        .iter()
-        .zip(outcomes)
-        .map(|(job, o)| {
-            let s = Status {
-                error: o.rows.as_ref().err().map(String::as_str),
-                elapsed_s: o.elapsed_s,
-            };
-            let row = job.status_row(plan, &s).transpose()?;
-            Ok(row.map(|df| ("jobs", df)))
-        })
-        .collect::<Result<_>>()?;
-    let mut rows: Vec<&[(&'static str, DataFrame)]> = vec![];
-    for (o, s) in outcomes.iter().zip(&status) {
-        rows.extend(o.rows.as_ref().ok().map(|r| r.tables.as_slice()));
-        rows.extend(s.as_ref().map(std::slice::from_ref));
-    }
-    let tables = tables::assemble(plan, &rows)?;
-    tables.into_par_iter().try_for_each(|(name, mut df)| {
-        write_parquet(&opts.out.join(format!("{name}.parquet")), &mut df)
-    })
 }
 
 /// A progress bar over `n` jobs when stderr is a terminal and the run is not quiet.

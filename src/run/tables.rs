@@ -685,7 +685,20 @@ pub fn fragments(
         .collect()
 }
 
-/// Assembles the run's tables from the jobs' table fragments (in plan order):
+/// The tables every run of `plan` writes, even when empty: the standard ones and those of its
+/// sections, in this order.
+pub fn table_names(plan: &Plan) -> Vec<&'static str> {
+    let mut names: Vec<&'static str> = STANDARD.iter().map(|(n, _)| *n).collect();
+    for (n, _) in dataset_tables(plan) {
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    names
+}
+
+/// Assembles the run's tables in memory from the jobs' table fragments (in plan order), the
+/// reference that the streaming assembly ([`crate::run::assembly`]) reproduces:
 /// every table's fragments concatenated in plan order. The standard tables are always there
 /// (empty when no job contributed); a table's columns are those of its widest fragment, which
 /// the others' columns are a subset of (`synthesis_params` has `r_*` columns up to the run's
@@ -723,7 +736,10 @@ pub fn assemble(
 }
 
 /// The empty table `name` with its columns.
-fn empty(plan: &Plan, name: &str) -> Result<DataFrame> {
+///
+/// # Errors
+/// If the table's builder fails.
+pub fn empty(plan: &Plan, name: &str) -> Result<DataFrame> {
     if name == "jobs" {
         return status_rows(plan, &[]);
     }
@@ -733,8 +749,12 @@ fn empty(plan: &Plan, name: &str) -> Result<DataFrame> {
     }
 }
 
-/// Fragments stacked in order; columns aligned on the widest fragment.
-fn concat(parts: &[&DataFrame]) -> Result<DataFrame> {
+/// Fragments stacked in order; columns aligned on the widest fragment (the last of equal
+/// width).
+///
+/// # Errors
+/// If a fragment has a column the widest lacks, or types that do not fit.
+pub(crate) fn concat(parts: &[&DataFrame]) -> Result<DataFrame> {
     let widest = parts.iter().max_by_key(|df| df.width()).expect("non-empty");
     let columns: Vec<(PlSmallStr, DataType)> = widest
         .columns()

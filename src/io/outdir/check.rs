@@ -4,9 +4,8 @@
 
 use super::{Holder, STATE};
 use anyhow::{bail, Context, Result};
-use std::collections::BTreeMap;
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Checks that `root` is a complete run's folder: not in progress, a `manifest.json`, and
 /// every file the manifest lists present with its recorded size (and hash for tables).
@@ -115,28 +114,26 @@ fn live_writer(root: &Path) -> Option<String> {
     live.into_iter().next().map(|(_, holder)| holder)
 }
 
-/// The `files` entry of a manifest: every file a run wrote (relative path -> bytes, plus the
-/// SHA-256 of the Parquet tables, which are small).
+/// The record of one file the run wrote (`rel`, relative to `root`) for the manifest: its size,
+/// and for a table at the top level its SHA-256, so that a reader can tell a folder changed
+/// afterwards. `None` for a file that is not there (or whose name is not UTF-8).
 ///
 /// # Errors
-/// If a written file cannot be read.
-pub fn file_records(
-    root: &Path,
-    written: &[PathBuf],
-) -> Result<BTreeMap<String, serde_json::Value>> {
-    let mut out = BTreeMap::new();
-    for rel in written {
-        let path = root.join(rel);
-        let Ok(m) = fs::metadata(&path) else { continue };
-        let Some(key) = rel.to_str() else { continue };
-        let mut rec = serde_json::json!({ "bytes": m.len() });
-        if rel.extension().is_some_and(|e| e == "parquet") && rel.components().count() == 1 {
-            let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-            rec["sha256"] = serde_json::Value::String(crate::seeds::sha256_hex(&bytes));
-        }
-        out.insert(key.to_string(), rec);
+/// If a table cannot be read for its hash.
+pub fn file_record(root: &Path, rel: &Path) -> Result<Option<(String, serde_json::Value)>> {
+    let path = root.join(rel);
+    let Ok(m) = fs::metadata(&path) else {
+        return Ok(None);
+    };
+    let Some(key) = rel.to_str() else {
+        return Ok(None);
+    };
+    let mut rec = serde_json::json!({ "bytes": m.len() });
+    if rel.extension().is_some_and(|e| e == "parquet") && rel.components().count() == 1 {
+        let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+        rec["sha256"] = serde_json::Value::String(crate::seeds::sha256_hex(&bytes));
     }
-    Ok(out)
+    Ok(Some((key.to_string(), rec)))
 }
 
 /// Refuses an output file path that is a folder (or anything but a regular file), and an

@@ -24,7 +24,7 @@
 
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashSet};
 use std::fs::{self, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -32,7 +32,7 @@ use std::path::{Path, PathBuf};
 mod check;
 mod lock;
 
-pub use check::{check_complete, check_file_output, file_records, remove_dead_temporaries_of};
+pub use check::{check_complete, check_file_output, file_record, remove_dead_temporaries_of};
 pub use lock::{is_held, take_lock, HeldLock, Holder};
 
 use crate::io::journal::{self, safe_relative};
@@ -200,9 +200,19 @@ impl OutDir {
         &self.root
     }
 
-    /// The files noted under this claim so far (relative paths, sorted).
-    pub fn written(&self) -> Vec<PathBuf> {
-        journal::written(&self.abs)
+    /// Calls `f` with every file noted under this claim (relative paths, each once), read
+    /// from the records on disk: nothing but a 64-bit hash per path is held in memory.
+    ///
+    /// # Errors
+    /// If a record cannot be read, or as `f`.
+    pub fn each_written(&self, mut f: impl FnMut(&Path) -> Result<()>) -> Result<()> {
+        let mut seen = HashSet::new();
+        each_owned(&self.root, |rel| {
+            if journal::is_written(&self.abs, rel) && seen.insert(journal::path_hash(rel)) {
+                f(rel)?;
+            }
+            Ok(())
+        })
     }
 
     /// The relative paths the tool's records say it wrote here (the `owned` list and the
@@ -214,29 +224,45 @@ impl OutDir {
     /// Removes the files the tool wrote here earlier that `stale` selects and this claim has not
     /// written (an earlier run's job that is gone, a failed job's old maps, an old figure), and
     /// then the folders that removal left empty. Returns how many files went. Files the tool's
-    /// records do not list are never touched.
+    /// records do not list are never touched. The records are read and rewritten as a stream
+    /// (`owned` becomes what is left of them and this claim's files), so that memory holds a
+    /// 64-bit hash per path, not the paths.
     ///
     /// # Errors
     /// If a file cannot be removed; the message names it.
     pub fn remove_stale(&self, stale: impl Fn(&Path) -> bool) -> Result<usize> {
-        let written: BTreeSet<PathBuf> = self.written().into_iter().collect();
+        let state = self.root.join(STATE);
+        let mut keep = crate::io::atomic::Staged::new(&state.join("owned"));
         let mut removed = 0;
         let mut parents = BTreeSet::new();
-        for rel in self.owned()? {
-            if written.contains(&rel) || !stale(&rel) {
-                continue;
+        let mut seen = HashSet::new();
+        each_owned(&self.root, |rel| {
+            if !seen.insert(journal::path_hash(rel)) {
+                return Ok(());
             }
-            let path = self.root.join(&rel);
-            match fs::symlink_metadata(&path) {
-                Ok(m) if m.is_file() => {
-                    fs::remove_file(&path)
-                        .with_context(|| format!("removing stale {}", path.display()))?;
-                    removed += 1;
+            let path = self.root.join(rel);
+            let kept = if journal::is_written(&self.abs, rel) {
+                true
+            } else if stale(rel) {
+                match fs::symlink_metadata(&path) {
+                    Ok(m) if m.is_file() => {
+                        fs::remove_file(&path)
+                            .with_context(|| format!("removing stale {}", path.display()))?;
+                        removed += 1;
+                    }
+                    _ => {}
                 }
-                _ => {}
+                parents.extend(rel.ancestors().skip(1).map(Path::to_path_buf));
+                false
+            } else {
+                path.is_file()
+            };
+            if let (true, Some(s)) = (kept, rel.to_str()) {
+                keep.write_all(s.as_bytes())?;
+                keep.write_all(b"\n")?;
             }
-            parents.extend(rel.ancestors().skip(1).map(Path::to_path_buf));
-        }
+            Ok(())
+        })?;
         // Deepest first; only folders the removal emptied (remove_dir fails on any other).
         let mut parents: Vec<PathBuf> = parents
             .into_iter()
@@ -246,33 +272,12 @@ impl OutDir {
         for p in parents {
             let _ = fs::remove_dir(self.root.join(p));
         }
-        // The records now: what is left of the old list, and this claim's files.
-        let keep: BTreeSet<PathBuf> = self
-            .owned()?
-            .into_iter()
-            .filter(|rel| written.contains(rel) || self.root.join(rel).is_file())
-            .collect();
-        self.rewrite_records(&keep)?;
-        Ok(removed)
-    }
-
-    /// Rewrites `owned` as `keep` and empties the journal of earlier claims (this claim's
-    /// paths stay noted in memory and are re-appended).
-    fn rewrite_records(&self, keep: &BTreeSet<PathBuf>) -> Result<()> {
-        let state = self.root.join(STATE);
-        let mut text = String::new();
-        for p in keep {
-            if let Some(s) = p.to_str() {
-                text.push_str(s);
-                text.push('\n');
-            }
-        }
-        crate::io::atomic::atomic_write(&state.join("owned"), |w| {
-            Ok(w.write_all(text.as_bytes())?)
-        })?;
+        // The records now: what is left of the old list, and this claim's files; the journal
+        // of earlier claims is emptied (this claim's paths stay noted in memory).
+        keep.commit()?;
         fs::write(state.join("journal"), b"")
             .with_context(|| format!("cannot reset {}/{STATE}/journal", self.root.display()))?;
-        Ok(())
+        Ok(removed)
     }
 
     /// Keeps the folder marked incomplete and says why (a merge with jobs missing): readers
@@ -305,14 +310,16 @@ impl OutDir {
     fn remove_dead_temporaries(&self) -> Result<usize> {
         let me = std::process::id();
         let mut removed = 0;
-        let owned = self.owned()?;
-        let folders: BTreeSet<PathBuf> = owned
-            .iter()
-            .map(|p| p.parent().map(Path::to_path_buf).unwrap_or_default())
-            .collect();
+        let mut owned = HashSet::new();
+        let mut folders = BTreeSet::new();
+        each_owned(&self.root, |rel| {
+            owned.insert(journal::path_hash(rel));
+            folders.insert(rel.parent().map(Path::to_path_buf).unwrap_or_default());
+            Ok(())
+        })?;
         for folder in folders {
             removed += remove_temporaries(&self.root.join(&folder), |base, pid, is_dir| {
-                pid != me && !is_dir && owned.contains(&folder.join(base))
+                pid != me && !is_dir && owned.contains(&journal::path_hash(&folder.join(base)))
             })?
             .len();
         }
@@ -390,20 +397,36 @@ pub fn temporary_of(name: &str) -> Option<(&str, u32)> {
 /// If a record exists but cannot be read.
 pub fn owned(root: &Path) -> Result<BTreeSet<PathBuf>> {
     let mut set = BTreeSet::new();
+    each_owned(root, |rel| {
+        set.insert(rel.to_path_buf());
+        Ok(())
+    })?;
+    Ok(set)
+}
+
+/// Calls `f` with every path of `root`'s records (`owned`, then `journal`), line by line,
+/// without holding them (a path may come twice: once from each record).
+///
+/// # Errors
+/// If a record exists but cannot be read, or as `f`.
+fn each_owned(root: &Path, mut f: impl FnMut(&Path) -> Result<()>) -> Result<()> {
+    use std::io::BufRead;
     for name in ["owned", "journal"] {
         let path = root.join(STATE).join(name);
-        let text = match fs::read_to_string(&path) {
+        let file = match fs::File::open(&path) {
             Ok(t) => t,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
             Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
         };
-        set.extend(
-            text.lines()
-                .map(PathBuf::from)
-                .filter(|p| safe_relative(p) && !p.starts_with(STATE)),
-        );
+        for line in std::io::BufReader::new(file).lines() {
+            let line = line.with_context(|| format!("reading {}", path.display()))?;
+            let rel = Path::new(&line);
+            if safe_relative(rel) && !rel.starts_with(STATE) {
+                f(rel)?;
+            }
+        }
     }
-    Ok(set)
+    Ok(())
 }
 
 /// Takes the lock of a single output of `command` (a `generate`'s samples file, a `fit`'s

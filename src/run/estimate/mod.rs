@@ -55,9 +55,11 @@
 
 mod apps;
 mod dataset;
+mod outputs;
 
 pub use apps::{calibration, classification, hypotheses, location};
 pub use dataset::dataset_job;
+pub use outputs::{footprint, Footprint};
 
 use std::fmt;
 

@@ -1,0 +1,465 @@
+//! The run's tables assembled by streaming: every table's fragments (the job store's packs and
+//! the jobs' status rows) are appended in plan order to a Parquet writer, a row group at a time,
+//! so that a merge holds at most one row group per table and the fragments of the jobs in
+//! flight, however many jobs the plan has.
+//!
+//! The result is the file that concatenating every fragment in memory and writing it at once
+//! gave (the tool up to store schema 2; [`crate::run::tables::assemble`] still does this for
+//! a test's oracle): the same columns (those of the widest fragment, nulls where a fragment
+//! lacks one), the same rows, and the same row groups, because the records tell each table's
+//! height before any fragment is read, and polars' writer splits a table of `H` rows into
+//! `H / 262144` equal row groups (the last one takes the remainder).
+
+use crate::io::atomic::Staged;
+use anyhow::{bail, Context, Result};
+use polars::prelude::{
+    BatchedWriter, Column, DataFrame, DataType, IntoColumn, ParquetCompression, ParquetWriter,
+    PlSmallStr, StringChunked,
+};
+use std::path::Path;
+
+/// The row-group size polars' Parquet writer aims at (`512 * 512` rows).
+pub const ROW_GROUP: usize = 512 * 512;
+
+/// What the records say of one table before any fragment is read.
+#[derive(Debug, Clone)]
+pub struct TableLayout {
+    /// The table's name (its file is `<name>.parquet`).
+    pub name: String,
+    /// Fragments seen.
+    pub parts: usize,
+    /// Rows in all of them.
+    pub rows: usize,
+    /// Columns of the widest fragment so far.
+    pub columns: usize,
+    /// Where the widest fragment is (the last of equal width, in plan order).
+    pub widest: Option<Widest>,
+}
+
+/// Where a table's widest fragment is.
+#[derive(Debug, Clone)]
+pub enum Widest {
+    /// Fragment `index` of the pack of job `job` (plan order).
+    Stored {
+        /// The job's index in the plan.
+        job: usize,
+        /// The fragment's index in the job's record.
+        index: usize,
+    },
+    /// A fragment made by the merge itself (a job's status row), kept with its rows dropped.
+    Made(DataFrame),
+}
+
+/// Every table of a run, in the order of first appearance.
+#[derive(Debug, Clone, Default)]
+pub struct Layout {
+    /// The tables.
+    pub tables: Vec<TableLayout>,
+}
+
+impl Layout {
+    /// A layout with `names` (the standard tables, present even when empty) first.
+    pub fn new<'a>(names: impl IntoIterator<Item = &'a str>) -> Self {
+        let mut layout = Layout::default();
+        for n in names {
+            layout.table(n);
+        }
+        layout
+    }
+
+    /// The entry of `name`, made when new. Names starting with `_` are intermediate rows and
+    /// never become tables: `None`.
+    fn table(&mut self, name: &str) -> Option<&mut TableLayout> {
+        if name.starts_with('_') {
+            return None;
+        }
+        let at = match self.tables.iter().position(|t| t.name == name) {
+            Some(at) => at,
+            None => {
+                self.tables.push(TableLayout {
+                    name: name.to_string(),
+                    parts: 0,
+                    rows: 0,
+                    columns: 0,
+                    widest: None,
+                });
+                self.tables.len() - 1
+            }
+        };
+        Some(&mut self.tables[at])
+    }
+
+    /// Counts a stored fragment: `(job, index)` in the plan and its record.
+    pub fn stored(&mut self, table: &str, columns: usize, rows: usize, job: usize, index: usize) {
+        if let Some(t) = self.table(table) {
+            t.parts += 1;
+            t.rows += rows;
+            if t.widest.is_none() || columns >= t.columns {
+                t.columns = columns;
+                t.widest = Some(Widest::Stored { job, index });
+            }
+        }
+    }
+
+    /// Counts a fragment the merge makes itself (a status row).
+    pub fn made(&mut self, table: &str, df: &DataFrame) {
+        if let Some(t) = self.table(table) {
+            t.parts += 1;
+            t.rows += df.height();
+            if t.widest.is_none() || df.width() >= t.columns {
+                t.columns = df.width();
+                t.widest = Some(Widest::Made(df.clear()));
+            }
+        }
+    }
+}
+
+/// The heights of the row groups polars' writer makes of a single-chunk table of `rows`
+/// rows: one group up to [`ROW_GROUP`] rows; beyond, `rows / ROW_GROUP` groups of equal
+/// height, the last one taking the remainder.
+pub fn row_groups(rows: usize) -> Vec<usize> {
+    if rows < ROW_GROUP {
+        return vec![rows];
+    }
+    let n = rows / ROW_GROUP;
+    let size = rows / n;
+    let mut groups = vec![size; n - 1];
+    groups.push(rows - size * (n - 1));
+    groups
+}
+
+/// Fragments waiting for their row group are stacked into one every this many: a decoded
+/// fragment's strings sit in a buffer of at least a few kilobytes however few they are (a
+/// tiny job's one-row status used 16 KB), and a small table's fragments all wait until the
+/// end, so 100,000 jobs held gigabytes of nearly empty buffers.
+const COMPACT: usize = 256;
+
+/// `parts` stacked into one fragment of one chunk, each string column copied into a fresh
+/// array (one buffer, the strings alone), so that the parts' buffers are freed.
+fn compact(parts: Vec<DataFrame>) -> Result<DataFrame> {
+    let mut parts = parts.into_iter();
+    let Some(mut df) = parts.next() else {
+        return Ok(DataFrame::empty());
+    };
+    for p in parts {
+        df.vstack_mut_owned(p)?;
+    }
+    df.rechunk_mut();
+    let columns = df
+        .columns()
+        .iter()
+        .map(|c| {
+            Ok(match c.dtype() {
+                DataType::String => {
+                    let ca = c.str()?;
+                    let fresh: StringChunked = ca.iter().collect();
+                    fresh.with_name(c.name().clone()).into_column()
+                }
+                _ => c.clone(),
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(DataFrame::new_infer_height(columns)?)
+}
+
+/// One table being written: its columns, the rows not written yet, the heights of the row
+/// groups still to come.
+pub struct Sink {
+    name: String,
+    columns: Vec<(PlSmallStr, DataType)>,
+    /// Fragments (aligned) not written yet, and their rows. Kept apart, not stacked: a
+    /// stacked string column keeps every fragment's buffers, and slicing a row group off it
+    /// freed none of them, so memory grew with the jobs (45 KB a tiny job).
+    pending: std::collections::VecDeque<DataFrame>,
+    pending_rows: usize,
+    /// Fragments pushed since the last [`compact`].
+    uncompacted: usize,
+    groups: std::collections::VecDeque<usize>,
+    writer: BatchedWriter<Shared>,
+    file: Shared,
+}
+
+/// The staged file a [`BatchedWriter`] writes into, shared so that it can be committed after
+/// the writer's footer (the writer does not hand its file back).
+#[derive(Clone)]
+struct Shared(std::sync::Arc<std::sync::Mutex<Option<Staged>>>);
+
+impl std::io::Write for Shared {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self
+            .0
+            .lock()
+            .map_err(|_| std::io::Error::other("poisoned"))?
+            .as_mut()
+        {
+            Some(f) => f.write(buf),
+            None => Err(std::io::Error::other("the table was committed already")),
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self
+            .0
+            .lock()
+            .map_err(|_| std::io::Error::other("poisoned"))?
+            .as_mut()
+        {
+            Some(f) => f.flush(),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Sink {
+    /// Starts `<name>.parquet` in `out` with the columns of `widest` and the row groups of a
+    /// table of `rows` rows.
+    ///
+    /// # Errors
+    /// If the writer cannot be made for these columns.
+    pub fn new(out: &Path, name: &str, widest: &DataFrame, rows: usize) -> Result<Sink> {
+        let file = Shared(std::sync::Arc::new(std::sync::Mutex::new(Some(
+            Staged::new(&out.join(format!("{name}.parquet"))),
+        ))));
+        let writer = ParquetWriter::new(file.clone())
+            .with_compression(ParquetCompression::Snappy)
+            .set_parallel(false)
+            .batched(widest.schema())
+            .with_context(|| format!("starting {name}.parquet"))?;
+        Ok(Sink {
+            name: name.to_string(),
+            columns: widest
+                .columns()
+                .iter()
+                .map(|c| (c.name().clone(), c.dtype().clone()))
+                .collect(),
+            pending: Default::default(),
+            pending_rows: 0,
+            uncompacted: 0,
+            groups: row_groups(rows).into(),
+            writer,
+            file,
+        })
+    }
+
+    /// Appends a fragment: its columns aligned on the widest fragment's (nulls where it lacks
+    /// one); every row group that is complete now is written.
+    ///
+    /// # Errors
+    /// If the fragment has a column the widest one lacks, or types that do not fit.
+    pub fn push(&mut self, part: &DataFrame) -> Result<()> {
+        if let Some(c) = part
+            .columns()
+            .iter()
+            .find(|c| !self.columns.iter().any(|(n, _)| n == c.name()))
+        {
+            bail!(
+                "assembling {}: a fragment has column {} that the widest one lacks",
+                self.name,
+                c.name()
+            );
+        }
+        let aligned = DataFrame::new_infer_height(
+            self.columns
+                .iter()
+                .map(|(name, dtype)| match part.column(name) {
+                    Ok(c) if c.dtype() != dtype => bail!(
+                        "assembling {}: column {name} is {} in a fragment and {dtype} in the \
+                         widest one",
+                        self.name,
+                        c.dtype()
+                    ),
+                    Ok(c) => Ok(c.clone()),
+                    Err(_) => Ok(Column::full_null(name.clone(), part.height(), dtype)),
+                })
+                .collect::<Result<_>>()?,
+        )?;
+        self.pending_rows += aligned.height();
+        self.pending.push_back(aligned);
+        self.uncompacted += 1;
+        if self.uncompacted >= COMPACT {
+            // The last COMPACT fragments become one, their strings copied into one buffer.
+            let at = self.pending.len() - self.uncompacted.min(self.pending.len());
+            let parts: Vec<DataFrame> = self.pending.drain(at..).collect();
+            self.pending
+                .push_back(compact(parts).with_context(|| format!("assembling {}", self.name))?);
+            self.uncompacted = 0;
+        }
+        self.write_full_groups()
+    }
+
+    /// Writes the row groups the pending fragments fill: each group stacked from whole
+    /// fragments and the head of the last one (its tail waits for the next group), as one
+    /// chunk (the writer makes a row group of each chunk).
+    fn write_full_groups(&mut self) -> Result<()> {
+        while let Some(&size) = self.groups.front() {
+            if size == 0 || self.pending_rows < size {
+                break;
+            }
+            let mut group: Option<DataFrame> = None;
+            let mut need = size;
+            while need > 0 {
+                let part = self.pending.pop_front().expect("rows are pending");
+                let h = part.height();
+                let head = if h <= need {
+                    part
+                } else {
+                    self.pending.push_front(part.slice(need as i64, h - need));
+                    part.slice(0, need)
+                };
+                need -= head.height();
+                match &mut group {
+                    None => group = Some(head),
+                    Some(g) => {
+                        g.vstack_mut_owned(head)
+                            .with_context(|| format!("assembling {}", self.name))?;
+                    }
+                }
+            }
+            let mut group = group.expect("a group of at least one row");
+            group.rechunk_mut();
+            self.writer
+                .write_batch(&group)
+                .with_context(|| format!("writing {}.parquet", self.name))?;
+            self.pending_rows -= size;
+            self.groups.pop_front();
+        }
+        Ok(())
+    }
+
+    /// Writes the footer and puts the file in place.
+    ///
+    /// # Errors
+    /// If rows are left over or missing (the records and the fragments disagree), or the
+    /// file cannot be written.
+    pub fn finish(self) -> Result<()> {
+        let left = self.pending_rows;
+        let due: usize = self.groups.iter().sum();
+        if left != 0 || due != 0 {
+            bail!(
+                "assembling {}: the fragments hold {} rows more than their records say",
+                self.name,
+                left as i64 - due as i64
+            );
+        }
+        self.writer
+            .finish()
+            .with_context(|| format!("writing {}.parquet", self.name))?;
+        drop(self.writer);
+        let staged = self
+            .file
+            .0
+            .lock()
+            .map_err(|_| anyhow::anyhow!("writing {}.parquet: lock poisoned", self.name))?
+            .take();
+        match staged {
+            Some(f) => f.commit(),
+            None => bail!("writing {}.parquet: committed twice", self.name),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// Fragments of random heights, some without the optional column `c`, with nulls.
+    fn parts(seed: u64, n: usize, rows: std::ops::Range<usize>) -> Vec<DataFrame> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        (0..n)
+            .map(|i| {
+                let h = rng.random_range(rows.clone());
+                let a: Vec<i64> = (0..h).map(|_| rng.random_range(0..1000)).collect();
+                let b: Vec<Option<f64>> = (0..h)
+                    .map(|_| rng.random_bool(0.9).then(|| rng.random::<f64>()))
+                    .collect();
+                let s: Vec<String> = (0..h).map(|j| format!("job{i}.{}", j % 7)).collect();
+                let mut cols = vec![
+                    Column::new("a".into(), a),
+                    Column::new("b".into(), b),
+                    Column::new("s".into(), s),
+                ];
+                if rng.random_bool(0.5) {
+                    let c: Vec<Option<f64>> = (0..h).map(|j| Some(j as f64)).collect();
+                    cols.push(Column::new("c".into(), c));
+                }
+                DataFrame::new_infer_height(cols).unwrap()
+            })
+            .collect()
+    }
+
+    /// The oracle: every fragment concatenated in memory and written at once, as the tables
+    /// were written up to store schema 2.
+    fn at_once(parts: &[DataFrame]) -> Vec<u8> {
+        let refs: Vec<&DataFrame> = parts.iter().collect();
+        let mut df = crate::run::tables::concat(&refs).unwrap();
+        let mut bytes = Vec::new();
+        ParquetWriter::new(&mut bytes)
+            .with_compression(ParquetCompression::Snappy)
+            .set_parallel(false)
+            .finish(&mut df)
+            .unwrap();
+        bytes
+    }
+
+    /// Streamed through a [`Sink`] with the layout the records would give.
+    fn streamed(parts: &[DataFrame]) -> Vec<u8> {
+        let dir = tempfile::tempdir().unwrap();
+        let mut layout = Layout::new(["t"]);
+        for p in parts {
+            layout.made("t", p);
+        }
+        let t = &layout.tables[0];
+        let Some(Widest::Made(widest)) = &t.widest else {
+            panic!("a widest fragment")
+        };
+        let mut sink = Sink::new(dir.path(), "t", widest, t.rows).unwrap();
+        for p in parts {
+            sink.push(p).unwrap();
+        }
+        sink.finish().unwrap();
+        std::fs::read(dir.path().join("t.parquet")).unwrap()
+    }
+
+    /// The streamed table is the in-memory one byte for byte: below one row group, at two and
+    /// a half (the last group takes the remainder), and with empty fragments among them.
+    #[test]
+    fn streaming_gives_the_bytes_of_the_table_assembled_in_memory() {
+        for (seed, n, rows) in [(1, 5, 0..40), (2, 40, 0..3000), (3, 13, 40_000..60_000)] {
+            let parts = parts(seed, n, rows);
+            let total: usize = parts.iter().map(DataFrame::height).sum();
+            let (a, b) = (at_once(&parts), streamed(&parts));
+            assert!(a == b, "seed {seed}: {total} rows: the bytes differ");
+        }
+    }
+
+    /// Row groups as polars' writer makes them of one chunk.
+    #[test]
+    fn row_groups_split_like_polars() {
+        assert_eq!(row_groups(0), [0]);
+        assert_eq!(row_groups(ROW_GROUP - 1), [ROW_GROUP - 1]);
+        assert_eq!(row_groups(ROW_GROUP), [ROW_GROUP]);
+        assert_eq!(
+            row_groups(2 * ROW_GROUP + 5),
+            [ROW_GROUP + 2, ROW_GROUP + 3]
+        );
+        let r = row_groups(10 * ROW_GROUP + 123);
+        assert_eq!(r.len(), 10);
+        assert_eq!(r.iter().sum::<usize>(), 10 * ROW_GROUP + 123);
+    }
+
+    /// A fragment with a column the widest lacks is refused, naming the table and the column.
+    #[test]
+    fn a_fragment_wider_than_its_record_said_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let narrow = DataFrame::new_infer_height(vec![Column::new("a".into(), [1i64])]).unwrap();
+        let other = DataFrame::new_infer_height(vec![Column::new("z".into(), [1i64])]).unwrap();
+        let mut sink = Sink::new(dir.path(), "t", &narrow.clear(), 2).unwrap();
+        sink.push(&narrow).unwrap();
+        let err = sink.push(&other).unwrap_err();
+        assert!(
+            format!("{err:#}").contains("t: a fragment has column z"),
+            "{err:#}"
+        );
+    }
+}
