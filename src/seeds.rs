@@ -27,6 +27,28 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
+/// [`sha256_hex`] of everything `r` yields, read 1 MiB at a time (a table of gigabytes is
+/// hashed in bounded memory).
+///
+/// # Errors
+/// If reading fails.
+pub fn sha256_hex_of(mut r: impl std::io::Read) -> std::io::Result<String> {
+    use sha2::Digest;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        match r.read(&mut buf)? {
+            0 => break,
+            n => hasher.update(&buf[..n]),
+        }
+    }
+    Ok(hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
 /// Draws the padded white seed of sample `index` from the data seed: ChaCha20 seeded with
 /// `data_seed` on stream `index`, complex circular (`E|z|^2 = 1`, parts `N(0, 1/2)`), each
 /// part a `rand_distr` standard normal (real part first). Sample format 1.

@@ -110,6 +110,11 @@ pub struct Plan {
     pub jobs: Vec<Job>,
     /// Short keys of all swept parameters, sorted (the extra table columns).
     pub param_keys: Vec<String>,
+    /// For each of `param_keys`, whether every job's value of it is a number: the column's
+    /// type, the same in every table (a float column, else a string column). Found once here:
+    /// each table fragment used to look at every job of the plan for it, which made a merge
+    /// quadratic in its jobs.
+    pub param_numeric: Vec<bool>,
     /// Validated similarity metrics (empty: none).
     pub metrics: Vec<crate::stats::metrics::Metric>,
     /// The validated `classification` section.
@@ -261,12 +266,21 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
     param_keys.sort();
     param_keys.dedup();
+    let param_numeric = param_keys
+        .iter()
+        .map(|key| {
+            jobs.iter()
+                .filter_map(|j| j.params.get(key))
+                .all(Json::is_number)
+        })
+        .collect();
     Ok(Plan {
         file: file.to_path_buf(),
         spec_hash: sha256_hex(text.as_bytes()),
         spec,
         jobs,
         param_keys,
+        param_numeric,
         metrics,
         classification,
         location,

@@ -133,15 +133,9 @@ impl<'a> Table<'a> {
                 Values::Bool(v) => Column::new(n.as_str().into(), v),
             })
             .collect();
-        for key in &self.plan.param_keys {
+        for (key, &numeric) in self.plan.param_keys.iter().zip(&self.plan.param_numeric) {
             let values: Vec<Option<&Json>> = self.jobs.iter().map(|j| j.params.get(key)).collect();
             // The column type follows every job's value, so it is the same in every table.
-            let numeric = self
-                .plan
-                .jobs
-                .iter()
-                .filter_map(|j| j.params.get(key))
-                .all(Json::is_number);
             let name: PlSmallStr = param_column(key, &columns).into();
             columns.push(if numeric {
                 Column::new(

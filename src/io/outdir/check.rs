@@ -82,8 +82,8 @@ pub fn check_complete(root: &Path) -> Result<()> {
             )),
             Ok(_) => {
                 if let Some(want) = rec["sha256"].as_str() {
-                    let got = fs::read(&file)
-                        .map(|b| crate::seeds::sha256_hex(&b))
+                    let got = fs::File::open(&file)
+                        .and_then(crate::seeds::sha256_hex_of)
                         .unwrap_or_default();
                     if got != want {
                         problems.push(format!("{rel} differs from the file the run wrote"));
@@ -130,8 +130,10 @@ pub fn file_record(root: &Path, rel: &Path) -> Result<Option<(String, serde_json
     };
     let mut rec = serde_json::json!({ "bytes": m.len() });
     if rel.extension().is_some_and(|e| e == "parquet") && rel.components().count() == 1 {
-        let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-        rec["sha256"] = serde_json::Value::String(crate::seeds::sha256_hex(&bytes));
+        let hash = fs::File::open(&path)
+            .and_then(crate::seeds::sha256_hex_of)
+            .with_context(|| format!("reading {}", path.display()))?;
+        rec["sha256"] = serde_json::Value::String(hash);
     }
     Ok(Some((key.to_string(), rec)))
 }
