@@ -12,8 +12,9 @@
 
 use crate::io::atomic::Staged;
 use anyhow::{bail, Context, Result};
+use polars::io::parquet::write::BatchedWriter;
 use polars::prelude::{
-    BatchedWriter, Column, DataFrame, DataType, IntoColumn, ParquetCompression, ParquetWriter,
+    Column, DataFrame, DataType, IntoColumn, ParquetCompression, ParquetWriter,
     PlSmallStr, StringChunked,
 };
 use std::path::Path;
