@@ -74,6 +74,11 @@ enum Command {
         /// since its manifest (refused otherwise).
         #[arg(long)]
         allow_incomplete: bool,
+        /// Per-job figures for at most N jobs (spread evenly over the plan order, the first
+        /// and the last included), or `all`; a run with at most N jobs with figures gets them
+        /// for every job.
+        #[arg(long, value_name = "N|all", default_value_t)]
+        figures_for: isar_clutter::report::select::FiguresFor,
     },
     /// Print comparison tables (methods side by side) from a results folder's Parquet files.
     Table {
@@ -272,14 +277,27 @@ fn real_main() -> Result<ExitCode> {
             results,
             jobs,
             allow_incomplete,
+            figures_for,
         } => {
             let t = std::time::Instant::now();
-            let report =
-                pool(jobs)?.install(|| isar_clutter::report::build(&results, allow_incomplete))?;
+            let options = isar_clutter::report::select::Options { figures_for };
+            let report = pool(jobs)?.install(|| {
+                isar_clutter::report::build_with(&results, allow_incomplete, &options)
+            })?;
+            let selection = &report.selection;
             eprintln!(
-                "{} ({} figures, {:.2} s)",
+                "{} ({} figures{}, {:.2} s)",
                 report.html.display(),
                 report.figures.len(),
+                if selection.limited {
+                    format!(
+                        "; per-job figures for {} of {} jobs",
+                        selection.jobs.len(),
+                        selection.candidates
+                    )
+                } else {
+                    String::new()
+                },
                 t.elapsed().as_secs_f64()
             );
             Ok(ExitCode::SUCCESS)

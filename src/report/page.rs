@@ -1,7 +1,42 @@
 //! The HTML page of the report: one self-contained document (inline CSS, relative links,
-//! no network) with the summary tables, the figures and the provenance.
+//! no network) with the summary tables, the figures and the provenance. In the report of a big
+//! run the page says which jobs have figures and where the others' numbers are (when there are
+//! more jobs with figures than the limit of [`super::select`]), and every table over jobs is
+//! bounded ([`TABLE_ROWS`]).
 
-use super::*;
+use super::manifest::{Job, Manifest};
+use super::select::Selection;
+use super::table::{self, escape, Format, RowLimit};
+use super::{cnn, Figure};
+use anyhow::Result;
+use serde_json::Value as Json;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The most rows a table shows in the report of a big run (some jobs without their figures, or
+/// more jobs than this): a bigger table shows the rows of the jobs with figures (see
+/// [`RowLimit`]), and the provenance lists the jobs with figures and those not ok. Smaller
+/// runs' tables are shown whole.
+pub const TABLE_ROWS: usize = 500;
+
+/// The tables the page links at its end, when the run wrote them.
+const TABLES: [&str; 15] = [
+    "analysis_maps.parquet",
+    "analysis_summary.parquet",
+    "pixel_stats.parquet",
+    "jobs.parquet",
+    "similarity.parquet",
+    "model_order.parquet",
+    "synthesis_params.parquet",
+    "filter_correlation.parquet",
+    "calibration.parquet",
+    "calibration_summary.parquet",
+    "classification.parquet",
+    "location.parquet",
+    "location_summary.parquet",
+    "training_history.parquet",
+    "confusion.parquet",
+];
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:1em 0;font-size:90%}caption{text-align:left;font-weight:bold;padding:.3em 0}
@@ -14,6 +49,7 @@ nav a{margin-right:1em}";
 /// reads it back); no network and no effect on the page otherwise.
 const SCRIPT: &str = "window.addEventListener('load',function(){var im=document.images,ok=0;for(var i=0;i<im.length;i++){if(im[i].complete&&im[i].naturalWidth>0)ok++;}document.body.setAttribute('data-images-total',im.length);document.body.setAttribute('data-images-loaded',ok);});";
 
+/// A relative link to `p`, showing its path.
 fn link(p: &Path) -> String {
     let s = p.to_string_lossy();
     format!("<a href=\"{}\">{}</a>", escape(&s), escape(&s))
@@ -52,15 +88,16 @@ fn sections_html(h: &mut String, sections: &[cnn::Section]) {
     }
 }
 
-/// The HTML page: the standard tables, the CNN applications' sections, every job's and the
-/// run-wide figures, the spec and the provenance.
+/// The HTML page: the standard tables, the CNN applications' sections, the run-wide and the
+/// chosen jobs' figures (`figures`, in that order), the spec and the provenance.
 pub(super) fn page(
     dir: &Path,
-    manifest: &Json,
+    manifest: &Manifest,
+    selection: &Selection,
     figures: &[Figure],
     sections: &[cnn::Section],
 ) -> Result<String> {
-    let name = manifest["spec"]["name"].as_str().unwrap_or("results");
+    let name = manifest.spec["name"].as_str().unwrap_or("results");
     let mut h = String::new();
     let _ = write!(
         h,
@@ -68,7 +105,7 @@ pub(super) fn page(
         escape(name)
     );
     let _ = writeln!(h, "<h1>{}</h1>", escape(name));
-    if let Some(d) = manifest["spec"]["description"].as_str() {
+    if let Some(d) = manifest.spec["description"].as_str() {
         let _ = writeln!(h, "<p>{}</p>", escape(d));
     }
     let apps: String = sections
@@ -81,17 +118,45 @@ pub(super) fn page(
     );
     let _ = writeln!(h, "<h2 id=\"tables\">Tables</h2>");
     let mut any = false;
+    let chosen = selection.set();
+    // A big run's report: some jobs without their figures, or more jobs than a table shows.
+    let big = selection.limited || manifest.jobs().len() > TABLE_ROWS;
+    let limit = big.then_some(RowLimit {
+        jobs: &chosen,
+        max_rows: TABLE_ROWS,
+    });
     for def in table::standard() {
-        if let Some(t) = table::render(dir, &def, &[], None, Format::Html, false)? {
-            let _ = writeln!(h, "{t}<p>Data: {}</p>", link(Path::new(def.file)));
-            any = true;
+        let Some(t) = table::render_limited(dir, &def, &[], None, Format::Html, false, limit)?
+        else {
+            continue;
+        };
+        let _ = write!(h, "{}<p>", t.text);
+        if t.rows < t.total_rows {
+            let _ = write!(
+                h,
+                "{} of its {} rows: {}; every row in the file, or with <code>isar-clutter table \
+                 DIR --table {}</code>. ",
+                t.rows,
+                t.total_rows,
+                if t.by_job {
+                    "those of the jobs with figures (below)"
+                } else {
+                    "the first"
+                },
+                def.name
+            );
         }
+        let _ = writeln!(h, "Data: {}</p>", link(Path::new(def.file)));
+        any = true;
     }
     if !any {
         let _ = writeln!(h, "<p>No tables with rows.</p>");
     }
     sections_html(&mut h, sections);
     let _ = writeln!(h, "<h2 id=\"figures\">Figures</h2>");
+    if selection.limited {
+        selection_html(&mut h, dir, selection);
+    }
     let mut current = None;
     for f in figures {
         if current != Some(&f.job) {
@@ -105,23 +170,23 @@ pub(super) fn page(
         }
         let _ = writeln!(h, "{}", figure_html(f));
     }
-    let spec_yaml = serde_yaml_ng::to_string(&manifest["spec"]).unwrap_or_default();
+    let spec_yaml = serde_yaml_ng::to_string(&manifest.spec).unwrap_or_default();
     let _ = writeln!(
         h,
         "<h2 id=\"spec\">Spec</h2>\n<p>File {} (SHA-256 {}), with defaults filled in:</p>\n<pre>{}</pre>",
-        escape(manifest["spec_file"].as_str().unwrap_or("?")),
-        escape(manifest["spec_hash_sha256"].as_str().unwrap_or("?")),
+        escape(manifest.spec_file.as_str().unwrap_or("?")),
+        escape(manifest.spec_hash_sha256.as_str().unwrap_or("?")),
         escape(&spec_yaml)
     );
     let _ = writeln!(h, "<h2 id=\"provenance\">Provenance</h2>\n<table><tbody>");
-    let git = &manifest["git"];
+    let git = &manifest.git;
     let rows = [
         (
             "tool",
             format!(
                 "{} {}",
-                manifest["tool"]["name"].as_str().unwrap_or("?"),
-                manifest["tool"]["version"].as_str().unwrap_or("?")
+                manifest.tool["name"].as_str().unwrap_or("?"),
+                manifest.tool["version"].as_str().unwrap_or("?")
             ),
         ),
         (
@@ -136,24 +201,30 @@ pub(super) fn page(
                 )
             },
         ),
-        ("master seed", manifest["master_seed"].to_string()),
+        ("master seed", manifest.master_seed.to_string()),
         (
             "seed derivation",
-            manifest["seed_derivation"]
-                .as_str()
-                .unwrap_or("")
-                .to_string(),
+            manifest.seed_derivation.as_str().unwrap_or("").to_string(),
         ),
-        ("threads", manifest["threads"].to_string()),
-        ("total time (s)", manifest["timings"]["total_s"].to_string()),
-        ("finished (unix s)", manifest["finished_unix_s"].to_string()),
+        ("threads", manifest.threads.to_string()),
+        ("total time (s)", manifest.timings["total_s"].to_string()),
+        ("finished (unix s)", manifest.finished_unix_s.to_string()),
     ];
     for (k, v) in rows {
         let _ = writeln!(h, "<tr><th>{}</th><td>{}</td></tr>", escape(k), escape(&v));
     }
     let _ = writeln!(h, "</tbody></table>\n<table><thead><tr><th>job</th><th>dataset</th><th>method</th><th>status</th><th>seed</th><th>data seed</th><th>generation seed</th><th>elapsed (s)</th><th>error</th></tr></thead><tbody>");
-    for j in manifest["jobs"].as_array().into_iter().flatten() {
-        let s = |k: &str| match &j[k] {
+    let jobs = manifest.jobs();
+    let shown: Vec<&Job> = if big {
+        jobs.iter()
+            .filter(|j| !j.ok() || j.job.as_str().is_some_and(|id| chosen.contains(id)))
+            .take(TABLE_ROWS)
+            .collect()
+    } else {
+        jobs.iter().collect()
+    };
+    for j in &shown {
+        let s = |k: &str| match j.field(k) {
             Json::Null => "-".to_string(),
             Json::String(s) => s.clone(),
             Json::Number(n) if k == "elapsed_s" => format!("{:.3}", n.as_f64().unwrap_or(0.0)),
@@ -162,48 +233,65 @@ pub(super) fn page(
         let _ = writeln!(
             h,
             "<tr>{}</tr>",
-            [
-                "job",
-                "dataset",
-                "method",
-                "status",
-                "seed",
-                "data_seed",
-                "generation_seed",
-                "elapsed_s",
-                "error"
-            ]
-            .iter()
-            .map(|k| format!("<td>{}</td>", escape(&s(k))))
-            .collect::<String>()
+            Job::COLUMNS
+                .iter()
+                .map(|k| format!("<td>{}</td>", escape(&s(k))))
+                .collect::<String>()
         );
     }
+    let note = if shown.len() < jobs.len() {
+        format!(
+            "The table lists {} of the run's {} jobs: those with figures and those not ok (at \
+             most {TABLE_ROWS}); every job's seeds, status and time are in {} and in the full \
+             record. ",
+            shown.len(),
+            jobs.len(),
+            link(Path::new("jobs.parquet")),
+        )
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         h,
-        "</tbody></table>\n<p>Full record: {}. Tables: {}.</p>\n</body>\n</html>",
+        "</tbody></table>\n<p>{note}Full record: {}. Tables: {}.</p>\n</body>\n</html>",
         link(Path::new("manifest.json")),
-        [
-            "analysis_maps.parquet",
-            "analysis_summary.parquet",
-            "pixel_stats.parquet",
-            "jobs.parquet",
-            "similarity.parquet",
-            "model_order.parquet",
-            "synthesis_params.parquet",
-            "filter_correlation.parquet",
-            "calibration.parquet",
-            "calibration_summary.parquet",
-            "classification.parquet",
-            "location.parquet",
-            "location_summary.parquet",
-            "training_history.parquet",
-            "confusion.parquet",
-        ]
+        TABLES
+            .iter()
+            .filter(|f| dir.join(f).exists())
+            .map(|f| link(Path::new(f)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(h)
+}
+
+/// The note of a big run's report on which jobs have figures, and where the others' are.
+fn selection_html(h: &mut String, dir: &Path, selection: &Selection) {
+    let files: Vec<String> = ["analysis_maps.parquet", "pixel_stats.parquet"]
         .iter()
         .filter(|f| dir.join(f).exists())
         .map(|f| link(Path::new(f)))
-        .collect::<Vec<_>>()
-        .join(", ")
+        .collect();
+    let _ = writeln!(
+        h,
+        "<p id=\"selection\">Per-job figures for {} of {} jobs: the run has more jobs with \
+         figures than the report draws (<code>isar-clutter report DIR --figures-for N</code> sets \
+         how many, <code>--figures-for all</code> draws every job's), so they are drawn for jobs \
+         spread evenly over the plan order, the first and the last included. The rest are in {}{}\
+         <code>maps/&lt;job&gt;/</code> (the <code>.npy</code> maps). Jobs with figures: {}.</p>",
+        selection.jobs.len(),
+        selection.candidates,
+        files.join(", "),
+        if files.is_empty() {
+            ""
+        } else {
+            " (by job) and "
+        },
+        selection
+            .jobs
+            .iter()
+            .map(|j| escape(j))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
-    Ok(h)
 }

@@ -5,7 +5,7 @@
 
 use anyhow::{bail, Context, Result};
 use polars::prelude::{DataFrame, DataType};
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -222,6 +222,46 @@ pub fn render(
     format: Format,
     strict: bool,
 ) -> Result<Option<String>> {
+    Ok(render_limited(dir, def, filters, pivot, format, strict, None)?.map(|r| r.text))
+}
+
+/// A bound on the rows of a table in the report of a big run: a table with more than
+/// `max_rows` rows shows only its rows holding a value of one of `jobs` (or of no job), when
+/// its file has a `job` column, and at most the first `max_rows` of those.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RowLimit<'a> {
+    /// The jobs whose rows are kept (the jobs with figures).
+    pub jobs: &'a BTreeSet<&'a str>,
+    /// The most rows a table shows.
+    pub max_rows: usize,
+}
+
+/// A rendered table, and how many of its rows it shows.
+#[derive(Debug, Clone)]
+pub(super) struct Rendered {
+    /// The table.
+    pub text: String,
+    /// Rows shown.
+    pub rows: usize,
+    /// Rows of the whole table.
+    pub total_rows: usize,
+    /// Whether the rows were restricted to the [`RowLimit`]'s jobs.
+    pub by_job: bool,
+}
+
+/// [`render`], bounded by `limit` when one is given.
+///
+/// # Errors
+/// As [`render`].
+pub(super) fn render_limited(
+    dir: &Path,
+    def: &TableDef,
+    filters: &[(String, Vec<String>)],
+    pivot: Option<&str>,
+    format: Format,
+    strict: bool,
+    limit: Option<RowLimit>,
+) -> Result<Option<Rendered>> {
     let path = dir.join(def.file);
     let Some(df) = crate::io::atomic::read_parquet(&path)? else {
         return Ok(None);
@@ -280,6 +320,12 @@ pub fn render(
     let mut row_index: HashMap<Vec<String>, usize> = HashMap::new();
     let mut col_order: Vec<String> = vec![];
     let mut cells: HashMap<(usize, usize, usize), f64> = HashMap::new();
+    // With a limit: whether a row of the table holds a value of a job it keeps (or of no job).
+    let job_col = match limit {
+        Some(_) if names.iter().any(|n| n == "job") => Some(strings(&df, "job")?),
+        _ => None,
+    };
+    let mut marked: Vec<bool> = vec![];
     for i in (0..df.height()).filter(|&i| keep[i]) {
         let key: Vec<String> = key_cols
             .iter()
@@ -287,8 +333,12 @@ pub fn render(
             .collect();
         let r = *row_index.entry(key.clone()).or_insert_with(|| {
             row_order.push(key);
+            marked.push(false);
             row_order.len() - 1
         });
+        if let (Some(jobs), Some(limit)) = (&job_col, limit) {
+            marked[r] |= jobs[i].as_deref().is_none_or(|j| limit.jobs.contains(j));
+        }
         let p = label(&pivot_col[i]);
         let c = match col_order.iter().position(|x| *x == p) {
             Some(c) => c,
@@ -322,9 +372,18 @@ pub fn render(
             });
         }
     }
-    let body: Vec<Vec<String>> = row_order
+    let total_rows = row_order.len();
+    let by_job = job_col.is_some() && limit.is_some_and(|l| total_rows > l.max_rows);
+    let shown: Vec<usize> = match limit {
+        Some(l) if total_rows > l.max_rows => (0..total_rows)
+            .filter(|&r| !by_job || marked[r])
+            .take(l.max_rows)
+            .collect(),
+        _ => (0..total_rows).collect(),
+    };
+    let body: Vec<Vec<String>> = shown
         .iter()
-        .enumerate()
+        .map(|&r| (r, &row_order[r]))
         .map(|(r, key)| {
             let mut line: Vec<String> = used.iter().map(|&k| key[k].clone()).collect();
             for v in 0..def.values.len() {
@@ -339,7 +398,12 @@ pub fn render(
             line
         })
         .collect();
-    Ok(Some(layout(def.title, &header, &body, used.len(), format)))
+    Ok(Some(Rendered {
+        text: layout(def.title, &header, &body, used.len(), format),
+        rows: body.len(),
+        total_rows,
+        by_job,
+    }))
 }
 
 /// Which rows of `df` (read from `path`) pass every filter `(column, accepted values)`, the
@@ -487,4 +551,98 @@ pub fn escape(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use polars::prelude::*;
+
+    /// `analysis_summary.parquet` of 10 jobs `j0..j9` (alpha_h = 0..9), three directions each:
+    /// 30 rows of the summary table. With `job: false` the file has no `job` column.
+    fn summary(dir: &Path, job: bool) {
+        let n = 30;
+        let mut cols = vec![
+            Column::new("dataset".into(), vec!["d"; n]),
+            Column::new("source".into(), vec!["original"; n]),
+            Column::new("level".into(), vec![1i64; n]),
+            Column::new(
+                "direction".into(),
+                (0..n).map(|i| ["H", "V", "D"][i % 3]).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "mean_correlation".into(),
+                (0..n).map(|i| i as f64 / 100.0).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "alpha_h".into(),
+                (0..n).map(|i| (i / 3) as f64).collect::<Vec<_>>(),
+            ),
+        ];
+        if job {
+            let ids: Vec<String> = (0..n).map(|i| format!("j{}", i / 3)).collect();
+            cols.insert(0, Column::new("job".into(), ids));
+        }
+        let mut df = DataFrame::new(n, cols).unwrap();
+        crate::io::atomic::write_parquet(&dir.join("analysis_summary.parquet"), &mut df).unwrap();
+    }
+
+    #[test]
+    fn a_long_table_keeps_the_chosen_jobs_rows_up_to_the_bound() {
+        let tmp = tempfile::tempdir().unwrap();
+        let def = standard()
+            .into_iter()
+            .find(|d| d.name == "summary")
+            .unwrap();
+        let jobs: BTreeSet<&str> = ["j0", "j9"].into_iter().collect();
+        let render = |max_rows| {
+            let limit = RowLimit {
+                jobs: &jobs,
+                max_rows,
+            };
+            render_limited(
+                tmp.path(),
+                &def,
+                &[],
+                None,
+                Format::Text,
+                false,
+                Some(limit),
+            )
+            .unwrap()
+            .unwrap()
+        };
+        summary(tmp.path(), true);
+        let whole = render(30);
+        assert_eq!(
+            (whole.rows, whole.total_rows, whole.by_job),
+            (30, 30, false)
+        );
+        assert_eq!(
+            whole.text,
+            super::render(tmp.path(), &def, &[], None, Format::Text, false)
+                .unwrap()
+                .unwrap()
+        );
+        let cut = render(10);
+        assert_eq!((cut.rows, cut.total_rows, cut.by_job), (6, 30, true));
+        let values: Vec<&str> = cut.text.lines().skip(4).map(|l| l.trim_end()).collect();
+        assert!(
+            values.iter().take(3).all(|l| l.contains(" 0.0 ")),
+            "{values:?}"
+        );
+        assert!(
+            values.iter().skip(3).all(|l| l.contains(" 9.0 ")),
+            "{values:?}"
+        );
+        let tight = render(4);
+        assert_eq!((tight.rows, tight.by_job), (4, true));
+        // Without a job column: the first rows.
+        summary(tmp.path(), false);
+        let first = render(10);
+        assert_eq!(
+            (first.rows, first.total_rows, first.by_job),
+            (10, 30, false)
+        );
+    }
 }

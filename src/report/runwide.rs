@@ -1,0 +1,250 @@
+//! The run-wide figures: curves over every numeric swept parameter (the mean correlation by
+//! level and direction, the similarity summaries) and the calibration's spectra, drawn from the
+//! run's Parquet tables. They come first among the report's figures.
+
+use super::figures;
+use super::{rel, table, Figure, Task};
+use anyhow::{Context, Result};
+use polars::prelude::DataType;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The calibration's spectra (Figs. 11-14): Mie, raw and calibrated sphere, and the error.
+pub(super) fn calibration_figures(dir: &Path) -> Result<Vec<Task>> {
+    let path = dir.join("calibration.parquet");
+    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+        return Ok(vec![]);
+    };
+    let col = |c: &str| -> Result<Vec<f64>> {
+        Ok(df
+            .column(c)?
+            .f64()?
+            .iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    };
+    let f = col("freq_ghz")?;
+    let series =
+        |c: &str| -> Result<Vec<(f64, f64)>> { Ok(f.iter().copied().zip(col(c)?).collect()) };
+    let spectra = vec![
+        ("Mie (exact)".to_string(), series("mie_dbsm")?),
+        ("raw sphere measurement".into(), series("raw_db")?),
+        ("calibrated sphere".into(), series("calibrated_dbsm")?),
+    ];
+    let error = vec![("calibrated - Mie".to_string(), series("error_db")?)];
+    Ok(vec![
+        curves_task(
+            dir,
+            "calibration_spectra",
+            "Sphere calibration: Mie, raw and calibrated response".into(),
+            spectra,
+            ["frequency (GHz)", "dB (dBsm for Mie and calibrated)"],
+            &path,
+        ),
+        curves_task(
+            dir,
+            "calibration_error",
+            "Sphere calibration: calibrated minus Mie".into(),
+            error,
+            ["frequency (GHz)", "error (dB)"],
+            &path,
+        ),
+    ])
+}
+
+/// A run-wide figure of named curves (`figures/<stem>`) to draw, drawn from the table `data`.
+fn curves_task(
+    dir: &Path,
+    stem: &str,
+    caption: String,
+    series: Vec<(String, Vec<(f64, f64)>)>,
+    [x_label, y_label]: [&str; 2],
+    data: &Path,
+) -> Task {
+    let (dir, stem, data) = (dir.to_path_buf(), stem.to_string(), data.to_path_buf());
+    let (x_label, y_label) = (x_label.to_string(), y_label.to_string());
+    Box::new(move || {
+        let refs: Vec<(&str, &[(f64, f64)])> = series
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_slice()))
+            .collect();
+        let files = figures::charts::curves(
+            &dir.join("figures"),
+            &stem,
+            &caption,
+            &refs,
+            &x_label,
+            &y_label,
+        )
+        .with_context(|| format!("drawing {stem}"))?;
+        Ok(Figure {
+            job: String::new(),
+            caption,
+            files: files.map(|f| rel(&dir, &f)),
+            data: vec![rel(&dir, &data)],
+        })
+    })
+}
+
+/// Curves over every numeric swept parameter: the mean correlation per level and direction
+/// (per dataset and source), and each method's similarity summaries (`average_level_1` of the
+/// multiscale RMSE, the CMD) per dataset.
+pub(super) fn sweep_figures(dir: &Path) -> Result<Vec<Task>> {
+    let mut out = curve_figures(
+        dir,
+        "analysis_summary.parquet",
+        "mean_correlation",
+        &["dataset", "source", "level", "direction"],
+        &|r| {
+            Some((
+                format!("{} ({})", r.get("dataset"), r.get("source")),
+                format!("level {} {}", r.get("level"), r.get("direction")),
+            ))
+        },
+    )?;
+    out.extend(curve_figures(
+        dir,
+        "similarity.parquet",
+        "value",
+        &["statistic", "dataset", "method"],
+        &|r| {
+            let what = match r.get("statistic") {
+                "average_level_1" => "multiscale RMSE, average level 1",
+                "average_levels_1_3" => "multiscale RMSE, average levels 1-3",
+                "distance" => "correlation matrix distance",
+                _ => return None,
+            };
+            Some((
+                format!("{}: {what}", r.get("dataset")),
+                r.get("method").to_string(),
+            ))
+        },
+    )?);
+    Ok(out)
+}
+
+/// The points of each series of a figure, by series name.
+type Series<'a> = BTreeMap<&'a str, Vec<(f64, f64)>>;
+
+/// A row of a table, read as display strings (`-` for null or a column the table lacks).
+struct Row<'a> {
+    /// The columns read, by name.
+    text: &'a [(&'a str, Vec<String>)],
+    /// The row.
+    i: usize,
+}
+
+impl Row<'_> {
+    fn get(&self, column: &str) -> &str {
+        self.text
+            .iter()
+            .find(|(c, _)| *c == column)
+            .map_or("-", |(_, v)| v[self.i].as_str())
+    }
+}
+
+/// Draws `y` against every numeric swept column of `file`: `pick` maps a row (of which it reads
+/// the `columns`) to its figure (title) and series (legend name), or `None` to leave it out. A
+/// figure needs two distinct x values.
+fn curve_figures(
+    dir: &Path,
+    file: &str,
+    y: &str,
+    columns: &[&str],
+    pick: &dyn Fn(&Row) -> Option<(String, String)>,
+) -> Result<Vec<Task>> {
+    let path = dir.join(file);
+    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+        return Ok(vec![]);
+    };
+    let axes: Vec<String> = df
+        .columns()
+        .iter()
+        .filter(|c| {
+            !table::LIBRARY_COLUMNS.contains(&c.name().as_str()) && c.dtype() == &DataType::Float64
+        })
+        .map(|c| c.name().to_string())
+        .collect();
+    if axes.is_empty() {
+        return Ok(vec![]);
+    }
+    let text: Vec<(&str, Vec<String>)> = columns
+        .iter()
+        .filter_map(|&name| df.column(name).ok().map(|c| (name, c)))
+        .map(|(name, c)| -> Result<(&str, Vec<String>)> {
+            let s = c.cast(&DataType::String)?;
+            let v = s
+                .str()?
+                .iter()
+                .map(|v| v.unwrap_or("-").to_string())
+                .collect();
+            Ok((name, v))
+        })
+        .collect::<Result<_>>()?;
+    let yv: Vec<Option<f64>> = df
+        .column(y)?
+        .cast(&DataType::Float64)?
+        .f64()?
+        .iter()
+        .collect();
+    // Each row's figure and series, whatever the axis.
+    let picked: Vec<Option<(String, String)>> = (0..df.height())
+        .map(|i| {
+            yv[i]
+                .is_some()
+                .then(|| pick(&Row { text: &text, i }))
+                .flatten()
+        })
+        .collect();
+    let mut out = vec![];
+    for axis in axes {
+        let x: Vec<Option<f64>> = df.column(&axis)?.f64()?.iter().collect();
+        let mut groups: BTreeMap<&str, Series> = BTreeMap::new();
+        for i in 0..df.height() {
+            let (Some(xv), Some(v), Some((figure, series))) = (x[i], yv[i], &picked[i]) else {
+                continue;
+            };
+            groups
+                .entry(figure)
+                .or_default()
+                .entry(series)
+                .or_default()
+                .push((xv, v));
+        }
+        for (title, series) in groups {
+            let distinct: std::collections::BTreeSet<u64> =
+                series.values().flatten().map(|p| p.0.to_bits()).collect();
+            if distinct.len() < 2 {
+                continue;
+            }
+            let series: Vec<(String, Vec<(f64, f64)>)> = series
+                .into_iter()
+                .map(|(k, mut v)| {
+                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    (k.to_string(), v)
+                })
+                .collect();
+            let safe = |s: &str| -> String {
+                s.chars()
+                    .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                    .collect()
+            };
+            let stem = format!("sweep_{}_{}", safe(title), safe(&axis));
+            let caption = format!("{title} against {axis}");
+            let y_label = if y == "value" {
+                "value"
+            } else {
+                "mean correlation"
+            };
+            out.push(curves_task(
+                dir,
+                &stem,
+                caption,
+                series,
+                [&axis, y_label],
+                &path,
+            ));
+        }
+    }
+    Ok(out)
+}
