@@ -14,8 +14,8 @@ use crate::io::atomic::Staged;
 use anyhow::{bail, Context, Result};
 use polars::io::parquet::write::BatchedWriter;
 use polars::prelude::{
-    Column, DataFrame, DataType, IntoColumn, ParquetCompression, ParquetWriter,
-    PlSmallStr, StringChunked,
+    Column, DataFrame, DataType, IntoColumn, ParquetCompression, ParquetWriter, PlSmallStr,
+    StringChunked,
 };
 use std::path::Path;
 

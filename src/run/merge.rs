@@ -539,15 +539,21 @@ pub fn status(out: &Path) -> Result<String> {
     let mut counts = vec![[0usize; 3]; shards];
     let width = jobs.iter().map(|j| j.id().len()).max().unwrap_or(3).max(3);
     writeln!(text, "{:<width$}  shard  state    detail", "job")?;
-    for (i, job) in jobs.iter().enumerate() {
-        let key = store::key(*job, &plan)?;
-        let (state, detail, n) = match store::entry(out, &key) {
-            store::Entry::Done(d) => ("done", format!("{:.2} s", d.elapsed_s), 0),
-            store::Entry::Failed(f) => ("failed", f.error, 1),
-            // A stored result that does not verify: the next run or merge redoes it.
-            store::Entry::Missing(Some(why)) => ("damaged", why, 2),
-            store::Entry::Missing(None) => ("missing", String::new(), 2),
-        };
+    // Every entry verified on the pool (each hashes the job's files).
+    let states: Vec<(&str, String, usize)> = (0..jobs.len())
+        .into_par_iter()
+        .map(|i| {
+            let key = store::key(jobs[i], &plan)?;
+            Ok(match store::entry(out, &key) {
+                store::Entry::Done(d) => ("done", format!("{:.2} s", d.elapsed_s), 0),
+                store::Entry::Failed(f) => ("failed", f.error, 1),
+                // A stored result that does not verify: the next run or merge redoes it.
+                store::Entry::Missing(Some(why)) => ("damaged", why, 2),
+                store::Entry::Missing(None) => ("missing", String::new(), 2),
+            })
+        })
+        .collect::<Result<_>>()?;
+    for ((i, job), (state, detail, n)) in jobs.iter().enumerate().zip(states) {
         let shard = match assigned[i] {
             Some(s) => {
                 counts[s][n] += 1;

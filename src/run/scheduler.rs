@@ -104,18 +104,25 @@ fn threads_from(env: Option<&str>) -> usize {
 /// The jobs of `wave` grouped by the dataset they read (its data seed), groups in order of
 /// first appearance, jobs in plan order; every other job is a group of its own.
 fn groups(jobs: &[&dyn JobKind], wave: &[usize]) -> Vec<Vec<usize>> {
-    let mut groups: Vec<(Option<u64>, Vec<usize>)> = vec![];
+    let mut groups: Vec<Vec<usize>> = vec![];
+    // The group of each data seed (a lookup, not a scan, which was quadratic in the jobs).
+    let mut of_seed: std::collections::HashMap<u64, usize> = Default::default();
     for &i in wave {
         let key = match jobs[i].inputs() {
             Inputs::Dataset { data_seed, .. } => Some(data_seed),
             _ => None,
         };
-        match groups.iter_mut().find(|(k, _)| key.is_some() && *k == key) {
-            Some((_, g)) => g.push(i),
-            None => groups.push((key, vec![i])),
+        match key.and_then(|k| of_seed.get(&k).copied()) {
+            Some(g) => groups[g].push(i),
+            None => {
+                if let Some(k) = key {
+                    of_seed.insert(k, groups.len());
+                }
+                groups.push(vec![i]);
+            }
         }
     }
-    groups.into_iter().map(|(_, g)| g).collect()
+    groups
 }
 
 /// Runs the jobs `indices` on the installed rayon pool, grouped by the dataset they read,

@@ -646,6 +646,9 @@ pub fn assign(plan: &Plan, jobs: &[&dyn JobKind], shards: usize) -> Result<Vec<O
         bail!("--shards must be at least 1");
     }
     let mut groups: Vec<(Option<u64>, Vec<usize>, f64)> = vec![];
+    // The group of each data seed (a lookup, not a scan: a sweep of 100,000 jobs with as many
+    // datasets made this quadratic).
+    let mut of_seed: std::collections::HashMap<u64, usize> = Default::default();
     for (i, job) in jobs.iter().enumerate() {
         let key = match job.inputs() {
             Inputs::Rows(_) => continue,
@@ -653,15 +656,17 @@ pub fn assign(plan: &Plan, jobs: &[&dyn JobKind], shards: usize) -> Result<Vec<O
             Inputs::Nothing => None,
         };
         let cost = job.estimate(plan).flops.max(1.0);
-        match groups
-            .iter_mut()
-            .find(|(k, _, _)| key.is_some() && *k == key)
-        {
-            Some((_, g, c)) => {
-                g.push(i);
-                *c += cost;
+        match key.and_then(|k| of_seed.get(&k).copied()) {
+            Some(g) => {
+                groups[g].1.push(i);
+                groups[g].2 += cost;
             }
-            None => groups.push((key, vec![i], cost)),
+            None => {
+                if let Some(k) = key {
+                    of_seed.insert(k, groups.len());
+                }
+                groups.push((key, vec![i], cost));
+            }
         }
     }
     let mut order: Vec<usize> = (0..groups.len()).collect();
