@@ -21,7 +21,7 @@ CARGO_FEATURES := $(if $(strip $(FEATURES)),--features $(FEATURES))
 HDF5_DIR ?= $(CARGO_TARGET_DIR)/hdf5-static
 export HDF5_DIR
 
-.PHONY: build run-experiment run-all compare validate test test-deps hdf5 lint fmt bench bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
+.PHONY: build run-experiment run-all compare validate test test-deps hdf5 lint fmt bench bench-scale bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
 
 ## build: release build of the isar-clutter binary (with FEATURES; add `cuda` for
 ## `training: {device: cuda}`: make build FEATURES="mat73 cuda")
@@ -116,12 +116,22 @@ bench-deps: $(VENV)/bin/python
 ## reference: generation stages against this thread's FMA peak (cargo bench --bench generate),
 ## the analysis kernel against the memory bandwidth measured in the same run (--bench analysis),
 ## isar-clutter run against numpy (bench/analysis_bench.py), isar-clutter generate against numpy
-## and against writing the same bytes (bench/generate_bench.py)
+## and against writing the same bytes (bench/generate_bench.py), and sweeps of 1,000, 10,000 and
+## 100,000 tiny jobs, local and 4 shards + merge (bench-scale)
 bench: build bench-deps
 	cargo bench --locked $(CARGO_FEATURES) --bench generate
 	cargo bench --locked $(CARGO_FEATURES) --bench analysis
 	$(VENV)/bin/python bench/analysis_bench.py --bin $(BIN)
 	$(VENV)/bin/python bench/generate_bench.py --bin $(BIN)
+	$(MAKE) bench-scale
+
+## bench-scale: sweeps of tiny jobs (filtered noise 32 x 32, 50 samples, levels 2) run locally
+## and as 4 shards + merge: wall, peak RSS, files, bytes on disk, the tool's time per job beyond
+## the jobs' own (bench/scale_bench.py; JOBS to choose the sizes, SCALE_ARGS=--maps for the
+## default map files; about 25 minutes on 2 cores with the default sizes)
+JOBS ?= 1000 10000 100000
+bench-scale: build bench-deps
+	$(VENV)/bin/python bench/scale_bench.py --bin $(BIN) --jobs $(JOBS) $(SCALE_ARGS)
 
 ## bench-torch-deps: a separate virtualenv (.venv-torch) with a pinned PyTorch for the CNN
 ## reference benchmark (the PyPI wheel is a large CUDA build, ~5 GB installed; only its CPU

@@ -261,24 +261,39 @@ pub fn merge_claimed(
     let mut sinks = open_tables(plan, out, keys, &layout)?;
     let mut manifest = manifest::Manifest::start(plan, opts.threads, out)?;
     let in_flight = (4 * opts.threads).max(8);
-    for chunk in order.chunks(in_flight) {
-        let loaded: Vec<Loaded> = chunk
+    let chunks: Vec<&[usize]> = order.chunks(in_flight).collect();
+    let read = |chunk: &[usize]| -> Result<Vec<Loaded>> {
+        chunk
             .par_iter()
             .map(|&i| load(plan, out, jobs[i], &keys[i], unsaved.get(&i)))
-            .collect::<Result<_>>()?;
-        for (&i, l) in chunk.iter().zip(loaded) {
-            for (table, df) in l.tables.iter().chain(l.status.iter()) {
-                if let Some(sink) = sinks.get_mut(table.as_str()) {
-                    sink.push(df)?;
+            .collect()
+    };
+    // The next chunk is read on the pool while this thread appends the current one (and
+    // encodes the row groups it completes), so that neither waits for the other.
+    let mut next = chunks.first().map(|c| read(c)).transpose()?;
+    for (c, chunk) in chunks.iter().enumerate() {
+        let loaded = next.take().expect("read ahead");
+        let (ahead, appended) = rayon::join(
+            || chunks.get(c + 1).map(|c| read(c)).transpose(),
+            || -> Result<()> {
+                for (&i, l) in chunk.iter().zip(loaded) {
+                    for (table, df) in l.tables.iter().chain(l.status.iter()) {
+                        if let Some(sink) = sinks.get_mut(table.as_str()) {
+                            sink.push(df)?;
+                        }
+                    }
+                    let outcome = match &l.error {
+                        Some(e) => Err(e.as_str()),
+                        None => Ok(l.timing.as_ref()),
+                    };
+                    manifest.job(jobs[i], outcome, l.elapsed_s)?;
                 }
-            }
-            let outcome = match &l.error {
-                Some(e) => Err(e.as_str()),
-                None => Ok(l.timing.as_ref()),
-            };
-            manifest.job(jobs[i], outcome, l.elapsed_s)?;
-        }
-        release_free_memory(chunk[0] / in_flight);
+                Ok(())
+            },
+        );
+        appended?;
+        next = ahead?;
+        release_free_memory(c);
     }
     for (_, sink) in sinks {
         sink.finish()?;

@@ -12,9 +12,9 @@
 //! bytes in the Snappy-compressed tables and 40 in the job store's uncompressed packs (measured
 //! on a sweep of 4,800 tiny jobs: 195 MB of tables and 394 MB of store for 9.6 million rows). The jobs of the run as a whole (hypotheses, CNN
 //! trainings, summaries) write a few rows each and are counted at 64 KiB. The memory is the plan
-//! (about 3 KB a job; 2.6 KB measured), what the merge holds at most (one Parquet row group of
-//! each of its two large tables, 262,144 rows of about 150 bytes, held twice while it is
-//! written: under 200 MB measured, counted as 160 MB) and the largest job on each thread.
+//! (about 3 KB a job; 2.7 KB measured), what the merge holds at most (a Parquet row group of
+//! each table, 65,536 rows, and the jobs being read: counted as 160 MB, see BENCHMARKS.md) and
+//! the largest job on each thread.
 
 use crate::run::plan::Plan;
 use std::fmt;
