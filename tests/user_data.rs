@@ -119,10 +119,22 @@ fn v5_scalar(name: &str, value: f64) -> Vec<u8> {
     v5_element(14, &body)
 }
 
-/// The variables of a MAT file, as the tool lists them.
+/// The variables of a MAT file, as the tool lists them. libhdf5 keeps its lock on a v7.3 file
+/// a moment after the test's own writer closed it while other tests of this binary use the
+/// library (`unable to lock file, errno = 11` once in a full `make test`): the open is retried
+/// for up to a second on that error alone.
 fn variables(p: &Path) -> Vec<String> {
-    MatFile::open(p)
-        .unwrap()
+    let mut tries = 0;
+    let file = loop {
+        match MatFile::open(p) {
+            Err(e) if tries < 20 && format!("{e:?}").contains("unable to lock file") => {
+                tries += 1;
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            other => break other,
+        }
+    };
+    file.unwrap()
         .variables()
         .iter()
         .map(|v| format!("{} {}", v.name, v.describe()))
