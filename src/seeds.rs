@@ -21,10 +21,12 @@ pub fn derive_seed(master: u64, domain: &str, identity: &str) -> u64 {
 
 /// Hex SHA-256 of bytes.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
+    hex(&Sha256::digest(bytes))
+}
+
+/// Lower-case hex of a digest.
+fn hex(digest: &[u8]) -> String {
+    digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// [`sha256_hex`] of everything `r` yields, read 1 MiB at a time (a table of gigabytes is
@@ -33,7 +35,6 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// # Errors
 /// If reading fails.
 pub fn sha256_hex_of(mut r: impl std::io::Read) -> std::io::Result<String> {
-    use sha2::Digest;
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 20];
     loop {
@@ -42,11 +43,7 @@ pub fn sha256_hex_of(mut r: impl std::io::Read) -> std::io::Result<String> {
             n => hasher.update(&buf[..n]),
         }
     }
-    Ok(hasher
-        .finalize()
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect())
+    Ok(hex(&hasher.finalize()))
 }
 
 /// Draws the padded white seed of sample `index` from the data seed: ChaCha20 seeded with

@@ -5,7 +5,7 @@
 //!
 //! The result is, byte for byte, the file that concatenating every fragment in memory and
 //! writing it at once with polars' writer and row groups of [`ROW_GROUP`] rows gives (the
-//! test's oracle, [`crate::run::tables::concat`]): the same columns (those of the widest
+//! oracle in this module's tests): the same columns (those of the widest
 //! fragment, nulls where a fragment lacks one), the same rows, and the same row groups,
 //! because the records tell each table's height before any fragment is read, and polars'
 //! writer splits a table of `H` rows into `H / ROW_GROUP` equal row groups (the last one takes
@@ -370,6 +370,51 @@ mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
 
+    /// The in-memory assembly the tables had up to store schema 2: fragments stacked in order,
+    /// columns aligned on the widest fragment (the last of equal width).
+    ///
+    /// # Errors
+    /// If a fragment has a column the widest lacks, or types that do not fit.
+    fn concat(parts: &[&DataFrame]) -> Result<DataFrame> {
+        let widest = parts.iter().max_by_key(|df| df.width()).expect("non-empty");
+        let columns: Vec<(PlSmallStr, DataType)> = widest
+            .columns()
+            .iter()
+            .map(|c| (c.name().clone(), c.dtype().clone()))
+            .collect();
+        let mut out: Option<DataFrame> = None;
+        for part in parts {
+            if let Some(c) = part
+                .columns()
+                .iter()
+                .find(|c| widest.column(c.name()).is_err())
+            {
+                anyhow::bail!(
+                    "a fragment has column {} that the widest one lacks",
+                    c.name()
+                );
+            }
+            let aligned = DataFrame::new_infer_height(
+                columns
+                    .iter()
+                    .map(|(name, dtype)| match part.column(name) {
+                        Ok(c) => c.clone(),
+                        Err(_) => Column::full_null(name.clone(), part.height(), dtype),
+                    })
+                    .collect(),
+            )?;
+            match &mut out {
+                None => out = Some(aligned),
+                Some(df) => {
+                    df.vstack_mut_owned(aligned)?;
+                }
+            }
+        }
+        let mut df = out.expect("non-empty");
+        df.rechunk_mut();
+        Ok(df)
+    }
+
     /// Fragments of random heights, some without the optional column `c`, with nulls.
     fn parts(seed: u64, n: usize, rows: std::ops::Range<usize>) -> Vec<DataFrame> {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -399,7 +444,7 @@ mod tests {
     /// were written up to store schema 2 (but for the row-group size).
     fn at_once(parts: &[DataFrame]) -> Vec<u8> {
         let refs: Vec<&DataFrame> = parts.iter().collect();
-        let mut df = crate::run::tables::concat(&refs).unwrap();
+        let mut df = concat(&refs).unwrap();
         let mut bytes = Vec::new();
         ParquetWriter::new(&mut bytes)
             .with_row_group_size(Some(ROW_GROUP))

@@ -110,8 +110,7 @@ impl Manifest {
         };
         let sep = match self.files {
             None => {
-                let end = if self.jobs == 0 { "]" } else { "\n  ]" };
-                write!(self.file, "{end},\n  \"files\": {{")?;
+                self.open_files()?;
                 ""
             }
             Some(_) => ",",
@@ -126,6 +125,13 @@ impl Manifest {
         Ok(())
     }
 
+    /// Closes the list of jobs and opens the object of files.
+    fn open_files(&mut self) -> Result<()> {
+        let end = if self.jobs == 0 { "]" } else { "\n  ]" };
+        write!(self.file, "{end},\n  \"files\": {{")?;
+        Ok(())
+    }
+
     /// Ends the manifest with the run's total and table-writing seconds and the time it
     /// finished, and puts it in place.
     ///
@@ -134,8 +140,8 @@ impl Manifest {
     pub fn finish(mut self, (total_s, tables_s): (f64, f64)) -> Result<()> {
         match self.files {
             None => {
-                let end = if self.jobs == 0 { "]" } else { "\n  ]" };
-                write!(self.file, "{end},\n  \"files\": {{}}")?;
+                self.open_files()?;
+                write!(self.file, "}}")?;
             }
             Some(_) => write!(self.file, "\n  }}")?,
         }

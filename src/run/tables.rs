@@ -1,6 +1,7 @@
 //! The run's tables: each dataset job's fragment of every long-format table (one builder per
-//! table, called on that job's result alone), and the assembly that concatenates the fragments
-//! of all jobs in plan order into the Parquet tables of the run.
+//! table, called on that job's result alone), the tables every run writes and their empty
+//! forms; [`crate::run::assembly`] streams the fragments of all jobs in plan order into the
+//! Parquet tables of the run.
 //!
 //! Table layout is a public contract (see `docs/spec.md`): `analysis_maps`,
 //! `analysis_summary`, `pixel_stats`, `filter_correlation`, `jobs`, `synthesis_params`,
@@ -691,44 +692,6 @@ pub fn table_names(plan: &Plan) -> Vec<&'static str> {
     names
 }
 
-/// Assembles the run's tables in memory from the jobs' table fragments (in plan order), the
-/// reference that the streaming assembly ([`crate::run::assembly`]) reproduces:
-/// every table's fragments concatenated in plan order. The standard tables are always there
-/// (empty when no job contributed); a table's columns are those of its widest fragment, which
-/// the others' columns are a subset of (`synthesis_params` has `r_*` columns up to the run's
-/// largest level), filled with nulls where a fragment lacks one. Tables whose name starts with
-/// `_` are intermediate rows and are left out.
-///
-/// # Errors
-/// If fragments of one table do not fit together.
-pub fn assemble(
-    plan: &Plan,
-    rows: &[&[(&'static str, DataFrame)]],
-) -> Result<Vec<(String, DataFrame)>> {
-    let mut names: Vec<&str> = STANDARD.iter().map(|(n, _)| *n).collect();
-    names.extend(dataset_tables(plan).iter().map(|(n, _)| *n));
-    for r in rows {
-        names.extend(r.iter().map(|(n, _)| *n));
-    }
-    let mut seen = std::collections::HashSet::new();
-    names.retain(|n| !n.starts_with('_') && seen.insert(*n));
-    names
-        .into_iter()
-        .map(|name| {
-            let parts: Vec<&DataFrame> = rows
-                .iter()
-                .flat_map(|r| r.iter().filter(|(n, _)| *n == name).map(|(_, df)| df))
-                .collect();
-            let df = if parts.is_empty() {
-                empty(plan, name)?
-            } else {
-                concat(&parts).with_context(|| format!("assembling {name}"))?
-            };
-            Ok((name.to_string(), df))
-        })
-        .collect()
-}
-
 /// The empty table `name` with its columns.
 ///
 /// # Errors
@@ -741,49 +704,4 @@ pub fn empty(plan: &Plan, name: &str) -> Result<DataFrame> {
         Some((_, build)) => build(plan, &[]),
         None => Ok(DataFrame::empty()),
     }
-}
-
-/// Fragments stacked in order; columns aligned on the widest fragment (the last of equal
-/// width).
-///
-/// # Errors
-/// If a fragment has a column the widest lacks, or types that do not fit.
-pub(crate) fn concat(parts: &[&DataFrame]) -> Result<DataFrame> {
-    let widest = parts.iter().max_by_key(|df| df.width()).expect("non-empty");
-    let columns: Vec<(PlSmallStr, DataType)> = widest
-        .columns()
-        .iter()
-        .map(|c| (c.name().clone(), c.dtype().clone()))
-        .collect();
-    let mut out: Option<DataFrame> = None;
-    for part in parts {
-        if let Some(c) = part
-            .columns()
-            .iter()
-            .find(|c| widest.column(c.name()).is_err())
-        {
-            anyhow::bail!(
-                "a fragment has column {} that the widest one lacks",
-                c.name()
-            );
-        }
-        let aligned = DataFrame::new_infer_height(
-            columns
-                .iter()
-                .map(|(name, dtype)| match part.column(name) {
-                    Ok(c) => c.clone(),
-                    Err(_) => Column::full_null(name.clone(), part.height(), dtype),
-                })
-                .collect(),
-        )?;
-        match &mut out {
-            None => out = Some(aligned),
-            Some(df) => {
-                df.vstack_mut_owned(aligned)?;
-            }
-        }
-    }
-    let mut df = out.expect("non-empty");
-    df.rechunk_mut();
-    Ok(df)
 }

@@ -2,8 +2,8 @@
 //! calibration, the hypothesis tests, and next the CNN trainings) implements [`JobKind`]: it
 //! says who it is (id, canonical identity, seed), what it reads ([`Inputs`]), and runs into
 //! [`Rows`]: fragments of the run's tables plus the files it wrote. The scheduler runs jobs
-//! through this trait only, and the table assembly ([`crate::run::tables::assemble`])
-//! concatenates the fragments in plan order, so neither grows a branch per kind. A job's rows
+//! through this trait only, and the table assembly ([`crate::run::assembly`])
+//! streams the fragments in plan order, so neither grows a branch per kind. A job's rows
 //! are what a durable job store persists.
 //!
 //! A new kind of job: a file here with a struct that implements [`JobKind`], listed by
