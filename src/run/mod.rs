@@ -12,6 +12,7 @@ pub mod estimate;
 pub mod jobs;
 pub mod manifest;
 pub mod merge;
+pub mod params;
 pub mod plan;
 pub mod result;
 pub mod scheduler;

@@ -15,13 +15,15 @@
 use crate::experiment::{
     self, AnalysisSpec, Ctx, Dataset, DatasetSpec, RawSpec, SpecError, SynthesisSpec,
 };
+use crate::run::params::Params;
 use crate::seeds::{derive_seed, sha256_hex};
 use crate::synthesis::Method;
 use serde::Serialize;
 use serde_json::Value as Json;
 use serde_yaml_ng::Value as Yaml;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Longest job id before a hash suffix replaces the tail.
 const MAX_ID_LEN: usize = 96;
@@ -58,7 +60,7 @@ pub struct Job {
     /// same for every method of one dataset (common random numbers).
     pub generation_seed: u64,
     /// Swept values that apply to this job, by short key (`alpha_h`, `levels`).
-    pub params: BTreeMap<String, Json>,
+    pub params: Params,
     /// Canonical identity (JSON) from which the seeds are derived.
     pub identity: String,
     /// Job seed: hash of the master seed and the job identity.
@@ -138,15 +140,19 @@ struct Axis {
     field: Vec<String>,
     /// Values.
     values: Vec<Yaml>,
+    /// The values as JSON (as tables and identities hold them).
+    json: Vec<Json>,
+    /// The parameter's name in tables and job ids ([`Axis::short_of`]), shared by the jobs.
+    short: Arc<str>,
 }
 
 impl Axis {
     /// The parameter's name in tables and job ids: the field path below the dataset or
     /// analysis section, and `synthesis.<field>` for synthesis fields (which share names with
     /// dataset fields such as `samples`).
-    fn short(&self) -> String {
-        let field = self.field.join(".");
-        if self.synthesis {
+    fn short_of(field: &[String], synthesis: bool) -> String {
+        let field = field.join(".");
+        if synthesis {
             format!("synthesis.{field}")
         } else {
             field
@@ -187,7 +193,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
     let axes = parse_axes(&spec, &ctx)?;
     let points = sweep_points(&axes, &ctx)?;
     let mut jobs: Vec<Job> = Vec::new();
-    let mut seen = HashMap::new();
+    let mut seen = std::collections::HashSet::new();
     let methods: Vec<Option<Method>> = std::iter::once(None)
         .chain(
             spec.synthesis
@@ -202,24 +208,27 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
                     .iter()
                     .filter(|(a, _)| axes[*a].applies_to(ds, method))
                     .collect();
-                let mut params = BTreeMap::new();
-                for &&(a, v) in &applied {
-                    let axis = &axes[a];
-                    let value =
-                        serde_json::to_value(&axis.values[v]).expect("YAML values are JSON");
-                    if params.insert(axis.short(), value).is_some() {
-                        return Err(ctx.err(
-                            &axis.at,
-                            format!(
-                                "another sweep axis also sets `{}` of dataset {}",
-                                axis.short(),
-                                ds.id
-                            ),
-                        ));
-                    }
-                }
+                let pairs = applied
+                    .iter()
+                    .map(|&&(a, v)| (axes[a].short.clone(), axes[a].json[v].clone()))
+                    .collect();
+                let params = Params::new(pairs).map_err(|key| {
+                    let axis = applied
+                        .iter()
+                        .map(|&&(a, _)| &axes[a])
+                        .filter(|axis| axis.short == key)
+                        .nth(1)
+                        .expect("a key given twice");
+                    ctx.err(
+                        &axis.at,
+                        format!("another sweep axis also sets `{key}` of dataset {}", ds.id),
+                    )
+                })?;
                 let identity = identity(&ds.id, method, &params);
-                if seen.insert(identity.clone(), ()).is_some() {
+                // Identities seen, by their 128-bit hash (a collision, about 2^-100 for a
+                // million jobs, would drop a job): a set of the strings held a second copy
+                // of every identity while the plan was built.
+                if !seen.insert(xxhash_rust::xxh3::xxh3_128(identity.as_bytes())) {
                     continue;
                 }
                 if jobs.len() == MAX_JOBS {
@@ -243,10 +252,13 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         check_job_metrics(&spec, &metrics, &ctx, job)?;
     }
     assign_ids(&mut jobs);
-    // The stacks the analysis jobs read, which the CNN sections name by dataset id.
+    jobs.shrink_to_fit();
+    // The stacks the analysis jobs read, which the CNN sections name by dataset id (only
+    // listed when a CNN section needs them: each holds a copy of its dataset).
+    let cnn = spec.classification.is_some() || spec.location.is_some();
     let stacks: Vec<crate::experiment::DataRef> = jobs
         .iter()
-        .filter(|j| j.method.is_none())
+        .filter(|j| cnn && j.method.is_none())
         .map(|j| crate::experiment::DataRef {
             id: j.dataset_id.clone(),
             dataset: j.dataset.clone(),
@@ -263,7 +275,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         .as_ref()
         .map(|l| l.validate(&ctx, &stacks))
         .transpose()?;
-    let mut param_keys: Vec<String> = axes.iter().map(Axis::short).collect();
+    let mut param_keys: Vec<String> = axes.iter().map(|a| a.short.to_string()).collect();
     param_keys.sort();
     param_keys.dedup();
     let param_numeric = param_keys
@@ -436,13 +448,20 @@ fn parse_axes(spec: &RawSpec, ctx: &Ctx) -> Result<Vec<Axis>, SpecError> {
             if values.is_empty() {
                 return Err(ctx.err(at, "a sweep axis needs at least one value"));
             }
+            let synthesis = key.starts_with("synthesis.");
+            let json = values
+                .iter()
+                .map(|v| serde_json::to_value(v).expect("YAML values are JSON"))
+                .collect();
             axes.push(Axis {
-                synthesis: key.starts_with("synthesis."),
+                short: Axis::short_of(&field, synthesis).into(),
+                synthesis,
                 key: key.clone(),
                 at,
                 dataset,
                 field,
                 values: values.clone(),
+                json,
             });
         }
     }
@@ -556,13 +575,13 @@ fn check_point_count(
 }
 
 /// Canonical identity of a dataset under some swept values.
-fn identity(dataset: &str, method: Option<Method>, params: &BTreeMap<String, Json>) -> String {
+fn identity(dataset: &str, method: Option<Method>, params: &Params) -> String {
     #[derive(Serialize)]
     struct Id<'a> {
         dataset: &'a str,
         #[serde(skip_serializing_if = "Option::is_none")]
         method: Option<Method>,
-        params: &'a BTreeMap<String, Json>,
+        params: &'a Params,
     }
     serde_json::to_string(&Id {
         dataset,
@@ -581,13 +600,13 @@ fn build_job(
     (index, ds, method): (usize, &DatasetSpec, Option<Method>),
     axes: &[Axis],
     applied: &[&(usize, usize)],
-    params: BTreeMap<String, Json>,
+    params: Params,
     identity: String,
 ) -> Result<Job, SpecError> {
     let mut ds_value = raw["datasets"][index].clone();
     let mut an_value = raw["analysis"].clone();
     let mut syn_value = raw["synthesis"].clone();
-    let mut data_params = BTreeMap::new();
+    let mut data_params = Vec::new();
     for &&(a, v) in applied {
         let axis = &axes[a];
         let target = if axis.dataset.is_some() {
@@ -599,7 +618,7 @@ fn build_job(
         };
         set_path(target, &axis.field, axis.values[v].clone()).map_err(|m| ctx.err(&axis.at, m))?;
         if axis.dataset.is_some() {
-            data_params.insert(axis.short(), params[&axis.short()].clone());
+            data_params.push((axis.short.clone(), axis.json[v].clone()));
         }
     }
     let swept = || {
@@ -654,6 +673,7 @@ fn build_job(
             e
         })?;
     }
+    let data_params = Params::new(data_params).expect("keys checked with the job's");
     let data_identity = self::identity(&ds.id, None, &data_params);
     Ok(Job {
         method,
@@ -743,7 +763,7 @@ fn assign_ids(jobs: &mut [Job]) {
                 id.push('.');
                 id.push_str(m.as_str());
             }
-            for (k, v) in &j.params {
+            for (k, v) in j.params.iter() {
                 id.push_str(&format!(".{}={}", sanitize(k), sanitize(&id_value(v))));
             }
             id
