@@ -37,7 +37,7 @@ def median_time(fn, repeats):
 
 
 def numpy_estimator(stack, levels):
-    """The estimator of SPEC-NOTES section 2, vectorised with numpy, in complex128."""
+    """The estimator of docs/definitions.md section 3, vectorised with numpy, in complex128."""
     x = stack.astype(np.complex128)
     n = x.shape[0]
     mean = x.mean(axis=0)

@@ -1,4 +1,4 @@
-//! The CNN applications end to end through `isar-clutter run` (SPEC-NOTES section 9), small
+//! The CNN applications end to end through `isar-clutter run` (docs/definitions.md §12), small
 //! enough for `make test`: two classes that differ only in correlation direction are told
 //! apart by a network trained on Method 1 samples and not by one trained on uncorrelated
 //! samples; target location is near chance at a very low signal-to-clutter ratio and near

@@ -1,4 +1,4 @@
-//! Similarity measures (SPEC-NOTES section 5): KL divergence of hand-made histograms and its
+//! Similarity measures (docs/definitions.md §6): KL divergence of hand-made histograms and its
 //! invariants (property tests), the fast KL map kernel against a per-unit oracle, the CMD's
 //! Gram identity against the literal P x P formula, eq. 25 on hand-made maps, and K-distributed
 //! texture moments.
@@ -84,7 +84,7 @@ fn kl_oracle(
             for i in bi * block..(bi + 1) * block {
                 for j in bj * block..(bj + 1) * block {
                     let z = x[[s, i, j]];
-                    // A NaN in either part masks the pixel (SPEC-NOTES section 1).
+                    // A NaN in either part masks the pixel (docs/definitions.md §1).
                     let masked = z.re.is_nan() || z.im.is_nan();
                     v.push(if masked {
                         f64::NAN

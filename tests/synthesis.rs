@@ -1,4 +1,4 @@
-//! Synthesis (SPEC-NOTES section 4): Method 1's alpha inversion and recovery, Method 2's
+//! Synthesis (docs/definitions.md §5): Method 1's alpha inversion and recovery, Method 2's
 //! dyadic solver, round trips through fit -> generate -> analyse, the full-covariance
 //! sampler's second-order moments, and reproducibility.
 
@@ -69,7 +69,7 @@ fn alpha_inversion_round_trips() {
 
 #[test]
 fn dyadic_solver_reaches_spec_notes_targets() {
-    // SPEC-NOTES section 4: (.3, -.2, .1) is reachable with r near (.175, -.142, .084).
+    // docs/definitions.md §5: (.3, -.2, .1) is reachable with r near (.175, -.142, .084).
     let (r, res) = solve_dyadic(&[0.3, -0.2, 0.1], 8);
     assert!(res < 1e-6, "residual {res}");
     for (got, want) in r.iter().zip([0.175, -0.142, 0.084]) {

@@ -1,6 +1,6 @@
 //! Reproduces the dissertation's Table 3 (lag correlations of the exponential filter) and
-//! Table 4 (multiscale correlations of exponentially filtered noise) with the values pinned
-//! in SPEC-NOTES sections 2-3.
+//! Table 4 (multiscale correlations of exponentially filtered noise) with the exact values of
+//! docs/definitions.md §4.
 
 use isar_clutter::data::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
@@ -22,7 +22,7 @@ const TABLE_3: [(usize, f64, f64); 9] = [
     (8, 0.0003, 0.0023),
 ];
 
-/// Table 4 as exact expected values (SPEC-NOTES section 2): level -> (H, V, D).
+/// Table 4 as exact expected values (docs/definitions.md §4): level -> (H, V, D).
 const TABLE_4_EXACT: [(f64, f64, f64); 3] = [
     (0.6481, 0.6481, 0.4200),
     (0.4534, 0.4534, 0.2056),

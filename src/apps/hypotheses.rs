@@ -1,5 +1,5 @@
-//! The dissertation's hypothesis tests on plant clutter (ch. 5.1, Table 24; SPEC-NOTES section
-//! 8), run over datasets named `plant_<letter>_<wind>`: Table 16 (mean pixel variance), the mean
+//! The dissertation's hypothesis tests on plant clutter (ch. 5.1, Table 24; docs/definitions.md
+//! §8), run over datasets named `plant_<letter>_<wind>`: Table 16 (mean pixel variance), the mean
 //! 2-D correlating function by offset (5.1.3), mean correlation by level (Figs. 52-53) and by
 //! wind (Figs. 54-56), each with a verdict. Definitions and thresholds: `docs/hypotheses.md`.
 

@@ -1,5 +1,5 @@
 //! The `classification` and `location` sections (the CNN applications of ch. 5.3,
-//! SPEC-NOTES section 9): what a user writes and its validation against the datasets. Every
+//! docs/definitions.md §12): what a user writes and its validation against the datasets. Every
 //! value that the networks, the splits or the data sets cannot take is refused here with its
 //! YAML path, before anything runs.
 

@@ -1,4 +1,4 @@
-//! Radar calibration with a reference sphere (dissertation 2.3, SPEC-NOTES section 6): from a
+//! Radar calibration with a reference sphere (dissertation 2.3, docs/definitions.md §9): from a
 //! stepped-frequency measurement of a perfectly conducting sphere and of the empty scene
 //! (background), the correction factor `a(f) = Mie(f) / s(f)`, where `s(f)` is the sphere's
 //! measurement after background subtraction and time gating (inverse FFT to the range profile,

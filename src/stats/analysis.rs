@@ -1,5 +1,5 @@
 //! Multiscale second-order analysis of a stack of complex images (dissertation ch. 3.3,
-//! SPEC-NOTES section 2): per-pixel mean and variance, and for levels `1..=L` the directional
+//! docs/definitions.md §3): per-pixel mean and variance, and for levels `1..=L` the directional
 //! (H, V, D) correlation and covariance maps of neighbouring units inside non-overlapping 2x2
 //! blocks, estimated without the full covariance matrix.
 //!
@@ -15,8 +15,9 @@
 //! ```
 //!
 //! This is the closed-form solution of the 4x4 system of eq. 52 built from the variances of
-//! the four Haar coefficients (with the signs of SPEC-NOTES, not the printed eq. 43); the
-//! explicit solve is kept as a test oracle in [`crate::stats::oracle`].
+//! the four Haar coefficients (with the signs that follow from the printed filters, not those
+//! of the printed eq. 43; docs/definitions.md §3); the explicit solve is kept as a test oracle
+//! in [`crate::stats::oracle`].
 //!
 //! The kernel reads the stack once, in its stored element type (no f64 copy of the input), and
 //! accumulates in f64 with the shifted-data algorithm (Chan, Golub & LeVeque, 1983): every

@@ -1,4 +1,4 @@
-//! Correlating filters (dissertation eqs. 32-33, 65-68 and ch. 4; SPEC-NOTES sections 3-4):
+//! Correlating filters (dissertation eqs. 32-33, 65-68 and ch. 4; docs/definitions.md §4-5):
 //! the exponential and dyadic tap families, the 1-D lag and group correlations a filter
 //! induces on white noise, spatially varying separable filtering of a padded white seed, and
 //! the exact expected multiscale maps of filtered noise (the "truth" an analysis is compared
@@ -14,7 +14,7 @@ use num_complex::Complex64;
 /// Exponential taps `f(d) = exp(-|d| / |alpha|)` on `|d| <= half_width` (eq. 65, 68).
 ///
 /// A negative `alpha` gives the sign-alternating filter `(-1)^d exp(-|d| / |alpha|)` whose
-/// lag-1 correlation is the negative of the positive filter's (SPEC-NOTES section 4,
+/// lag-1 correlation is the negative of the positive filter's (docs/definitions.md §5,
 /// Method 1). `alpha = +-inf` gives a constant (or alternating) filter, `alpha = 0` the delta
 /// filter (the limit `alpha -> 0`: white output).
 ///
@@ -39,7 +39,7 @@ pub fn exponential_taps(alpha: f64, half_width: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Dyadic taps (SPEC-NOTES section 4, Method 2): `f(0) = 1`, `f(d) = r[l-1]` for
+/// Dyadic taps (docs/definitions.md §4-5, Method 2): `f(0) = 1`, `f(d) = r[l-1]` for
 /// `2^(l-1) <= |d| < 2^l`, zero beyond `2^L - 1`.
 ///
 /// # Panics

@@ -1,5 +1,5 @@
-//! Similarity measures between two stacks (dissertation ch. 2.5 and 4.4, SPEC-NOTES section
-//! 5): histogram KL divergence per pixel and per image area, on real and imaginary parts with
+//! Similarity measures between two stacks (dissertation ch. 2.5 and 4.4, docs/definitions.md
+//! §6): histogram KL divergence per pixel and per image area, on real and imaginary parts with
 //! shared bin edges; the multiscale correlation RMSE (eq. 25) with the dissertation's summaries.
 //! The correlation matrix distance lives in [`crate::stats::cmd`]. Kernels are pure functions of
 //! array views; the caller's rayon pool decides the parallelism, and every result is

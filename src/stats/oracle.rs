@@ -109,7 +109,8 @@ pub fn solve4(mut a: [[f64; 4]; 4], mut b: [f64; 4]) -> [f64; 4] {
 /// var A = vA + vH rhoH + vV rhoV + vD rhoD
 /// ```
 ///
-/// (SPEC-NOTES' signs; the dissertation's printed eq. 43/54 flips those of `H` and `V`).
+/// (the signs of the printed filters `W_H`, `W_V`; the dissertation's printed eqs. 43-44, 49
+/// and 54 flip those of `H` and `V`; docs/definitions.md §3).
 /// The unknown vector is `[1, rhoH, rhoV, rhoD]`; its first entry is solved too and returned
 /// as the fourth element of each cell's check value (it must come out as 1).
 pub fn haar_solve_level(

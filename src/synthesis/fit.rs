@@ -11,9 +11,10 @@ pub fn exponential_lag1(alpha: f64, half_width: usize) -> f64 {
 
 /// The peak `(alpha*, g(alpha*))` of `g(alpha)` for half-width `K`.
 ///
-/// SPEC-NOTES calls `g` monotone with supremum `g(inf) = 2K/(2K+1)`; for a finite `K` it is
-/// not: the truncated exponential's lag-1 correlation rises above the constant filter's and
-/// falls back to it (`K = 8`: peak 0.9743 near `alpha = 6.2`, `g(inf) = 0.9412`). `g` is
+/// `g` looks monotone with supremum `g(inf) = 2K/(2K+1)`, but for a finite `K` it is not: the
+/// truncated exponential's lag-1 correlation rises above the constant filter's and falls back
+/// to it (`K = 8`: peak 0.9744 near `alpha = 6.45`, `g(inf) = 0.9412`; docs/definitions.md
+/// §5). `g` is
 /// monotone on `(0, alpha*]`, which is the branch Method 1 inverts. Golden-section search on
 /// `log(alpha)`.
 pub fn exponential_peak(half_width: usize) -> (f64, f64) {
@@ -47,7 +48,7 @@ pub fn exponential_peak(half_width: usize) -> (f64, f64) {
 /// sign-alternating filter), zero gives the delta filter (`alpha = 0`), NaN (masked data) the
 /// delta filter, counted as clamped; `|rho|` above the peak of [`exponential_peak`] is
 /// unreachable and clamps to `alpha*`. Bisection on `log(alpha)` to a relative width of
-/// `1e-13`, far inside the `1e-6` error SPEC-NOTES asks for.
+/// `1e-13` (docs/definitions.md §5).
 pub fn invert_alpha(rho: f64, half_width: usize) -> (f64, bool) {
     if rho.is_nan() || rho == 0.0 || half_width == 0 {
         return (0.0, rho.is_nan() || (half_width == 0 && rho != 0.0));

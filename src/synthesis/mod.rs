@@ -1,4 +1,4 @@
-//! Synthesis (dissertation ch. 4, SPEC-NOTES section 4): fit a model to a stack once, then
+//! Synthesis (dissertation ch. 4, docs/definitions.md §5): fit a model to a stack once, then
 //! generate any number of new samples with its statistics.
 //!
 //! Every method outputs `mu + sigma * y / sd(y)` per pixel, `y` zero-mean with the exact

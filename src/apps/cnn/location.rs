@@ -1,4 +1,4 @@
-//! Target location data (SPEC-NOTES section 9, application 2): an 8x8 target on a 5x5 grid of
+//! Target location data (docs/definitions.md §12, target location): an 8x8 target on a 5x5 grid of
 //! locations added to clutter at a signal-to-clutter ratio. Centres at pixel
 //! `(8 + 12 i, 8 + 12 j)`, label `5 i + j`; the target occupies rows and columns `c - 4 ..
 //! c + 3`. The constant target is one pattern drawn once from the master seed; the stochastic

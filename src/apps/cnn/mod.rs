@@ -1,4 +1,4 @@
-//! The deep-learning applications of the dissertation's chapter 5.3 (SPEC-NOTES section 9):
+//! The deep-learning applications of the dissertation's chapter 5.3 (docs/definitions.md §12):
 //! small CNNs trained on generated clutter and tested on original data. [`net`] holds the
 //! networks of Tables 18 and 23, [`train`] the training loop (MATLAB's `sgdm` defaults) on
 //! burn's pure-Rust CPU backend, [`classification`] and [`location`] the two applications'

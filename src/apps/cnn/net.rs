@@ -1,12 +1,12 @@
 //! The two networks of the dissertation's chapter 5.3, exactly as Tables 18 (clutter
-//! classification) and 23 (target location) list them (SPEC-NOTES section 9): three blocks of
+//! classification) and 23 (target location) list them (docs/definitions.md §12): three blocks of
 //! convolution ('same' padding, MATLAB's split), batch normalisation and ReLU, max pooling
 //! after the first two, a fully connected layer and softmax cross-entropy. Weights start from
 //! MATLAB's defaults (Glorot-uniform weights, zero biases, BN scale 1 and offset 0), drawn from
 //! a ChaCha stream so that a network is a function of its seed.
 //!
-//! Two forms that compute the same function faster on burn's CPU backend (measured in
-//! `../shared/DL-NOTES.md` and in BENCHMARKS.md):
+//! Two forms that compute the same function faster on burn's CPU backend (`tests/cnn.rs`
+//! checks them against the plain operations; throughput in BENCHMARKS.md, *CNN training*):
 //! - the first convolution (2 channels, 8x8, stride 2) runs as a 4x4 stride-1 convolution on
 //!   the space-to-depth input (the padded image cut into 2x2 blocks: 8 channels), with the
 //!   8x8 weights rearranged to match; the input side of that rearrangement is done once per

@@ -1,4 +1,4 @@
-//! Training and prediction (SPEC-NOTES section 9): MATLAB's `trainingOptions('sgdm')`
+//! Training and prediction (docs/definitions.md §12): MATLAB's `trainingOptions('sgdm')`
 //! defaults unless the spec says otherwise: SGD with momentum 0.9 (no dampening), learning rate
 //! 0.01, L2 1e-4, mini-batch 128 (or the training-set size if smaller), 30 epochs, shuffled
 //! every epoch, the last partial mini-batch of an epoch left out (as MATLAB does), validation

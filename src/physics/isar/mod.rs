@@ -1,7 +1,7 @@
 //! ISAR imaging chain: monostatic far-field forward model of point scatterers
 //! and polar-format imaging from k-space data to a complex top-view image.
 //!
-//! Physics (SPEC-NOTES section 6). The radar looks at the scene from the
+//! Physics (docs/definitions.md §9). The radar looks at the scene from the
 //! direction `r_hat(phi) = (cos phi, sin phi, 0)` (elevation 0, `phi` = azimuth).
 //! The monostatic far-field response of point scatterers with complex
 //! amplitudes `a_k` at positions `r_k` (metres) is

@@ -1,5 +1,5 @@
-//! Physical stand-in for the ISAR plant-clutter measurements (SPEC-NOTES
-//! section 7): a plant is a set of point scatterers moved by wind, imaged
+//! Physical stand-in for the ISAR plant-clutter measurements
+//! (docs/definitions.md §10): a plant is a set of point scatterers moved by wind, imaged
 //! with the chain of [`crate::physics::isar`].
 //!
 //! Geometry (fixed by the seed). `n_stems` stems rise from bases on a circle
@@ -184,7 +184,7 @@ pub struct SceneParams {
 }
 
 impl PlantParams {
-    /// Presets "A".."E" (see SPEC-NOTES 7): A two large canes, very large
+    /// Presets "A".."E" (docs/definitions.md §10): A two large canes, very large
     /// leaves, wide spacing, large leaf motion; B medium leaves, smaller
     /// spacing and motion; C small dense leaves, little leaf motion, whole
     /// plant sways; D many small leaves on many small branches; E few large
