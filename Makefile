@@ -21,7 +21,7 @@ CARGO_FEATURES := $(if $(strip $(FEATURES)),--features $(FEATURES))
 HDF5_DIR ?= $(CARGO_TARGET_DIR)/hdf5-static
 export HDF5_DIR
 
-.PHONY: build run-experiment run-all compare validate test test-deps hdf5 lint fmt bench bench-scale bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
+.PHONY: build run-experiment reproduce run-all compare validate test test-deps hdf5 lint fmt bench bench-scale bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
 
 ## build: release build of the isar-clutter binary (with FEATURES; add `cuda` for
 ## `training: {device: cuda}`: make build FEATURES="mat73 cuda")
@@ -31,6 +31,12 @@ build: hdf5
 ## run-experiment: build and run SPEC (default: the Table 4 spec) into outputs/<name>/
 run-experiment: build
 	$(BIN) run $(SPEC) $(ARGS)
+
+## reproduce: run the specs the dissertation's tables need (REPEATS runs of each random
+## statistic, resumable) into outputs/reproduction/ and write docs/reproduction.md from them
+REPEATS ?= 5
+reproduce: build
+	$(BIN) reproduce --repeats $(REPEATS) $(ARGS)
 
 ## run-all: every shipped experiment into OUT/<name>/ (tables, maps, models; no report), e.g.
 ## before and after a change: make run-all OUT=/tmp/before; ...; make run-all OUT=/tmp/after

@@ -27,6 +27,7 @@ pub mod experiment;
 pub mod io;
 pub mod physics;
 pub mod report;
+pub mod reproduction;
 pub mod run;
 pub mod seeds;
 pub mod stats;

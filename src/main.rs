@@ -62,6 +62,37 @@ enum Command {
         /// default: the machine's memory).
         #[arg(long, value_name = "SIZE", value_parser = isar_clutter::run::estimate::parse_size)]
         max_memory: Option<u64>,
+        /// Master seed in place of the spec's `seed`: the same experiment with other random
+        /// numbers (a repeat). Recorded in the folder; `merge`, `status` and `report` use it.
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+    },
+    /// Reproduce the dissertation's tables: run the specs they need (each random statistic
+    /// repeated with other master seeds) into OUT/<spec>/seed-<seed>/, resuming what the job
+    /// store holds, and write DOC from those folders: every table's cells, printed beside the
+    /// tool's mean and spread, with a verdict.
+    Reproduce {
+        /// Where the runs go.
+        #[arg(long, default_value = "outputs/reproduction")]
+        out: PathBuf,
+        /// The folder of the specs.
+        #[arg(long, default_value = "experiments")]
+        specs: PathBuf,
+        /// The document to write.
+        #[arg(long, default_value = "docs/reproduction.md")]
+        doc: PathBuf,
+        /// Runs of each spec with random statistics (the first with the spec's own seed).
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Worker threads of each run (default: RAYON_NUM_THREADS, else all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Write the document from the folders in OUT without running anything.
+        #[arg(long)]
+        write_only: bool,
+        /// No progress output.
+        #[arg(short, long)]
+        quiet: bool,
     },
     /// (Re)build figures/ and report.html of a results folder from its files.
     Report {
@@ -273,6 +304,49 @@ fn real_main() -> Result<ExitCode> {
             )?;
             Ok(ExitCode::SUCCESS)
         }
+        Command::Reproduce {
+            out,
+            specs,
+            doc,
+            repeats,
+            jobs,
+            write_only,
+            quiet,
+        } => {
+            use isar_clutter::reproduction::{self as rep, render};
+            let opts = rep::Options {
+                out,
+                specs,
+                repeats,
+                threads: jobs.unwrap_or_else(scheduler::default_threads),
+                write_only,
+                quiet,
+            };
+            let start = std::time::Instant::now();
+            let recipes = rep::extract::recipes();
+            let runs = rep::run_all(&opts, &recipes)?;
+            let header = render::Header {
+                command: format!("isar-clutter reproduce --repeats {repeats}"),
+                wall_s: (!write_only).then(|| start.elapsed().as_secs_f64()),
+                machine: render::machine(),
+                tool: format!(
+                    "isar-clutter {} (commit {})",
+                    env!("CARGO_PKG_VERSION"),
+                    isar_clutter::run::manifest::build_commit()
+                ),
+                repeats,
+            };
+            let counts = rep::write(&recipes, &runs, &doc, &header)?;
+            let n = |v| counts.get(&v).copied().unwrap_or(0);
+            eprintln!(
+                "{}: {} matches, {} ordering holds, {} differs",
+                doc.display(),
+                n(rep::compare::Verdict::Matches),
+                n(rep::compare::Verdict::OrderingHolds),
+                n(rep::compare::Verdict::Differs)
+            );
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Report {
             results,
             jobs,
@@ -442,8 +516,9 @@ fn real_main() -> Result<ExitCode> {
             fresh,
             shards,
             shard,
+            seed,
         } => {
-            let plan = plan::load(&spec)?;
+            let plan = plan::load_seeded(&spec, seed)?;
             if dry_run {
                 let largest = isar_clutter::run::check::check(&plan, estimate::limit(max_memory))?;
                 print_jobs(&plan);

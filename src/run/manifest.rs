@@ -10,6 +10,19 @@ use serde_json::json;
 use std::io::Write;
 use std::path::Path;
 
+/// The commit the binary was built from, `+dirty` when the tree had changes (`unknown`
+/// outside git).
+pub fn build_commit() -> String {
+    match (
+        env!("ISAR_CLUTTER_GIT_COMMIT"),
+        env!("ISAR_CLUTTER_GIT_DIRTY"),
+    ) {
+        ("", _) => "unknown".into(),
+        (commit, "true") => format!("{commit}+dirty"),
+        (commit, _) => commit.into(),
+    }
+}
+
 /// Commit and dirty flag of the source tree when the binary was built (null outside git).
 fn git_state() -> serde_json::Value {
     match (
@@ -51,6 +64,7 @@ impl Manifest {
             "spec_hash_sha256": plan.spec_hash,
             "spec": plan.spec,
             "master_seed": plan.spec.seed,
+            "master_seed_from": if plan.seed_override.is_some() { "--seed" } else { "spec" },
             "seed_derivation": "first 8 bytes (LE) of SHA-256('isar-clutter/v1/<job|data>/<master seed>/<identity>'); simulated data use ChaCha20 seeded with data_seed, stream = sample index; generated samples use the sample format below, seeded with generation_seed, stream = sample index",
             "sample_format": crate::synthesis::SAMPLE_FORMAT,
             "threads": threads,

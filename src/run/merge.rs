@@ -34,6 +34,9 @@ pub struct PlanRecord {
     pub schema: u32,
     /// Shards of the last sharded run (`None`: a run of every job).
     pub shards: Option<usize>,
+    /// The master seed given in place of the spec's (`run --seed`); `None`: the spec's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
 }
 
 /// Records the spec of a run in its folder.
@@ -47,6 +50,7 @@ pub fn record_plan(out: &Path, plan: &Plan, shards: Option<usize>) -> Result<()>
         spec_hash: plan.spec_hash.clone(),
         schema: store::SCHEMA,
         shards,
+        seed: plan.seed_override,
     };
     crate::io::atomic::atomic_write(&out.join(STATE).join("plan.json"), |w| {
         serde_json::to_writer_pretty(&mut *w, &record)?;
@@ -78,7 +82,7 @@ pub fn load_plan(out: &Path) -> Result<(Plan, PlanRecord)> {
             store::SCHEMA
         );
     }
-    let plan = plan::load(&record.spec_file)
+    let plan = plan::load_seeded(&record.spec_file, record.seed)
         .with_context(|| format!("loading the spec of {}", out.display()))?;
     if plan.spec_hash != record.spec_hash {
         bail!(

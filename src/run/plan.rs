@@ -123,6 +123,9 @@ pub struct Plan {
     pub classification: Option<experiment::ClassificationPlan>,
     /// The validated `location` section.
     pub location: Option<experiment::LocationPlan>,
+    /// The master seed given in place of the spec's ([`load_seeded`]); `None`: the spec's.
+    /// `spec.seed` holds the seed in effect either way.
+    pub seed_override: Option<u64>,
 }
 
 /// A parsed sweep axis.
@@ -179,12 +182,25 @@ impl Axis {
 /// # Errors
 /// A [`SpecError`] naming the file, the YAML path and (when the parser gives it) the line.
 pub fn load(file: &Path) -> Result<Plan, SpecError> {
+    load_seeded(file, None)
+}
+
+/// [`load`] with the master seed `seed` in place of the spec's `seed` (`None`: the spec's):
+/// a repeat of the experiment with other random numbers (`run --seed`, `reproduce`). Every
+/// seed of the plan derives from it; the spec's hash is that of its file, unchanged.
+///
+/// # Errors
+/// As [`load`].
+pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
     let bytes = std::fs::read(file)
         .map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;
     let text = String::from_utf8(bytes.clone())
         .map_err(|_| SpecError::at(file, ".", "the spec is not UTF-8 text"))?;
     let text = experiment::strip_bom(&text).to_string();
-    let spec = experiment::parse(&text, file)?;
+    let mut spec = experiment::parse(&text, file)?;
+    if let Some(seed) = seed {
+        spec.seed = seed;
+    }
     let raw: Yaml =
         serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
     let ctx = Ctx { file };
@@ -287,6 +303,7 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
         })
         .collect();
     Ok(Plan {
+        seed_override: seed,
         file: file.to_path_buf(),
         spec_hash: sha256_hex(text.as_bytes()),
         spec,

@@ -1,0 +1,401 @@
+//! Where each dissertation cell is found in the tool's outputs: for every table the
+//! reproduction covers, the spec that produces it and, per cell, a query (a Parquet table of
+//! the run, the rows' filter and the column) that yields the tool's value of that cell. The
+//! map from a printed table to the tool's columns lives here and nowhere else.
+
+use super::compare::Spread;
+use anyhow::{bail, Context, Result};
+use polars::prelude::{
+    BooleanChunked, ChunkCompareEq, ChunkFull, DataFrame, DataType, ParquetReader, SerReader,
+};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// A filter value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Key {
+    /// A string column's value.
+    S(&'static str),
+    /// An integer column's value.
+    I(i64),
+}
+
+/// The tool's value of one cell in one run: the single row of `table` that every filter
+/// selects, its `column`, times `scale`.
+#[derive(Debug, Clone)]
+pub struct Query {
+    /// The spec under `experiments/` whose runs hold the value (name without `.yaml`).
+    pub spec: &'static str,
+    /// The Parquet table of the run (without `.parquet`).
+    pub table: &'static str,
+    /// `(column, value)` pairs every selected row has.
+    pub filters: Vec<(&'static str, Key)>,
+    /// The value's column.
+    pub column: &'static str,
+    /// Multiplies the value (100 for a percentage).
+    pub scale: f64,
+}
+
+/// How the tool reproduces one dissertation table.
+#[derive(Debug, Clone)]
+pub struct Recipe {
+    /// The table's number.
+    pub number: u32,
+    /// How its values behave under reseeding.
+    pub spread: Spread,
+    /// Per row, per column: the query of the cell (`None`: a cell the tool does not compute).
+    pub cells: Vec<Vec<Option<Query>>>,
+    /// Why the tool's values may differ from the printed ones (data, construction, protocol).
+    pub differs_because: &'static str,
+}
+
+fn q(
+    spec: &'static str,
+    table: &'static str,
+    filters: Vec<(&'static str, Key)>,
+    column: &'static str,
+) -> Query {
+    Query {
+        spec,
+        table,
+        filters,
+        column,
+        scale: 1.0,
+    }
+}
+
+const T3: &str = "table3_filter_correlation";
+const DIRECTIONS: [&str; 3] = ["H", "V", "D"];
+const METHODS3: [&str; 3] = ["full_covariance", "method1", "method2"];
+
+/// The spec whose runs hold `dataset`.
+fn spec_of(dataset: &str) -> &'static str {
+    match dataset {
+        "exponential" => "similarity_exponential",
+        "nonexponential" => "similarity_nonexponential",
+        _ => "similarity_plants",
+    }
+}
+
+/// Similarity rows of `dataset` under `method`: the metric and statistic.
+fn sim(
+    dataset: &'static str,
+    method: &'static str,
+    metric: &'static str,
+) -> Vec<(&'static str, Key)> {
+    vec![
+        ("dataset", Key::S(dataset)),
+        ("method", Key::S(method)),
+        ("metric", Key::S(metric)),
+    ]
+}
+
+fn rmse_average(dataset: &'static str, method: &'static str, statistic: &'static str) -> Query {
+    let mut f = sim(dataset, method, "multiscale_rmse");
+    f.push(("statistic", Key::S(statistic)));
+    q(spec_of(dataset), "similarity", f, "value")
+}
+
+fn cmd(dataset: &'static str, method: &'static str) -> Query {
+    q(
+        spec_of(dataset),
+        "similarity",
+        sim(dataset, method, "cmd"),
+        "value",
+    )
+}
+
+fn kl(
+    dataset: &'static str,
+    method: &'static str,
+    metric: &'static str,
+    part: &'static str,
+) -> Query {
+    let mut f = sim(dataset, method, metric);
+    f.push(("component", Key::S(part)));
+    f.push(("statistic", Key::S("mean")));
+    q(spec_of(dataset), "similarity", f, "value")
+}
+
+/// The directional RMSE of level `level`, direction `d`, in percent (the appendix tables).
+fn rmse_percent(dataset: &'static str, method: &'static str, level: i64, d: &'static str) -> Query {
+    let mut f = sim(dataset, method, "multiscale_rmse");
+    f.push(("statistic", Key::S("rmse")));
+    f.push(("level", Key::I(level)));
+    f.push(("direction", Key::S(d)));
+    Query {
+        scale: 100.0,
+        ..q(spec_of(dataset), "similarity", f, "value")
+    }
+}
+
+/// Tables 6 and 11: average RMSE at level 1 and levels 1-3 for full covariance, Method 1 and
+/// Method 2, one row per dataset.
+fn summary_rows(datasets: &[&'static str]) -> Vec<Vec<Option<Query>>> {
+    datasets
+        .iter()
+        .map(|&ds| {
+            METHODS3
+                .iter()
+                .flat_map(|&m| {
+                    [
+                        Some(rmse_average(ds, m, "average_level_1")),
+                        Some(rmse_average(ds, m, "average_levels_1_3")),
+                    ]
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Tables 8-10 and 13-15: mean KL divergence by pixel and by 8 x 8 area, real and imaginary.
+fn kl_rows(datasets: &[&'static str], method: &'static str) -> Vec<Vec<Option<Query>>> {
+    datasets
+        .iter()
+        .map(|&ds| {
+            vec![
+                Some(kl(ds, method, "kl_pixel", "re")),
+                Some(kl(ds, method, "kl_pixel", "im")),
+                Some(kl(ds, method, "kl_area", "re")),
+                Some(kl(ds, method, "kl_area", "im")),
+            ]
+        })
+        .collect()
+}
+
+/// Tables 26, 28, 30, ...: RMSE (in percent) by level and direction, one column per method.
+fn by_level(dataset: &'static str) -> Vec<Vec<Option<Query>>> {
+    (1..=3)
+        .flat_map(|level| {
+            DIRECTIONS.iter().map(move |&d| {
+                METHODS3
+                    .iter()
+                    .map(|&m| Some(rmse_percent(dataset, m, level, d)))
+                    .collect()
+            })
+        })
+        .collect()
+}
+
+const SIMULATED: &str = "The original data are the tool's own simulation of the construction the \
+    text states; the dissertation's samples are not public, and its similarity values are one \
+    draw each";
+const KL: &str = "The dissertation names neither the histogram nor the treatment of empty bins \
+    behind its KL divergence; the tool's (32 bins over both sets' range, 0.5 pseudo-counts in \
+    empty bins, docs/definitions.md section 6) has a floor of about (bins - 1) / 2 (1/N + 1/M) \
+    for two samples of one distribution, which sets the scale: compare orderings, not magnitudes";
+const KL_PLANTS: &str = "The histogram behind the KL divergence is not stated (the tool's: 32 \
+    bins, 0.5 pseudo-counts, docs/definitions.md section 6; its floor sets the scale), and the \
+    measured plants are not public: the tool's values come from its simulated stand-in plants";
+const PLANTS: &str = "The measured plants are not public: the tool's values come from its \
+    simulated stand-in plants (docs/definitions.md section 10), not calibrated to these tables";
+
+/// Every table the reproduction covers.
+pub fn recipes() -> Vec<Recipe> {
+    let mut r = vec![
+        Recipe {
+            number: 3,
+            spread: Spread::Exact,
+            cells: (0..=8)
+                .map(|lag| {
+                    let f = || vec![("direction", Key::S("H")), ("lag", Key::I(lag))];
+                    vec![
+                        Some(q(T3, "filter_correlation", f(), "filter_coefficient")),
+                        Some(q(T3, "filter_correlation", f(), "correlation")),
+                    ]
+                })
+                .collect(),
+            differs_because: "",
+        },
+        Recipe {
+            number: 4,
+            spread: Spread::Random,
+            cells: (1..=3)
+                .map(|level| {
+                    DIRECTIONS
+                        .iter()
+                        .map(|&d| {
+                            Some(q(
+                                "table4_exponential",
+                                "analysis_summary",
+                                vec![
+                                    ("source", Key::S("original")),
+                                    ("level", Key::I(level)),
+                                    ("direction", Key::S(d)),
+                                ],
+                                "mean_correlation",
+                            ))
+                        })
+                        .collect()
+                })
+                .collect(),
+            differs_because: SIMULATED,
+        },
+    ];
+    simulated(&mut r);
+    plant_tables(&mut r);
+    r
+}
+
+/// Tables 6-10 and 25-28: the similarity of generated to simulated original data.
+fn simulated(r: &mut Vec<Recipe>) {
+    let exp = "exponential";
+    let non = "nonexponential";
+    // Tables 6-10 combine the exponential (1000 samples) and non-exponential (100 samples)
+    // runs: one spec each, so those tables read two specs.
+    r.push(Recipe {
+        number: 6,
+        spread: Spread::Random,
+        cells: summary_rows(&[exp, non]),
+        differs_because: SIMULATED,
+    });
+    r.push(Recipe {
+        number: 7,
+        spread: Spread::Random,
+        cells: [exp, non]
+            .iter()
+            .map(|&ds| vec![Some(cmd(ds, "method1")), Some(cmd(ds, "method2"))])
+            .collect(),
+        differs_because: SIMULATED,
+    });
+    for (number, method) in [(8, "full_covariance"), (9, "method1"), (10, "method2")] {
+        r.push(Recipe {
+            number,
+            spread: Spread::Random,
+            cells: kl_rows(&[exp, non], method),
+            differs_because: KL,
+        });
+    }
+    for (number, ds) in [(25, exp), (27, non)] {
+        r.push(Recipe {
+            number,
+            spread: Spread::Random,
+            cells: vec![METHODS3.iter().map(|&m| Some(cmd(ds, m))).collect()],
+            differs_because: SIMULATED,
+        });
+        r.push(Recipe {
+            number: number + 1,
+            spread: Spread::Random,
+            cells: by_level(ds),
+            differs_because: SIMULATED,
+        });
+    }
+}
+
+/// Tables 11-15 and 29-36: the similarity of generated to (stand-in) plant data.
+fn plant_tables(r: &mut Vec<Recipe>) {
+    let plants = [
+        "plant_D_light",
+        "plant_D_medium",
+        "plant_E_light",
+        "plant_E_medium",
+    ];
+    r.push(Recipe {
+        number: 11,
+        spread: Spread::Random,
+        cells: summary_rows(&plants),
+        differs_because: PLANTS,
+    });
+    r.push(Recipe {
+        number: 12,
+        spread: Spread::Random,
+        cells: plants
+            .iter()
+            .map(|&ds| vec![Some(cmd(ds, "method1")), Some(cmd(ds, "method2"))])
+            .collect(),
+        differs_because: PLANTS,
+    });
+    for (number, method) in [(13, "full_covariance"), (14, "method1"), (15, "method2")] {
+        r.push(Recipe {
+            number,
+            spread: Spread::Random,
+            cells: kl_rows(&plants, method),
+            differs_because: KL_PLANTS,
+        });
+    }
+    for (i, &ds) in plants.iter().enumerate() {
+        let number = 29 + 2 * i as u32;
+        r.push(Recipe {
+            number,
+            spread: Spread::Random,
+            cells: vec![METHODS3.iter().map(|&m| Some(cmd(ds, m))).collect()],
+            differs_because: PLANTS,
+        });
+        r.push(Recipe {
+            number: number + 1,
+            spread: Spread::Random,
+            cells: by_level(ds),
+            differs_because: PLANTS,
+        });
+    }
+}
+
+/// The specs a recipe reads, in first use.
+pub fn specs_of(recipe: &Recipe) -> Vec<&'static str> {
+    let mut specs = Vec::new();
+    for query in recipe.cells.iter().flatten().flatten() {
+        if !specs.contains(&query.spec) {
+            specs.push(query.spec);
+        }
+    }
+    specs
+}
+
+/// The Parquet tables of one run folder, read once each.
+#[derive(Default)]
+pub struct Tables {
+    read: HashMap<(PathBuf, &'static str), DataFrame>,
+}
+
+impl Tables {
+    /// The value of `query` in the run in `dir`.
+    ///
+    /// # Errors
+    /// If the table cannot be read (the file is named), or the filters select no row or
+    /// several (the query and the folder are named).
+    pub fn value(&mut self, dir: &Path, query: &Query) -> Result<f64> {
+        let key = (dir.to_path_buf(), query.table);
+        if !self.read.contains_key(&key) {
+            let path = dir.join(format!("{}.parquet", query.table));
+            let file = std::fs::File::open(&path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            let df = ParquetReader::new(file)
+                .finish()
+                .with_context(|| format!("cannot read {} as Parquet", path.display()))?;
+            self.read.insert(key.clone(), df);
+        }
+        let df = &self.read[&key];
+        let mut mask = BooleanChunked::full("m".into(), true, df.height());
+        for (column, want) in &query.filters {
+            let col = df.column(column).with_context(|| {
+                format!(
+                    "{}/{}.parquet has no column {column}",
+                    dir.display(),
+                    query.table
+                )
+            })?;
+            let hit = match want {
+                Key::S(s) => col.str()?.equal(*s),
+                Key::I(i) => col.cast(&DataType::Int64)?.i64()?.equal(*i),
+            };
+            mask = &mask & &hit;
+        }
+        let picked = df.filter(&mask)?;
+        if picked.height() != 1 {
+            bail!(
+                "{}/{}.parquet: {} row(s) where {:?} (expected one)",
+                dir.display(),
+                query.table,
+                picked.height(),
+                query.filters
+            );
+        }
+        let v = picked
+            .column(query.column)?
+            .cast(&DataType::Float64)?
+            .f64()?
+            .get(0)
+            .unwrap_or(f64::NAN);
+        Ok(v * query.scale)
+    }
+}

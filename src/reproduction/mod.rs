@@ -1,0 +1,272 @@
+//! The reproduction of the dissertation, number by number: `isar-clutter reproduce` runs the
+//! specs under `experiments/` that the covered tables need, each repeated with other master
+//! seeds (the spread of a random statistic is measured, not assumed), into
+//! `outputs/reproduction/<spec>/seed-<seed>/`, and writes `docs/reproduction.md` from those
+//! folders: every table of the dissertation with each cell's printed value, the tool's mean
+//! and spread, the difference and a verdict ([`compare`]); the tables it does not cover yet
+//! with the reason. The reference values are [`reference`] (transcribed once, compiled in);
+//! where each cell is found in the outputs is [`extract`]; the page is [`render`].
+//!
+//! The runs go through the job store, so an interrupted reproduction resumes; the document is
+//! written only when every folder it reads is a complete run (checked against its manifest),
+//! and atomically.
+
+pub mod compare;
+pub mod extract;
+pub mod reference;
+pub mod render;
+
+use crate::run::{driver, plan, scheduler::RunOptions};
+use anyhow::{Context, Result};
+use compare::{Spread, Summary, Verdict};
+use extract::{Recipe, Tables};
+use std::collections::BTreeMap;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+/// What `reproduce` does.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Where the runs go (`outputs/reproduction`).
+    pub out: PathBuf,
+    /// The folder of the specs (`experiments`).
+    pub specs: PathBuf,
+    /// Runs of each spec whose statistics are random (the first with the spec's own seed).
+    pub repeats: usize,
+    /// Worker threads of each run.
+    pub threads: usize,
+    /// Only write the document from the folders there (run nothing).
+    pub write_only: bool,
+    /// No progress output.
+    pub quiet: bool,
+}
+
+/// The master seed of repeat `k` of a spec whose own seed is `seed`: the spec's for the first,
+/// then seeds derived from it (recorded in each run's manifest).
+pub fn repeat_seed(seed: u64, k: usize) -> u64 {
+    if k == 0 {
+        seed
+    } else {
+        crate::seeds::derive_seed(seed, "repeat", &k.to_string())
+    }
+}
+
+/// The runs of one spec: `(seed, folder)` per repeat.
+#[derive(Debug, Clone)]
+pub struct SpecRuns {
+    /// The spec's name (file stem).
+    pub spec: &'static str,
+    /// One per repeat.
+    pub runs: Vec<(u64, PathBuf)>,
+}
+
+/// The specs the recipes need, each with its number of repeats (1 where every table reading
+/// it is exact).
+pub fn needed(recipes: &[Recipe], repeats: usize) -> BTreeMap<&'static str, usize> {
+    let mut specs = BTreeMap::new();
+    for r in recipes {
+        let n = match r.spread {
+            Spread::Exact => 1,
+            Spread::Random => repeats.max(1),
+        };
+        for s in extract::specs_of(r) {
+            let e = specs.entry(s).or_insert(1);
+            *e = (*e).max(n);
+        }
+    }
+    specs
+}
+
+/// Runs (or resumes) every repeat of every needed spec; the folders.
+///
+/// # Errors
+/// If a spec cannot be loaded or a run fails as a whole (a failed job is reported by the
+/// document writer, which refuses the folder).
+pub fn run_all(opts: &Options, recipes: &[Recipe]) -> Result<Vec<SpecRuns>> {
+    let mut all = Vec::new();
+    for (spec, repeats) in needed(recipes, opts.repeats) {
+        let file = opts.specs.join(format!("{spec}.yaml"));
+        let base = plan::load(&file)?.spec.seed;
+        let mut runs = Vec::new();
+        for k in 0..repeats {
+            let seed = repeat_seed(base, k);
+            let dir = opts.out.join(spec).join(format!("seed-{seed}"));
+            if !opts.write_only {
+                let plan = plan::load_seeded(&file, (k > 0).then_some(seed))?;
+                let mut ro = RunOptions::new(dir.clone(), opts.threads);
+                ro.quiet = opts.quiet;
+                ro.report_follows = false;
+                let summary = driver::run(&plan, &ro)
+                    .with_context(|| format!("running {} (seed {seed})", file.display()))?;
+                if !opts.quiet {
+                    eprintln!(
+                        "{spec} seed {seed}: {}/{} job(s) ok in {:.1} s",
+                        summary.total - summary.failed.len(),
+                        summary.total,
+                        summary.elapsed_s
+                    );
+                }
+            }
+            runs.push((seed, dir));
+        }
+        all.push(SpecRuns { spec, runs });
+    }
+    Ok(all)
+}
+
+/// One cell of the document.
+#[derive(Debug, Clone)]
+pub struct Cell {
+    /// The printed value (`None`: not a number, or empty).
+    pub printed: Option<f64>,
+    /// The tool's repeats summarised (`None`: the tool does not compute this cell).
+    pub tool: Option<Summary>,
+    /// The difference tool - printed.
+    pub difference: Option<f64>,
+    /// The verdict, where both sides are numbers.
+    pub verdict: Option<Verdict>,
+    /// The tolerance the verdict used.
+    pub tolerance: Option<f64>,
+}
+
+/// One table of the document: the recipe's cells evaluated.
+#[derive(Debug, Clone)]
+pub struct Evaluated {
+    /// The table's number.
+    pub number: u32,
+    /// The specs and repeats read.
+    pub sources: Vec<(String, usize)>,
+    /// Rows of cells.
+    pub cells: Vec<Vec<Cell>>,
+    /// Why the values may differ.
+    pub differs_because: &'static str,
+}
+
+/// Evaluates `recipe` against the printed `table` over the runs in `runs`.
+///
+/// # Errors
+/// If a folder is not a complete run, or a cell's query selects no single row (the file and
+/// the query are named).
+pub fn evaluate(
+    recipe: &Recipe,
+    table: &reference::Table,
+    runs: &[SpecRuns],
+    tables: &mut Tables,
+) -> Result<Evaluated> {
+    let folders = |spec: &str| -> Vec<&Path> {
+        runs.iter()
+            .filter(|r| r.spec == spec)
+            .flat_map(|r| r.runs.iter().map(|(_, d)| d.as_path()))
+            .collect()
+    };
+    let mut cells = Vec::new();
+    for (r, row) in recipe.cells.iter().enumerate() {
+        let mut out = Vec::new();
+        for (c, query) in row.iter().enumerate() {
+            let printed = table.number_at(r, c);
+            let tool = match query {
+                None => None,
+                Some(q) => {
+                    let values = folders(q.spec)
+                        .into_iter()
+                        .map(|d| tables.value(d, q))
+                        .collect::<Result<Vec<f64>>>()
+                        .with_context(|| {
+                            format!("Table {}, row {}, column {}", table.number, r + 1, c + 1)
+                        })?;
+                    (!values.is_empty()).then(|| Summary::of(&values))
+                }
+            };
+            let (difference, tolerance, verdict) = match (printed, tool) {
+                (Some(p), Some(t)) => {
+                    let tol = compare::tolerance(recipe.spread, &t, table.decimals(c));
+                    let v = if compare::matches(p, t.mean, tol) {
+                        Verdict::Matches
+                    } else {
+                        Verdict::Differs
+                    };
+                    (Some(t.mean - p), Some(tol), Some(v))
+                }
+                _ => (None, None, None),
+            };
+            out.push(Cell {
+                printed,
+                tool,
+                difference,
+                verdict,
+                tolerance,
+            });
+        }
+        // A row that keeps the dissertation's order turns its differing cells into
+        // `ordering holds`.
+        let printed: Vec<Option<f64>> = out.iter().map(|c| c.printed).collect();
+        let tool: Vec<Option<f64>> = out.iter().map(|c| c.tool.map(|t| t.mean)).collect();
+        if out.len() > 1 && compare::order_kept(&printed, &tool) {
+            for cell in &mut out {
+                if cell.verdict == Some(Verdict::Differs) {
+                    cell.verdict = Some(Verdict::OrderingHolds);
+                }
+            }
+        }
+        cells.push(out);
+    }
+    let sources = extract::specs_of(recipe)
+        .into_iter()
+        .map(|s| (s.to_string(), folders(s).len()))
+        .collect();
+    Ok(Evaluated {
+        number: recipe.number,
+        sources,
+        cells,
+        differs_because: recipe.differs_because,
+    })
+}
+
+/// Checks every run folder the document reads: a complete run, unchanged since.
+///
+/// # Errors
+/// Naming the first folder that is not.
+pub fn check_folders(runs: &[SpecRuns]) -> Result<()> {
+    for r in runs {
+        for (_, dir) in &r.runs {
+            crate::io::outdir::check_complete(dir).with_context(|| {
+                format!(
+                    "the reproduction reads {}: run `isar-clutter reproduce` again to redo it",
+                    dir.display()
+                )
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Evaluates every recipe and writes the document to `doc` (atomically); the counts of
+/// verdicts.
+///
+/// # Errors
+/// If a folder is damaged or incomplete (nothing is written then), or the document cannot be
+/// written.
+pub fn write(
+    recipes: &[Recipe],
+    runs: &[SpecRuns],
+    doc: &Path,
+    header: &render::Header,
+) -> Result<BTreeMap<Verdict, usize>> {
+    check_folders(runs)?;
+    let dissertation = reference::Dissertation::load()?;
+    let mut tables = Tables::default();
+    let mut evaluated = Vec::new();
+    for recipe in recipes {
+        let table = dissertation
+            .table(recipe.number)
+            .with_context(|| format!("Table {} is not in the reference", recipe.number))?;
+        evaluated.push(evaluate(recipe, table, runs, &mut tables)?);
+    }
+    let (text, counts) = render::document(&dissertation, &evaluated, header);
+    crate::io::atomic::atomic_write(doc, |w| {
+        w.write_all(text.as_bytes())?;
+        Ok(())
+    })
+    .with_context(|| format!("writing {}", doc.display()))?;
+    Ok(counts)
+}

@@ -1,0 +1,277 @@
+//! The Markdown of `docs/reproduction.md`: the run's wall time and machine at the top, the
+//! count of verdicts and the largest differences, then one block per dissertation table (each
+//! cell's printed value, the tool's mean and spread, the difference and the verdict), and a
+//! line for every table the reproduction does not cover, saying why.
+
+use super::compare::Verdict;
+use super::reference::Dissertation;
+use super::Evaluated;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+/// What the top of the document states about the run that produced it.
+#[derive(Debug, Clone)]
+pub struct Header {
+    /// The command that regenerates the document.
+    pub command: String,
+    /// Wall time of the runs in seconds (`None`: written from existing folders only).
+    pub wall_s: Option<f64>,
+    /// The machine, in words.
+    pub machine: String,
+    /// The tool's version and git state.
+    pub tool: String,
+    /// Repeats of the random statistics.
+    pub repeats: usize,
+}
+
+/// The machine this process runs on: CPU model, cores and memory (Linux; else the
+/// architecture).
+pub fn machine() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mem = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        t.lines()
+            .find(|l| l.starts_with("MemTotal:"))
+            .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+    });
+    match mem {
+        Some(kb) => format!("{cpu}, {cores} cores, {:.0} GiB", kb / 1024.0 / 1024.0),
+        None => format!("{cpu}, {cores} cores"),
+    }
+}
+
+/// A number as the document prints it: 4 significant digits, scientific below 1e-3.
+fn num(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let a = v.abs();
+    if !(1e-3..1e5).contains(&a) {
+        format!("{v:.3e}")
+    } else {
+        let digits = (3 - a.log10().floor() as i32).max(0) as usize;
+        format!("{v:.digits$}")
+    }
+}
+
+/// Why a table that has no recipe is not in the document.
+fn not_covered(kind: &str, number: u32) -> &'static str {
+    if kind == "description" {
+        return "a description of data or settings, not a result: nothing to reproduce \
+                (the settings it lists are those of the specs that use them)";
+    }
+    match number {
+        1 | 2 => {
+            "not yet covered by `reproduce`: `experiments/model_order.yaml` computes the \
+                  2nd- and 4th-order KL divergences on the stand-in plants, but the map from \
+                  its columns to these cells is not written yet"
+        }
+        16 => {
+            "not yet covered by `reproduce`: `experiments/hypotheses.yaml` computes the \
+               plant variances (table `plant_stats`), the map to these cells is not written yet"
+        }
+        20 | 22 => {
+            "not yet covered by `reproduce`: the CNN experiments \
+                    (`experiments/cnn_classification*.yaml`) run, but under the dissertation's \
+                    protocol and with repeats they are not part of this command yet"
+        }
+        24 => {
+            "not yet covered by `reproduce`: `experiments/hypotheses.yaml` judges H1-H4; the \
+               verdicts are text, compared by hand in docs/hypotheses.md"
+        }
+        _ => "not yet covered by `reproduce`",
+    }
+}
+
+/// The document and the count of verdicts in it.
+pub fn document(
+    dissertation: &Dissertation,
+    evaluated: &[Evaluated],
+    header: &Header,
+) -> (String, BTreeMap<Verdict, usize>) {
+    let mut counts: BTreeMap<Verdict, usize> = BTreeMap::new();
+    let mut largest: Vec<(f64, u32, String, String, f64, f64, &str)> = Vec::new();
+    for e in evaluated {
+        let t = dissertation
+            .table(e.number)
+            .expect("evaluated from the reference");
+        for (r, row) in e.cells.iter().enumerate() {
+            for (c, cell) in row.iter().enumerate() {
+                let Some(v) = cell.verdict else { continue };
+                *counts.entry(v).or_default() += 1;
+                if v != Verdict::Matches {
+                    let (p, m) = (
+                        cell.printed.unwrap_or(0.0),
+                        cell.tool.map_or(0.0, |s| s.mean),
+                    );
+                    let rel = (m - p).abs() / p.abs().max(f64::MIN_POSITIVE);
+                    largest.push((
+                        rel,
+                        e.number,
+                        t.rows[r].clone(),
+                        t.columns[c].clone(),
+                        p,
+                        m,
+                        v.as_str(),
+                    ));
+                }
+            }
+        }
+    }
+    largest.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut s = String::new();
+    let _ = writeln!(s, "# Reproduction of the dissertation, number by number\n");
+    let _ = writeln!(
+        s,
+        "Written by `{}` from the run folders it names; do not edit by hand. The reference \
+         values are the dissertation's tables as printed (`reproduction/dissertation.yaml`); the \
+         verdict rules are in `src/reproduction/compare.rs`: a random statistic `matches` when \
+         the printed value lies within `2 sd sqrt(1 + 1/n)` of the mean of the tool's `n` \
+         repeats (`sd` of one repeat, the printed value being one draw) plus half a unit of \
+         the last printed digit; an exact one when it rounds to the printed value; a row whose \
+         cells do not match but rank as printed gets `ordering holds`, else `differs`.\n",
+        header.command
+    );
+    let _ = writeln!(s, "- Machine: {}", header.machine);
+    let _ = writeln!(s, "- Tool: {}", header.tool);
+    match header.wall_s {
+        Some(w) => {
+            let _ = writeln!(s, "- Wall time of the runs: {w:.0} s");
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "- Wall time of the runs: not measured (document written from existing folders)"
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "- Repeats of each random statistic: {}\n",
+        header.repeats
+    );
+    let _ = writeln!(s, "## Summary\n");
+    let covered: Vec<u32> = evaluated.iter().map(|e| e.number).collect();
+    let _ = writeln!(
+        s,
+        "{} of the dissertation's 36 tables are compared cell by cell here: {} cell(s) \
+         `matches`, {} `ordering holds`, {} `differs`.\n",
+        covered.len(),
+        counts.get(&Verdict::Matches).copied().unwrap_or(0),
+        counts.get(&Verdict::OrderingHolds).copied().unwrap_or(0),
+        counts.get(&Verdict::Differs).copied().unwrap_or(0)
+    );
+    if !largest.is_empty() {
+        let _ = writeln!(s, "The ten largest relative differences:\n");
+        let _ = writeln!(s, "| table | row | column | printed | tool | verdict |");
+        let _ = writeln!(s, "|---:|---|---|---:|---:|---|");
+        for (_, n, row, col, p, m, v) in largest.iter().take(10) {
+            let _ = writeln!(
+                s,
+                "| {n} | {row} | {col} | {} | {} | {v} |",
+                num(*p),
+                num(*m)
+            );
+        }
+        let _ = writeln!(s);
+    }
+    for t in &dissertation.tables {
+        table_block(&mut s, t, evaluated);
+    }
+    figures(&mut s, dissertation);
+    (s, counts)
+}
+
+/// The block of table `t`: its setting, then each cell beside the tool's, or why it is not
+/// covered.
+fn table_block(s: &mut String, t: &super::reference::Table, evaluated: &[Evaluated]) {
+    let _ = writeln!(s, "## Table {}: {}\n", t.number, t.title);
+    let _ = writeln!(s, "Dissertation §{}. {}\n", t.section, t.setting.trim());
+    let Some(e) = evaluated.iter().find(|e| e.number == t.number) else {
+        let _ = writeln!(s, "*{}.*\n", not_covered(&t.kind, t.number));
+        return;
+    };
+    let sources: Vec<String> = e
+        .sources
+        .iter()
+        .map(|(spec, n)| format!("`experiments/{spec}.yaml` ({n} run(s))"))
+        .collect();
+    let _ = writeln!(s, "Tool: {}.", sources.join(", "));
+    if !e.differs_because.is_empty() {
+        let _ = writeln!(s, "Where it differs: {}.", e.differs_because);
+    }
+    let _ = writeln!(s);
+    let unit = if t.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", t.unit)
+    };
+    let _ = writeln!(
+        s,
+        "| row | column | printed{unit} | tool mean ± sd | difference | verdict |"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|---:|---|");
+    for (r, row) in e.cells.iter().enumerate() {
+        for (c, cell) in row.iter().enumerate() {
+            let printed = cell.printed.map_or("-".into(), num);
+            let tool = match cell.tool {
+                None => "not computed".to_string(),
+                Some(x) if x.n > 1 => format!("{} ± {}", num(x.mean), num(x.sd)),
+                Some(x) => num(x.mean),
+            };
+            let diff = cell.difference.map_or("-".into(), num);
+            let verdict = cell.verdict.map_or("-", Verdict::as_str);
+            let _ = writeln!(
+                s,
+                "| {} | {} | {printed} | {tool} | {diff} | {verdict} |",
+                t.rows[r], t.columns[c]
+            );
+        }
+    }
+    let _ = writeln!(s);
+}
+
+/// The numbers the text states for figures, each with its quote.
+fn figures(s: &mut String, dissertation: &Dissertation) {
+    if !dissertation.figures.is_empty() {
+        let _ = writeln!(s, "## Numbers the text states for figures\n");
+        for f in &dissertation.figures {
+            let value = f.value.as_ref().map_or("no number".into(), |v| {
+                serde_yaml_ng::to_string(v)
+                    .unwrap_or_default()
+                    .trim()
+                    .to_string()
+            });
+            let _ = writeln!(
+                s,
+                "- §{}: {}: {} {} (\"{}\"): not yet computed by `reproduce`.",
+                f.section,
+                f.quantity,
+                value,
+                f.unit.as_deref().unwrap_or(""),
+                f.quote
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_print_with_four_significant_digits() {
+        assert_eq!(num(0.648054), "0.6481");
+        assert_eq!(num(21.5312), "21.53");
+        assert_eq!(num(3.53e-6), "3.530e-6");
+        assert_eq!(num(-0.0145), "-0.01450");
+    }
+}
