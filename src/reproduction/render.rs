@@ -69,15 +69,6 @@ fn not_covered(kind: &str, number: u32) -> &'static str {
                 (the settings it lists are those of the specs that use them)";
     }
     match number {
-        1 | 2 => {
-            "not yet covered by `reproduce`: `experiments/model_order.yaml` computes the \
-                  2nd- and 4th-order KL divergences on the stand-in plants, but the map from \
-                  its columns to these cells is not written yet"
-        }
-        16 => {
-            "not yet covered by `reproduce`: `experiments/hypotheses.yaml` computes the \
-               plant variances (table `plant_stats`), the map to these cells is not written yet"
-        }
         20 | 22 => {
             "not yet covered by `reproduce`: the CNN experiments \
                     (`experiments/cnn_classification*.yaml`) run, but under the dissertation's \
