@@ -12,6 +12,9 @@
 //! - A cell that does not match gets `ordering holds` when its row keeps the dissertation's
 //!   order (every pair of cells in the row compares the same way in both, ties in the
 //!   dissertation's printed values excepted), else `differs`.
+//! - A **conclusion** ("Verified", "Not Verified") is 1 or 0; the tool's is the share of its
+//!   repeats that reach "verified", and it matches when that share is on the printed side of
+//!   one half.
 
 /// How the tool's value of a cell behaves under reseeding.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -20,6 +23,9 @@ pub enum Spread {
     Exact,
     /// Changes with the seed: compared within the repeats' spread.
     Random,
+    /// A conclusion (a hypothesis verified or not): 1 or 0 per repeat; it matches when most
+    /// repeats reach the printed conclusion.
+    Conclusion,
 }
 
 /// The verdict on one cell.
@@ -91,6 +97,7 @@ pub fn tolerance(spread: Spread, summary: &Summary, decimals: u32) -> f64 {
     let print = half_unit(decimals);
     match spread {
         Spread::Exact => print,
+        Spread::Conclusion => 0.5 - f64::EPSILON,
         Spread::Random => 2.0 * summary.sd * (1.0 + 1.0 / summary.n.max(1) as f64).sqrt() + print,
     }
 }

@@ -67,7 +67,7 @@ pub fn needed(recipes: &[Recipe], repeats: usize) -> BTreeMap<&'static str, usiz
     for r in recipes {
         let n = match r.spread {
             Spread::Exact => 1,
-            Spread::Random => repeats.max(1),
+            Spread::Random | Spread::Conclusion => repeats.max(1),
         };
         for s in extract::specs_of(r) {
             let e = specs.entry(s).or_insert(1);
@@ -138,6 +138,8 @@ pub struct Evaluated {
     pub sources: Vec<(String, usize)>,
     /// Rows of cells.
     pub cells: Vec<Vec<Cell>>,
+    /// How the values behave under reseeding.
+    pub spread: Spread,
     /// Why the values may differ.
     pub differs_because: &'static str,
 }
@@ -163,7 +165,10 @@ pub fn evaluate(
     for (r, row) in recipe.cells.iter().enumerate() {
         let mut out = Vec::new();
         for (c, query) in row.iter().enumerate() {
-            let printed = table.number_at(r, c);
+            let printed = match recipe.spread {
+                Spread::Conclusion => table.conclusion_at(r, c),
+                _ => table.number_at(r, c),
+            };
             let tool = match query {
                 None => None,
                 Some(q) => {
@@ -219,6 +224,7 @@ pub fn evaluate(
         sources,
         cells,
         differs_because: recipe.differs_because,
+        spread: recipe.spread,
     })
 }
 

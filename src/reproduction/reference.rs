@@ -59,6 +59,16 @@ impl Table {
         self.values.get(r)?.get(c)?.as_ref()?.number()
     }
 
+    /// The printed conclusion of cell (`r`, `c`) as a number: 1 for a text starting with
+    /// "Verified", 0 for one starting with "Not Verified" (`None` otherwise).
+    pub fn conclusion_at(&self, r: usize, c: usize) -> Option<f64> {
+        match self.values.get(r)?.get(c)?.as_ref()? {
+            Printed::Text(t) if t.starts_with("Verified") => Some(1.0),
+            Printed::Text(t) if t.starts_with("Not Verified") => Some(0.0),
+            _ => None,
+        }
+    }
+
     /// Decimals printed in column `c`: the most any of its numbers shows (a printed trailing
     /// zero is lost when the file is read as numbers, the column's other cells keep it).
     pub fn decimals(&self, c: usize) -> u32 {

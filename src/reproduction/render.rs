@@ -74,10 +74,6 @@ fn not_covered(kind: &str, number: u32) -> &'static str {
                     (`experiments/cnn_classification*.yaml`) run, but under the dissertation's \
                     protocol and with repeats they are not part of this command yet"
         }
-        24 => {
-            "not yet covered by `reproduce`: `experiments/hypotheses.yaml` judges H1-H4; the \
-               verdicts are text, compared by hand in docs/hypotheses.md"
-        }
         _ => "not yet covered by `reproduce`",
     }
 }
@@ -212,8 +208,15 @@ fn table_block(s: &mut String, t: &super::reference::Table, evaluated: &[Evaluat
     let _ = writeln!(s, "|---|---|---:|---:|---:|---|");
     for (r, row) in e.cells.iter().enumerate() {
         for (c, cell) in row.iter().enumerate() {
-            let printed = cell.printed.map_or("-".into(), num);
+            let conclusion = e.spread == super::compare::Spread::Conclusion;
+            let printed = match cell.printed {
+                Some(p) if conclusion => if p > 0.5 { "verified" } else { "not verified" }.into(),
+                p => p.map_or("-".into(), num),
+            };
             let tool = match cell.tool {
+                Some(x) if conclusion => {
+                    format!("verified in {} of {}", (x.mean * x.n as f64).round(), x.n)
+                }
                 None => "not computed".to_string(),
                 Some(x) if x.n > 1 => format!("{} ± {}", num(x.mean), num(x.sd)),
                 Some(x) => num(x.mean),
