@@ -94,6 +94,19 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Fit the stand-in plants' amplitude and wind-response factors to the dissertation's
+    /// Table 16 and write the fit record that the presets use (rebuild to apply it).
+    CalibratePlants {
+        /// Samples per simulation.
+        #[arg(long, default_value_t = 100)]
+        samples: usize,
+        /// Seed of the simulations.
+        #[arg(long, default_value_t = 16)]
+        seed: u64,
+        /// The record to write.
+        #[arg(long, default_value = "reproduction/plant_calibration.json")]
+        out: PathBuf,
+    },
     /// (Re)build figures/ and report.html of a results folder from its files.
     Report {
         /// The results folder of a run (outputs/<name>).
@@ -302,6 +315,10 @@ fn real_main() -> Result<ExitCode> {
                 pivot.as_deref(),
                 &filter,
             )?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::CalibratePlants { samples, seed, out } => {
+            isar_clutter::reproduction::calibrate_plants(samples, seed, &out)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Reproduce {

@@ -48,6 +48,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+pub mod calibration;
 mod plant;
 
 use plant::*;
@@ -188,8 +189,17 @@ impl PlantParams {
     /// leaves, wide spacing, large leaf motion; B medium leaves, smaller
     /// spacing and motion; C small dense leaves, little leaf motion, whole
     /// plant sways; D many small leaves on many small branches; E few large
-    /// leaves on few large stalks. Sized to fit the 0.593 m default image.
+    /// leaves on few large stalks. Sized to fit the 0.593 m default image. Calibrated: the
+    /// physical preset ([`PlantParams::uncalibrated`]) with the amplitude and wind-response
+    /// factors fitted to the dissertation's Table 16 ([`calibration`]).
     pub fn preset(name: &str) -> Option<PlantParams> {
+        let (gain, motion) = calibration::factors(name);
+        Some(calibration::apply(Self::uncalibrated(name)?, gain, motion))
+    }
+
+    /// The physical preset before calibration: the geometry, amplitudes and wind response as
+    /// designed (see [`PlantParams::preset`]).
+    pub fn uncalibrated(name: &str) -> Option<PlantParams> {
         let base = PlantParams {
             n_stems: 2,
             stem_height_m: 1.0,
