@@ -91,7 +91,7 @@ fn variance(
 ) -> Result<f64, super::VegError> {
     let mut scene =
         SceneParams::preset(plant, wind).ok_or_else(|| super::VegError::InvalidParameter {
-            name: "plant".into(),
+            name: "plant",
             reason: format!("no preset {plant:?}"),
         })?;
     scene.plant = apply(
