@@ -342,9 +342,12 @@ fn real_main() -> Result<ExitCode> {
             let start = std::time::Instant::now();
             let recipes = rep::extract::recipes();
             let runs = rep::run_all(&opts, &recipes)?;
+            if !write_only {
+                rep::record_wall(&opts.out, start.elapsed().as_secs_f64(), repeats)?;
+            }
             let header = render::Header {
                 command: format!("isar-clutter reproduce --repeats {repeats}"),
-                wall_s: (!write_only).then(|| start.elapsed().as_secs_f64()),
+                wall_s: rep::recorded_wall(&opts.out),
                 machine: render::machine(),
                 tool: format!(
                     "isar-clutter {} (commit {})",

@@ -334,3 +334,22 @@ pub fn calibrate_plants(samples: usize, seed: u64, out: &Path) -> Result<()> {
     })
     .with_context(|| format!("writing {}", out.display()))
 }
+
+/// Records the wall time of the runs that filled `out` (`out/reproduce-run.json`), so that a
+/// document written later from the same folders (`--write-only`) states it.
+///
+/// # Errors
+/// If the record cannot be written.
+pub fn record_wall(out: &Path, wall_s: f64, repeats: usize) -> Result<()> {
+    let record = serde_json::json!({ "wall_s": wall_s, "repeats": repeats });
+    crate::io::atomic::atomic_write(&out.join("reproduce-run.json"), |w| {
+        serde_json::to_writer_pretty(&mut *w, &record)?;
+        Ok(())
+    })
+}
+
+/// The wall time [`record_wall`] recorded in `out`, if any.
+pub fn recorded_wall(out: &Path) -> Option<f64> {
+    let text = std::fs::read(out.join("reproduce-run.json")).ok()?;
+    serde_json::from_slice::<serde_json::Value>(&text).ok()?["wall_s"].as_f64()
+}

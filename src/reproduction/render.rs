@@ -14,7 +14,8 @@ use std::fmt::Write as _;
 pub struct Header {
     /// The command that regenerates the document.
     pub command: String,
-    /// Wall time of the runs in seconds (`None`: written from existing folders only).
+    /// Wall time of the last `reproduce` that ran into the folders, in seconds (`None`: not
+    /// recorded). A resumed run's time is what it took to finish, not the whole.
     pub wall_s: Option<f64>,
     /// The machine, in words.
     pub machine: String,
@@ -131,13 +132,13 @@ pub fn document(
     let _ = writeln!(s, "- Tool: {}", header.tool);
     match header.wall_s {
         Some(w) => {
-            let _ = writeln!(s, "- Wall time of the runs: {w:.0} s");
-        }
-        None => {
             let _ = writeln!(
                 s,
-                "- Wall time of the runs: not measured (document written from existing folders)"
+                "- Wall time of the last `reproduce` that ran into the folders: {w:.0} s"
             );
+        }
+        None => {
+            let _ = writeln!(s, "- Wall time of the runs: not recorded in the folders");
         }
     }
     let _ = writeln!(

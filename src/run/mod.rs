@@ -9,6 +9,7 @@ pub mod assembly;
 pub mod check;
 pub mod driver;
 pub mod estimate;
+pub mod ids;
 pub mod jobs;
 pub mod manifest;
 pub mod merge;

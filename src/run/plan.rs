@@ -25,9 +25,6 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// Longest job id before a hash suffix replaces the tail.
-const MAX_ID_LEN: usize = 96;
-
 /// Most sweep points a spec may ask for: the product of the grid axes' lengths times the zip
 /// axes' common length, counted (with checked multiplication) before anything is expanded, so a
 /// sweep of `12^8` points is refused at once instead of exhausting memory. A larger study is
@@ -748,55 +745,19 @@ fn step<'a>(cur: &'a mut Yaml, part: &str) -> Result<&'a mut Yaml, String> {
     }
 }
 
-/// Formats a swept value for a job id.
-fn id_value(v: &Json) -> String {
-    match v {
-        Json::String(s) => s.clone(),
-        other => other.to_string(),
-    }
-}
-
-/// Makes a string safe as a file name.
-fn sanitize(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || "._=+-".contains(c) {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
-
-/// Assigns readable ids; a short hash of the identity is appended only where ids collide
-/// after sanitising, or are too long.
+/// Sets every job's readable id ([`crate::run::ids::readable_ids`]).
 fn assign_ids(jobs: &mut [Job]) {
-    let readable: Vec<String> = jobs
+    let parts: Vec<crate::run::ids::IdParts> = jobs
         .iter()
-        .map(|j| {
-            let mut id = sanitize(&j.dataset_id);
-            if let Some(m) = j.method {
-                id.push('.');
-                id.push_str(m.as_str());
-            }
-            for (k, v) in j.params.iter() {
-                id.push_str(&format!(".{}={}", sanitize(k), sanitize(&id_value(v))));
-            }
-            id
+        .map(|j| crate::run::ids::IdParts {
+            dataset: &j.dataset_id,
+            method: j.method.map(Method::as_str),
+            params: &j.params,
+            identity: &j.identity,
         })
         .collect();
-    let mut count: HashMap<&str, usize> = HashMap::new();
-    for id in &readable {
-        *count.entry(id).or_default() += 1;
-    }
-    for (job, id) in jobs.iter_mut().zip(&readable) {
-        job.id = if count[id.as_str()] > 1 || id.len() > MAX_ID_LEN {
-            let hash = &sha256_hex(job.identity.as_bytes())[..8];
-            let keep: String = id.chars().take(MAX_ID_LEN).collect();
-            format!("{keep}~{hash}")
-        } else {
-            id.clone()
-        };
+    let ids = crate::run::ids::readable_ids(&parts);
+    for (job, id) in jobs.iter_mut().zip(ids) {
+        job.id = id;
     }
 }
