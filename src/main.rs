@@ -340,8 +340,8 @@ fn real_main() -> Result<ExitCode> {
                 quiet,
             };
             let start = std::time::Instant::now();
-            let recipes = rep::extract::recipes();
-            let runs = rep::run_all(&opts, &recipes)?;
+            let coverage = rep::Coverage::all();
+            let runs = rep::run_all(&opts, &coverage)?;
             if !write_only {
                 rep::record_wall(&opts.out, start.elapsed().as_secs_f64(), repeats)?;
             }
@@ -356,7 +356,7 @@ fn real_main() -> Result<ExitCode> {
                 ),
                 repeats,
             };
-            let counts = rep::write(&recipes, &runs, &doc, &header)?;
+            let counts = rep::write(&coverage, &runs, &doc, &header)?;
             let n = |v| counts.get(&v).copied().unwrap_or(0);
             eprintln!(
                 "{}: {} matches, {} ordering holds, {} differs",

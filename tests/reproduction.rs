@@ -3,15 +3,8 @@
 //! runs of the shipped specs, and a damaged run folder refused with the file named and no
 //! document written.
 
-use isar_clutter::reproduction::{self as rep, compare::Verdict, extract, render};
+use isar_clutter::reproduction::{self as rep, compare::Verdict, render};
 use std::path::{Path, PathBuf};
-
-fn recipes(numbers: &[u32]) -> Vec<extract::Recipe> {
-    extract::recipes()
-        .into_iter()
-        .filter(|r| numbers.contains(&r.number))
-        .collect()
-}
 
 fn header() -> render::Header {
     render::Header {
@@ -23,8 +16,8 @@ fn header() -> render::Header {
     }
 }
 
-fn run(out: &Path, numbers: &[u32]) -> (Vec<extract::Recipe>, Vec<rep::SpecRuns>) {
-    let recipes = recipes(numbers);
+fn run(out: &Path, numbers: &[u32]) -> (rep::Coverage, Vec<rep::SpecRuns>) {
+    let recipes = rep::Coverage::tables(numbers);
     let opts = rep::Options {
         out: out.to_path_buf(),
         specs: PathBuf::from("experiments"),

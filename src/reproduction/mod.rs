@@ -41,6 +41,36 @@ pub struct Options {
     pub quiet: bool,
 }
 
+/// What the reproduction covers: the tables' recipes and the computed statements.
+#[derive(Debug, Clone)]
+pub struct Coverage {
+    /// Tables, cell by cell.
+    pub recipes: Vec<Recipe>,
+    /// Numbers the text states.
+    pub statements: Vec<extract::Statement>,
+}
+
+impl Coverage {
+    /// Everything [`extract`] knows.
+    pub fn all() -> Coverage {
+        Coverage {
+            recipes: extract::recipes(),
+            statements: extract::statements(),
+        }
+    }
+
+    /// Only the tables `numbers` (no statements): a quick check.
+    pub fn tables(numbers: &[u32]) -> Coverage {
+        Coverage {
+            recipes: extract::recipes()
+                .into_iter()
+                .filter(|r| numbers.contains(&r.number))
+                .collect(),
+            statements: Vec::new(),
+        }
+    }
+}
+
 /// The master seed of repeat `k` of a spec whose own seed is `seed`: the spec's for the first,
 /// then seeds derived from it (recorded in each run's manifest).
 pub fn repeat_seed(seed: u64, k: usize) -> u64 {
@@ -62,9 +92,16 @@ pub struct SpecRuns {
 
 /// The specs the recipes need, each with its number of repeats (1 where every table reading
 /// it is exact).
-pub fn needed(recipes: &[Recipe], repeats: usize) -> BTreeMap<&'static str, usize> {
+pub fn needed(coverage: &Coverage, repeats: usize) -> BTreeMap<&'static str, usize> {
     let mut specs = BTreeMap::new();
-    for r in recipes {
+    for s in &coverage.statements {
+        for (a, b) in &s.terms {
+            for spec in [a.spec, b.spec] {
+                specs.insert(spec, repeats.max(1));
+            }
+        }
+    }
+    for r in &coverage.recipes {
         let n = match r.spread {
             Spread::Exact => 1,
             Spread::Random | Spread::Conclusion => repeats.max(1),
@@ -82,9 +119,9 @@ pub fn needed(recipes: &[Recipe], repeats: usize) -> BTreeMap<&'static str, usiz
 /// # Errors
 /// If a spec cannot be loaded or a run fails as a whole (a failed job is reported by the
 /// document writer, which refuses the folder).
-pub fn run_all(opts: &Options, recipes: &[Recipe]) -> Result<Vec<SpecRuns>> {
+pub fn run_all(opts: &Options, coverage: &Coverage) -> Result<Vec<SpecRuns>> {
     let mut all = Vec::new();
-    for (spec, repeats) in needed(recipes, opts.repeats) {
+    for (spec, repeats) in needed(coverage, opts.repeats) {
         let file = opts.specs.join(format!("{spec}.yaml"));
         let base = plan::load(&file)?.spec.seed;
         let mut runs = Vec::new();
@@ -253,7 +290,7 @@ pub fn check_folders(runs: &[SpecRuns]) -> Result<()> {
 /// If a folder is damaged or incomplete (nothing is written then), or the document cannot be
 /// written.
 pub fn write(
-    recipes: &[Recipe],
+    coverage: &Coverage,
     runs: &[SpecRuns],
     doc: &Path,
     header: &render::Header,
@@ -262,13 +299,18 @@ pub fn write(
     let dissertation = reference::Dissertation::load()?;
     let mut tables = Tables::default();
     let mut evaluated = Vec::new();
-    for recipe in recipes {
+    for recipe in &coverage.recipes {
         let table = dissertation
             .table(recipe.number)
             .with_context(|| format!("Table {} is not in the reference", recipe.number))?;
         evaluated.push(evaluate(recipe, table, runs, &mut tables)?);
     }
-    let (text, counts) = render::document(&dissertation, &evaluated, header);
+    let stated = coverage
+        .statements
+        .iter()
+        .map(|st| evaluate_statement(st, &dissertation, runs, &mut tables))
+        .collect::<Result<Vec<_>>>()?;
+    let (text, counts) = render::document(&dissertation, &evaluated, &stated, header);
     crate::io::atomic::atomic_write(doc, |w| {
         w.write_all(text.as_bytes())?;
         Ok(())
@@ -352,4 +394,85 @@ pub fn record_wall(out: &Path, wall_s: f64, repeats: usize) -> Result<()> {
 pub fn recorded_wall(out: &Path) -> Option<f64> {
     let text = std::fs::read(out.join("reproduce-run.json")).ok()?;
     serde_json::from_slice::<serde_json::Value>(&text).ok()?["wall_s"].as_f64()
+}
+
+/// A statement of the text beside the tool's number.
+#[derive(Debug, Clone)]
+pub struct Stated {
+    /// The statement's quantity (as the reference words it).
+    pub quantity: String,
+    /// The tool's number over the repeats.
+    pub tool: Summary,
+    /// The stated number, if the text gives one.
+    pub printed: Option<f64>,
+    /// The verdict where both are numbers.
+    pub verdict: Option<Verdict>,
+    /// What the tool computed.
+    pub computed: &'static str,
+    /// Why it may differ.
+    pub differs_because: &'static str,
+}
+
+/// Evaluates `st`: per repeat `k`, the mean over its terms of `a - b`, each read from repeat
+/// `k` of its spec.
+///
+/// # Errors
+/// If a query selects no single row, or the specs have unequal repeats.
+pub fn evaluate_statement(
+    st: &extract::Statement,
+    dissertation: &reference::Dissertation,
+    runs: &[SpecRuns],
+    tables: &mut Tables,
+) -> Result<Stated> {
+    let folders = |spec: &str| -> Vec<PathBuf> {
+        runs.iter()
+            .filter(|r| r.spec == spec)
+            .flat_map(|r| r.runs.iter().map(|(_, d)| d.clone()))
+            .collect()
+    };
+    let repeats = st
+        .terms
+        .iter()
+        .flat_map(|(a, b)| [folders(a.spec).len(), folders(b.spec).len()])
+        .min()
+        .unwrap_or(0);
+    let mut values = Vec::new();
+    for k in 0..repeats {
+        let mut sum = 0.0;
+        for (a, b) in &st.terms {
+            sum += tables.value(&folders(a.spec)[k], a)? - tables.value(&folders(b.spec)[k], b)?;
+        }
+        values.push(sum / st.terms.len() as f64);
+    }
+    anyhow::ensure!(
+        !values.is_empty(),
+        "no runs for the statement {:?}",
+        st.quantity
+    );
+    let reference = dissertation
+        .figures
+        .iter()
+        .find(|f| f.quantity.starts_with(st.quantity))
+        .with_context(|| format!("no statement {:?} in the reference", st.quantity))?;
+    let printed = reference
+        .value
+        .as_ref()
+        .and_then(serde_yaml_ng::Value::as_f64);
+    let tool = Summary::of(&values);
+    let verdict = printed.map(|p| {
+        let tol = compare::tolerance(Spread::Random, &tool, compare::decimals_of(&format!("{p}")));
+        if compare::matches(p, tool.mean, tol) {
+            Verdict::Matches
+        } else {
+            Verdict::Differs
+        }
+    });
+    Ok(Stated {
+        quantity: reference.quantity.clone(),
+        tool,
+        printed,
+        verdict,
+        computed: st.computed,
+        differs_because: st.differs_because,
+    })
 }

@@ -83,6 +83,7 @@ fn not_covered(kind: &str, number: u32) -> &'static str {
 pub fn document(
     dissertation: &Dissertation,
     evaluated: &[Evaluated],
+    stated: &[super::Stated],
     header: &Header,
 ) -> (String, BTreeMap<Verdict, usize>) {
     let mut counts: BTreeMap<Verdict, usize> = BTreeMap::new();
@@ -174,7 +175,7 @@ pub fn document(
     for t in &dissertation.tables {
         table_block(&mut s, t, evaluated);
     }
-    figures(&mut s, dissertation);
+    figures(&mut s, dissertation, stated);
     (s, counts)
 }
 
@@ -235,7 +236,7 @@ fn table_block(s: &mut String, t: &super::reference::Table, evaluated: &[Evaluat
 }
 
 /// The numbers the text states for figures, each with its quote.
-fn figures(s: &mut String, dissertation: &Dissertation) {
+fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]) {
     if !dissertation.figures.is_empty() {
         let _ = writeln!(s, "## Numbers the text states for figures\n");
         for f in &dissertation.figures {
@@ -245,14 +246,24 @@ fn figures(s: &mut String, dissertation: &Dissertation) {
                     .trim()
                     .to_string()
             });
+            let unit = f.unit.as_deref().unwrap_or("");
+            let tool = match stated.iter().find(|st| st.quantity == f.quantity) {
+                None => "not yet computed by `reproduce`.".to_string(),
+                Some(st) => format!(
+                    "the tool: {} ± {} {unit} over {} repeats ({}): {}. {}.",
+                    num(st.tool.mean),
+                    num(st.tool.sd),
+                    st.tool.n,
+                    st.computed,
+                    st.verdict
+                        .map_or("no stated number to compare", Verdict::as_str),
+                    st.differs_because
+                ),
+            };
             let _ = writeln!(
                 s,
-                "- §{}: {}: {} {} (\"{}\"): not yet computed by `reproduce`.",
-                f.section,
-                f.quantity,
-                value,
-                f.unit.as_deref().unwrap_or(""),
-                f.quote
+                "- §{}: {}: {value} {unit} (\"{}\"); {tool}",
+                f.section, f.quantity, f.quote
             );
         }
     }
