@@ -337,7 +337,7 @@ fn model_order(r: &mut Vec<Recipe>) {
         spread: Spread::Conclusion,
         cells: vec![
             vec![h("H1", Key::Prefix("variance_ratio"))],
-            vec![h("H2", Key::Prefix("spearman"))],
+            vec![h("H2", Key::S("spearman_distance_vs_magnitude"))],
             vec![h("H3", Key::Prefix("fraction_of_level_steps"))],
             vec![h("H4", Key::Prefix("levels_decreasing_fraction"))],
         ],

@@ -31,7 +31,7 @@ pub struct JobResult {
     /// The metrics: generated vs original (synthesis jobs) or the noise floor (analysis jobs).
     pub similarity: Option<SimilarityOutcome>,
     /// With `hypotheses`: the mean 2-D correlating function of the original and its pair counts.
-    pub correlating: Option<(Array2<f64>, Array2<usize>)>,
+    pub correlating: Option<crate::apps::hypotheses::Correlating>,
     /// Files and folders the job wrote (k-space samples, model folder, generated samples).
     pub files: Vec<PathBuf>,
 }

@@ -597,7 +597,8 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
 }
 
 /// `correlating_function`: one row per analysis job and offset `(dy, dx)`: the mean over pixel
-/// pairs of the correlation at that offset (5.1.3), the offset's length and the pairs used.
+/// pairs of the complex correlation at that offset (5.1.3), its real part and its magnitude,
+/// the offset's length and the pairs used.
 pub fn correlating_function<'a>(
     plan: &'a Plan,
     results: &[(&'a Job, &'a JobResult)],
@@ -611,15 +612,16 @@ pub fn correlating_function<'a>(
             ("dx", Kind::I),
             ("distance", Kind::F),
             ("mean_correlation", Kind::F),
+            ("mean_magnitude", Kind::F),
             ("pairs", Kind::I),
         ],
     );
     for &(job, r) in results {
-        let Some((c, pairs)) = &r.correlating else {
+        let Some(cf) = &r.correlating else {
             continue;
         };
-        let half = (c.nrows() / 2) as i64;
-        for ((a, b), &v) in c.indexed_iter() {
+        let half = (cf.real.nrows() / 2) as i64;
+        for ((a, b), &v) in cf.real.indexed_iter() {
             let (dy, dx) = (a as i64 - half, b as i64 - half);
             t.s("job", &job.id);
             t.s("dataset", &job.dataset_id);
@@ -627,7 +629,9 @@ pub fn correlating_function<'a>(
             t.i("dx", dx);
             t.f("distance", Some(((dy * dy + dx * dx) as f64).sqrt()));
             t.f("mean_correlation", Some(v).filter(|v| !v.is_nan()));
-            t.i("pairs", pairs[[a, b]] as i64);
+            let m = cf.magnitude[[a, b]];
+            t.f("mean_magnitude", Some(m).filter(|m| !m.is_nan()));
+            t.i("pairs", cf.pairs[[a, b]] as i64);
             t.row(job);
         }
     }

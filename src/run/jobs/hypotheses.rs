@@ -92,9 +92,18 @@ fn read_stats(rows: &Rows) -> Result<Option<PlantStats>> {
     let (dy, dx, mc) = (i(corr, "dy")?, i(corr, "dx")?, f(corr, "mean_correlation")?);
     let r = dy.iter().copied().max().unwrap_or(0);
     let size = (2 * r + 1) as usize;
+    // A store written before the magnitude column existed has none: NaN (H2's magnitude row
+    // is then left out).
+    let mm = match corr.column("mean_magnitude") {
+        Ok(_) => f(corr, "mean_magnitude")?,
+        Err(_) => vec![None; dy.len()],
+    };
     let mut correlating = Array2::from_elem((size, size), f64::NAN);
+    let mut magnitude = Array2::from_elem((size, size), f64::NAN);
     for k in 0..dy.len() {
-        correlating[[(dy[k] + r) as usize, (dx[k] + r) as usize]] = nan(mc[k]);
+        let at = [(dy[k] + r) as usize, (dx[k] + r) as usize];
+        correlating[at] = nan(mc[k]);
+        magnitude[at] = nan(mm[k]);
     }
     let Some((plant, wind)) = parse_id(&dataset) else {
         return Ok(None);
@@ -106,6 +115,7 @@ fn read_stats(rows: &Rows) -> Result<Option<PlantStats>> {
         mean_variance,
         level_correlations,
         correlating,
+        magnitude,
     }))
 }
 
