@@ -286,6 +286,13 @@ enum Command {
 
 fn main() -> ExitCode {
     isar_clutter::alloc::tune_malloc();
+    // A closed stdout (`isar-clutter validate SPEC | head -1`) ends the process quietly, as it
+    // does other Unix tools, instead of a panic in `println!` (Rust ignores SIGPIPE).
+    #[cfg(unix)]
+    // SAFETY: restores the default disposition of one signal before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     match real_main() {
         Ok(code) => code,
         Err(e) => {
