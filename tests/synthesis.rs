@@ -68,7 +68,7 @@ fn alpha_inversion_round_trips() {
 }
 
 #[test]
-fn dyadic_solver_reaches_spec_notes_targets() {
+fn dyadic_solver_reaches_the_definitions_targets() {
     // docs/definitions.md §5: (.3, -.2, .1) is reachable with r near (.175, -.142, .084).
     let (r, res) = solve_dyadic(&[0.3, -0.2, 0.1], 8);
     assert!(res < 1e-6, "residual {res}");

@@ -139,7 +139,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_grid_matches_the_spec_notes() {
+    fn the_grid_matches_the_definitions() {
         assert_eq!(centre(0), (8, 8));
         assert_eq!(centre(4), (8, 56));
         assert_eq!(centre(24), (56, 56));
