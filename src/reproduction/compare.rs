@@ -107,6 +107,16 @@ pub fn matches(reference: f64, tool: f64, tolerance: f64) -> bool {
     (tool - reference).abs() <= tolerance
 }
 
+/// `Matches` when `tool` lies within `tolerance` of `reference`, else `Differs` (a row's
+/// order may turn it into `OrderingHolds` later).
+pub fn verdict(reference: f64, tool: f64, tolerance: f64) -> Verdict {
+    if matches(reference, tool, tolerance) {
+        Verdict::Matches
+    } else {
+        Verdict::Differs
+    }
+}
+
 /// Whether the tool's row ranks its cells as the dissertation's does: every pair that the
 /// dissertation orders strictly is ordered the same way by the tool (pairs the dissertation
 /// prints equal, or where either side is missing, are not judged).

@@ -239,8 +239,31 @@ pub fn recipes() -> Vec<Recipe> {
             differs_because: SIMULATED,
         },
     ];
-    simulated(&mut r);
-    plant_tables(&mut r);
+    // Tables 6-10 combine the exponential (1000 samples) and non-exponential (100 samples)
+    // runs: one spec each, so those tables read two specs.
+    similarity_tables(
+        &mut r,
+        &["exponential", "nonexponential"],
+        (6, 25),
+        Reasons {
+            similarity: SIMULATED,
+            kl: KL,
+        },
+    );
+    similarity_tables(
+        &mut r,
+        &[
+            "plant_D_light",
+            "plant_D_medium",
+            "plant_E_light",
+            "plant_E_medium",
+        ],
+        (11, 29),
+        Reasons {
+            similarity: PLANTS,
+            kl: KL_PLANTS,
+        },
+    );
     model_order(&mut r);
     r
 }
@@ -347,96 +370,49 @@ fn model_order(r: &mut Vec<Recipe>) {
     });
 }
 
-/// Tables 6-10 and 25-28: the similarity of generated to simulated original data.
-fn simulated(r: &mut Vec<Recipe>) {
-    let exp = "exponential";
-    let non = "nonexponential";
-    // Tables 6-10 combine the exponential (1000 samples) and non-exponential (100 samples)
-    // runs: one spec each, so those tables read two specs.
-    r.push(Recipe {
-        number: 6,
-        spread: Spread::Random,
-        cells: summary_rows(&[exp, non]),
-        differs_because: SIMULATED,
-    });
-    r.push(Recipe {
-        number: 7,
-        spread: Spread::Random,
-        cells: [exp, non]
-            .iter()
-            .map(|&ds| vec![Some(cmd(ds, "method1")), Some(cmd(ds, "method2"))])
-            .collect(),
-        differs_because: SIMULATED,
-    });
-    for (number, method) in [(8, "full_covariance"), (9, "method1"), (10, "method2")] {
-        r.push(Recipe {
-            number,
-            spread: Spread::Random,
-            cells: kl_rows(&[exp, non], method),
-            differs_because: KL,
-        });
-    }
-    for (number, ds) in [(25, exp), (27, non)] {
-        r.push(Recipe {
-            number,
-            spread: Spread::Random,
-            cells: vec![METHODS3.iter().map(|&m| Some(cmd(ds, m))).collect()],
-            differs_because: SIMULATED,
-        });
-        r.push(Recipe {
-            number: number + 1,
-            spread: Spread::Random,
-            cells: by_level(ds),
-            differs_because: SIMULATED,
-        });
-    }
+/// The reasons one family of similarity tables gives for differing: the summaries and the
+/// correlation matrix tables, and the KL tables.
+struct Reasons {
+    similarity: &'static str,
+    kl: &'static str,
 }
 
-/// Tables 11-15 and 29-36: the similarity of generated to (stand-in) plant data.
-fn plant_tables(r: &mut Vec<Recipe>) {
-    let plants = [
-        "plant_D_light",
-        "plant_D_medium",
-        "plant_E_light",
-        "plant_E_medium",
-    ];
-    r.push(Recipe {
-        number: 11,
+/// One family of similarity tables, the generated data against the originals of `datasets`
+/// (one row of each summary table per dataset): Tables `summary`..`summary + 4` (average
+/// RMSE, correlation matrix distance of Methods 1 and 2, KL of full covariance, Method 1 and
+/// Method 2) and, per dataset `i`, Tables `appendix + 2 i` (correlation matrix distance of the
+/// three methods) and `appendix + 2 i + 1` (RMSE by level and direction). Tables 6-10 and
+/// 25-28 (simulated data), 11-15 and 29-36 (plants D and E) are the two families.
+fn similarity_tables(
+    r: &mut Vec<Recipe>,
+    datasets: &[&'static str],
+    (summary, appendix): (u32, u32),
+    reasons: Reasons,
+) {
+    let recipe = |number, cells, differs_because| Recipe {
+        number,
         spread: Spread::Random,
-        cells: summary_rows(&plants),
-        differs_because: PLANTS,
-    });
-    r.push(Recipe {
-        number: 12,
-        spread: Spread::Random,
-        cells: plants
-            .iter()
-            .map(|&ds| vec![Some(cmd(ds, "method1")), Some(cmd(ds, "method2"))])
-            .collect(),
-        differs_because: PLANTS,
-    });
-    for (number, method) in [(13, "full_covariance"), (14, "method1"), (15, "method2")] {
-        r.push(Recipe {
-            number,
-            spread: Spread::Random,
-            cells: kl_rows(&plants, method),
-            differs_because: KL_PLANTS,
-        });
+        cells,
+        differs_because,
+    };
+    r.push(recipe(summary, summary_rows(datasets), reasons.similarity));
+    let cmd_rows = datasets
+        .iter()
+        .map(|&ds| vec![Some(cmd(ds, "method1")), Some(cmd(ds, "method2"))])
+        .collect();
+    r.push(recipe(summary + 1, cmd_rows, reasons.similarity));
+    for (k, method) in METHODS3.iter().enumerate() {
+        r.push(recipe(
+            summary + 2 + k as u32,
+            kl_rows(datasets, method),
+            reasons.kl,
+        ));
     }
-    for (i, &ds) in plants.iter().enumerate() {
-        let number = 29 + 2 * i as u32;
-        r.push(Recipe {
-            number,
-            spread: Spread::Random,
-            cells: vec![METHODS3.iter().map(|&m| Some(cmd(ds, m))).collect()],
-            differs_because: PLANTS,
-        });
-        r.push(Recipe {
-            number: number + 1,
-            spread: Spread::Random,
-            cells: by_level(ds),
-            differs_because: PLANTS,
-        });
+    for (i, &ds) in datasets.iter().enumerate() {
+        let number = appendix + 2 * i as u32;
+        let cmd3 = vec![METHODS3.iter().map(|&m| Some(cmd(ds, m))).collect()];
+        r.push(recipe(number, cmd3, reasons.similarity));
+        r.push(recipe(number + 1, by_level(ds), reasons.similarity));
     }
 }
 

@@ -192,12 +192,6 @@ pub fn evaluate(
     runs: &[SpecRuns],
     tables: &mut Tables,
 ) -> Result<Evaluated> {
-    let folders = |spec: &str| -> Vec<&Path> {
-        runs.iter()
-            .filter(|r| r.spec == spec)
-            .flat_map(|r| r.runs.iter().map(|(_, d)| d.as_path()))
-            .collect()
-    };
     let mut cells = Vec::new();
     for (r, row) in recipe.cells.iter().enumerate() {
         let mut out = Vec::new();
@@ -209,7 +203,7 @@ pub fn evaluate(
             let tool = match query {
                 None => None,
                 Some(q) => {
-                    let values = folders(q.spec)
+                    let values = folders(runs, q.spec)
                         .into_iter()
                         .map(|d| tables.value(d, q))
                         .collect::<Result<Vec<f64>>>()
@@ -222,12 +216,11 @@ pub fn evaluate(
             let (difference, tolerance, verdict) = match (printed, tool) {
                 (Some(p), Some(t)) => {
                     let tol = compare::tolerance(recipe.spread, &t, table.decimals(c));
-                    let v = if compare::matches(p, t.mean, tol) {
-                        Verdict::Matches
-                    } else {
-                        Verdict::Differs
-                    };
-                    (Some(t.mean - p), Some(tol), Some(v))
+                    (
+                        Some(t.mean - p),
+                        Some(tol),
+                        Some(compare::verdict(p, t.mean, tol)),
+                    )
                 }
                 _ => (None, None, None),
             };
@@ -254,7 +247,7 @@ pub fn evaluate(
     }
     let sources = extract::specs_of(recipe)
         .into_iter()
-        .map(|s| (s.to_string(), folders(s).len()))
+        .map(|s| (s.to_string(), folders(runs, s).len()))
         .collect();
     Ok(Evaluated {
         number: recipe.number,
@@ -263,6 +256,14 @@ pub fn evaluate(
         differs_because: recipe.differs_because,
         spread: recipe.spread,
     })
+}
+
+/// The folders of `spec`'s repeats, in repeat order.
+fn folders<'a>(runs: &'a [SpecRuns], spec: &str) -> Vec<&'a Path> {
+    runs.iter()
+        .filter(|r| r.spec == spec)
+        .flat_map(|r| r.runs.iter().map(|(_, d)| d.as_path()))
+        .collect()
 }
 
 /// Checks every run folder the document reads: a complete run, unchanged since.
@@ -424,23 +425,18 @@ pub fn evaluate_statement(
     runs: &[SpecRuns],
     tables: &mut Tables,
 ) -> Result<Stated> {
-    let folders = |spec: &str| -> Vec<PathBuf> {
-        runs.iter()
-            .filter(|r| r.spec == spec)
-            .flat_map(|r| r.runs.iter().map(|(_, d)| d.clone()))
-            .collect()
-    };
     let repeats = st
         .terms
         .iter()
-        .flat_map(|(a, b)| [folders(a.spec).len(), folders(b.spec).len()])
+        .flat_map(|(a, b)| [folders(runs, a.spec).len(), folders(runs, b.spec).len()])
         .min()
         .unwrap_or(0);
     let mut values = Vec::new();
     for k in 0..repeats {
         let mut sum = 0.0;
         for (a, b) in &st.terms {
-            sum += tables.value(&folders(a.spec)[k], a)? - tables.value(&folders(b.spec)[k], b)?;
+            sum += tables.value(folders(runs, a.spec)[k], a)?
+                - tables.value(folders(runs, b.spec)[k], b)?;
         }
         values.push(sum / st.terms.len() as f64);
     }
@@ -461,11 +457,7 @@ pub fn evaluate_statement(
     let tool = Summary::of(&values);
     let verdict = printed.map(|p| {
         let tol = compare::tolerance(Spread::Random, &tool, compare::decimals_of(&format!("{p}")));
-        if compare::matches(p, tool.mean, tol) {
-            Verdict::Matches
-        } else {
-            Verdict::Differs
-        }
+        compare::verdict(p, tool.mean, tol)
     });
     Ok(Stated {
         quantity: reference.quantity.clone(),
