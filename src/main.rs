@@ -234,6 +234,10 @@ enum Command {
         /// Dyadic parameters L of Method 2.
         #[arg(long, default_value_t = 3)]
         levels: usize,
+        /// Method 1's signs of a negative correlation's filter: multiscale (dissertation
+        /// §4.2.4) or alternating.
+        #[arg(long, default_value = "multiscale")]
+        negative_signs: String,
         /// Worker threads (default: RAYON_NUM_THREADS, else all cores).
         #[arg(long)]
         jobs: Option<usize>,
@@ -498,6 +502,7 @@ fn real_main() -> Result<ExitCode> {
             out,
             half_width,
             levels,
+            negative_signs,
             jobs,
         } => {
             let input = Input {
@@ -505,7 +510,9 @@ fn real_main() -> Result<ExitCode> {
                 var: var.as_deref(),
                 layout: layout.as_deref(),
             };
-            pool(jobs)?.install(|| fit_command(&input, &method, &out, half_width, levels))?;
+            pool(jobs)?.install(|| {
+                fit_command(&input, &method, &out, half_width, levels, &negative_signs)
+            })?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Generate {

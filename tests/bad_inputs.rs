@@ -160,6 +160,7 @@ fn saved_model(dir: &Path, name: &str, method: Method) -> PathBuf {
     let opts = FitOptions {
         half_width: 4,
         levels,
+        ..FitOptions::default()
     };
     let m = fit(method, &analysis, Some(stack.view()), opts).unwrap();
     let info = model::ModelInfo::new(&m, &analysis, 4, levels, "test".into());

@@ -653,6 +653,7 @@ fn fit_then_generate_streams_the_same_samples_as_the_library() {
             FitOptions {
                 half_width: 8,
                 levels,
+                ..FitOptions::default()
             },
         )
         .unwrap();

@@ -211,6 +211,7 @@ fn cell_shared_filters_match_the_direct_sum_bit_for_bit() {
     let bank = CellParams::Exponential {
         alpha_h: alpha(1.0),
         alpha_v: alpha(0.7),
+        signs: NegativeSigns::Multiscale,
     }
     .bank(k, h, w);
     let seed = white_seed(22, 3, h + 2 * k, w + 2 * k);

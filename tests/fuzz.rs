@@ -377,6 +377,7 @@ fn models() -> &'static (tempfile::TempDir, Vec<PathBuf>) {
                 let opts = FitOptions {
                     half_width: 3,
                     levels,
+                    ..FitOptions::default()
                 };
                 let m = fit(method, &a, Some(stack.view()), opts).unwrap();
                 let info = model::ModelInfo::new(&m, &a, 3, levels, "fuzz".into());

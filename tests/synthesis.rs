@@ -105,7 +105,9 @@ fn method1_recovers_spatially_varying_alpha() {
     let a = analyse(stack.view(), 1).unwrap();
     let model = fit(Method::Method1, &a, None, FitOptions::default()).unwrap();
     let Some(FilterModel {
-        params: CellParams::Exponential { alpha_h, alpha_v },
+        params: CellParams::Exponential {
+            alpha_h, alpha_v, ..
+        },
         clamped,
         ..
     }) = &model.filter
@@ -157,6 +159,7 @@ fn round_trips_methods_1_and_2_on_dyadic_data() {
     let opts = FitOptions {
         half_width: 8,
         levels: 3,
+        ..FitOptions::default()
     };
     let mut rmses = std::collections::BTreeMap::new();
     for method in [Method::Method1, Method::Method2] {
@@ -230,6 +233,7 @@ fn generated_mean_and_variance_maps_match() {
             FitOptions {
                 half_width: 8,
                 levels: 2,
+                ..FitOptions::default()
             },
         )
         .unwrap();

@@ -174,14 +174,21 @@ pub(crate) fn fit_command(
     out: &std::path::Path,
     half_width: usize,
     levels: usize,
+    negative_signs: &str,
 ) -> Result<()> {
-    use isar_clutter::synthesis::{fit, FitOptions, Method};
+    use isar_clutter::synthesis::{fit, FitOptions, Method, NegativeSigns};
     // Held until the model folder is in place: a second `fit` into `out` is refused.
     let _lock = isar_clutter::io::outdir::lock_output(out, "fit")?;
     let method: Method =
         serde_json::from_value(serde_json::Value::String(method.into())).map_err(|_| {
             anyhow::anyhow!(
                 "unknown method {method:?}: method1, method2, full_covariance, uncorrelated or fourth_order"
+            )
+        })?;
+    let negative_signs: NegativeSigns =
+        serde_json::from_value(serde_json::Value::String(negative_signs.into())).map_err(|_| {
+            anyhow::anyhow!(
+                "unknown --negative-signs {negative_signs:?}: multiscale or alternating"
             )
         })?;
     let (stack, hwn, source) = input.load()?;
@@ -198,6 +205,7 @@ pub(crate) fn fit_command(
         FitOptions {
             half_width,
             levels: depth,
+            negative_signs,
         },
     )
     .with_context(|| format!("fitting {} to {source}", method.as_str()))?;

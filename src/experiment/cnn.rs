@@ -55,6 +55,10 @@ pub struct ClassificationSpec {
     /// Filter half-width of Methods 1 and 2 (default 8).
     #[serde(default = "half_width")]
     pub half_width: usize,
+    /// How Method 1 signs the filter of a negative correlation (default `multiscale`; see
+    /// `synthesis.negative_signs`).
+    #[serde(default)]
+    pub negative_signs: crate::synthesis::NegativeSigns,
     /// Dyadic levels of Method 2 (default 3).
     #[serde(default = "levels")]
     pub levels: usize,
@@ -90,6 +94,10 @@ pub struct LocationSpec {
     /// Filter half-width of Methods 1 and 2 (default 8).
     #[serde(default = "half_width")]
     pub half_width: usize,
+    /// How Method 1 signs the filter of a negative correlation (default `multiscale`; see
+    /// `synthesis.negative_signs`).
+    #[serde(default)]
+    pub negative_signs: crate::synthesis::NegativeSigns,
     /// Dyadic levels of Method 2 (default 3).
     #[serde(default = "levels")]
     pub levels: usize,

@@ -18,6 +18,11 @@ pub struct SynthesisSpec {
     /// Dyadic parameters `L` of Method 2 (default: `analysis.levels`).
     #[serde(default)]
     pub levels: Option<usize>,
+    /// How Method 1 signs the filter of a negative correlation: `multiscale` (default, the
+    /// dissertation's §4.2.4: the 1-, 2- and 4-pixel shifts correlate negatively) or
+    /// `alternating` (lag 1 exactly negated; docs/definitions.md §5).
+    #[serde(default)]
+    pub negative_signs: crate::synthesis::NegativeSigns,
     /// Write the generated samples to `samples/<job>.npy` (complex64 `[M, H, W]`).
     #[serde(default)]
     pub save_samples: bool,

@@ -15,7 +15,7 @@
 
 use crate::io::atomic::{atomic_write, write_npy};
 use crate::stats::analysis::{Analysis, Direction};
-use crate::synthesis::{CellParams, FilterModel, Method, Model};
+use crate::synthesis::{CellParams, FilterModel, Method, Model, NegativeSigns};
 use anyhow::{bail, Context, Result};
 use ndarray::{Array2, Array3, Axis};
 use ndarray_npy::ReadNpyExt;
@@ -54,6 +54,10 @@ pub struct ModelInfo {
     /// models written before it was recorded, which are format 1.
     #[serde(default = "format_one")]
     pub sample_format: u32,
+    /// Method 1: how the filters of negative `alpha` are signed; absent in other methods' and
+    /// in Method 1 models written before it was recorded, which are `alternating`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub negative_signs: Option<NegativeSigns>,
 }
 
 /// The sample format of a `model.json` that does not record one.
@@ -86,6 +90,10 @@ impl ModelInfo {
             source,
             analysis: analysis_summary(analysis),
             sample_format: model.sample_format,
+            negative_signs: match model.filter.as_ref().map(|f| &f.params) {
+                Some(CellParams::Exponential { signs, .. }) => Some(*signs),
+                _ => None,
+            },
         }
     }
 }
@@ -133,7 +141,9 @@ pub fn save(model: &Model, info: &ModelInfo, dir: &Path) -> Result<()> {
     write_npy(&dir.join("std.npy"), &model.std)?;
     if let Some(f) = &model.filter {
         match &f.params {
-            CellParams::Exponential { alpha_h, alpha_v } => {
+            CellParams::Exponential {
+                alpha_h, alpha_v, ..
+            } => {
                 write_npy(&dir.join("alpha_h.npy"), alpha_h)?;
                 write_npy(&dir.join("alpha_v.npy"), alpha_v)?;
             }
@@ -397,6 +407,7 @@ fn load_filter(info: &ModelInfo, dir: &Path) -> Result<FilterModel> {
         CellParams::Exponential {
             alpha_h: alpha("alpha_h.npy")?,
             alpha_v: alpha("alpha_v.npy")?,
+            signs: info.negative_signs.unwrap_or(NegativeSigns::Alternating),
         }
     } else {
         let shape = vec![info.levels, cells[0], cells[1]];

@@ -172,11 +172,64 @@ pub fn document(
         }
         let _ = writeln!(s);
     }
+    constructions(&mut s);
     for t in &dissertation.tables {
         table_block(&mut s, t, evaluated);
     }
     figures(&mut s, dissertation, stated);
     (s, counts)
+}
+
+/// Where the dissertation's text leaves a construction open: (section, what it says, what the
+/// tool does, where the other reading is). docs/definitions.md gives each in full.
+const CONSTRUCTIONS: &[(&str, &str, &str, &str)] = &[
+    (
+        "4.2.4",
+        "Method 1's filter of a negative correlation has its signs \"chosen so that\" the 1-, \
+         2- and 4-pixel shifts correlate negatively; the signs are not printed",
+        "Thue-Morse signs `(-1)^popcount(|d|)` (what an exhaustive search over sign patterns \
+         finds; lag-1 reach about -0.507, targets beyond clamp and are counted)",
+        "`synthesis.negative_signs: alternating` (`(-1)^d`: lag 1 exactly negated)",
+    ),
+    (
+        "4.2.3",
+        "the filtered data are scaled by the sample variance of the generated images",
+        "scaled by the filter's exact standard deviation (independent of the samples drawn)",
+        "none (a difference of sampling noise only)",
+    ),
+    (
+        "5.1.3",
+        "H2 reads the mean correlating function",
+        "its magnitude",
+        "the real part, in the same table (`hypotheses.parquet`, `correlating_function.parquet`)",
+    ),
+    (
+        "5.1.5",
+        "H4 (correlation falls with the level) was judged \"not verified\" from levels 2-3",
+        "judged at every level, and over all levels",
+        "the per-level rows of levels 2 and 3 in `hypotheses.parquet`",
+    ),
+];
+
+/// The section listing [`CONSTRUCTIONS`].
+fn constructions(s: &mut String) {
+    let _ = writeln!(
+        s,
+        "## Constructions the text leaves open
+"
+    );
+    let _ = writeln!(
+        s,
+        "Where the dissertation does not say enough to build something one way, the tool \
+         chooses, says so here, and keeps the other reading one spec key away (or in the same \
+         table).\n"
+    );
+    let _ = writeln!(s, "| § | the dissertation | the tool | the other reading |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    for (section, text, tool, other) in CONSTRUCTIONS {
+        let _ = writeln!(s, "| {section} | {text} | {tool} | {other} |");
+    }
+    let _ = writeln!(s);
 }
 
 /// The block of table `t`: its setting, then each cell beside the tool's, or why it is not

@@ -87,7 +87,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     }
     let bar = scheduler::progress(todo.len(), opts);
     // Every job's rows go as soon as they are stored: the merge streams them back from the
-    // store, so that a run's memory does not grow with its jobs.
+    // store, so that a run's memory does not grow with its jobs; `done` holds the failed ones.
     let done: Vec<(usize, Outcome)> =
         pool.install(|| scheduler::execute(plan, &jobs, &keys, &[], &todo, opts, &bar, false));
     if let Some(b) = &bar {
@@ -118,18 +118,22 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     }
     // A job whose outcome could not be stored (a full disk, say) is missing from the store,
     // and the merge would refuse it as a shard's job not run yet: say that it failed, and why.
-    let unstored: Vec<String> = done
+    let unstored: Vec<String> = todo
         .iter()
         // Written a moment ago by this process: the record's presence, not its files' hashes.
-        .filter(|(i, _)| {
+        .filter(|&&i| {
             matches!(
-                store::entry_verified_earlier(&opts.out, &keys[*i]),
+                store::entry_verified_earlier(&opts.out, &keys[i]),
                 store::Entry::Missing(_)
             )
         })
-        .map(|(i, o)| {
-            let why = o.rows.as_ref().err().map_or("no record", String::as_str);
-            format!("{}: {why}", jobs[*i].id())
+        .map(|&i| {
+            let why = done
+                .iter()
+                .find(|(d, _)| *d == i)
+                .and_then(|(_, o)| o.rows.as_ref().err())
+                .map_or("no record", String::as_str);
+            format!("{}: {why}", jobs[i].id())
         })
         .collect();
     if !unstored.is_empty() {

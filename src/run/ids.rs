@@ -40,7 +40,7 @@ pub struct IdParts<'a> {
     /// The swept values.
     pub params: &'a Params,
     /// The canonical identity (hashed into the suffix of a colliding or long id).
-    pub identity: &'a str,
+    pub identity: String,
 }
 
 /// Readable ids of `jobs`, in order; a short hash of the identity is appended only where ids

@@ -58,8 +58,6 @@ pub struct Job {
     pub generation_seed: u64,
     /// Swept values that apply to this job, by short key (`alpha_h`, `levels`).
     pub params: Params,
-    /// Canonical identity (JSON) from which the seeds are derived.
-    pub identity: String,
     /// Job seed: hash of the master seed and the job identity.
     pub seed: u64,
     /// Data seed: hash of the master seed and the dataset identity (dataset id and the
@@ -67,6 +65,14 @@ pub struct Job {
     pub data_seed: u64,
     /// The noise floor an analysis job measures when the spec has metrics.
     pub noise_floor: Option<NoiseFloorPlan>,
+}
+
+impl Job {
+    /// Canonical identity (JSON of the dataset id, the method and the swept values) from which
+    /// the seeds are derived; made on demand, not held (about 150 bytes a job).
+    pub fn identity(&self) -> String {
+        identity(&self.dataset_id, self.method, &self.params)
+    }
 }
 
 /// How an analysis job measures the metrics' noise floor.
@@ -354,7 +360,7 @@ fn check_job_metrics(
     };
     let draws = NoiseFloorPlan::Draws {
         samples: syn.samples,
-        seed: derive_seed(spec.seed, "noise_floor", &job.identity),
+        seed: derive_seed(spec.seed, "noise_floor", &job.identity()),
     };
     job.noise_floor = match (spec.noise_floor, drawable) {
         (NoiseFloor::None, _) => None,
@@ -700,7 +706,6 @@ fn build_job(
         seed: derive_seed(spec.seed, "job", &identity),
         data_seed: derive_seed(spec.seed, "data", &data_identity),
         params,
-        identity,
         noise_floor: None,
     })
 }
@@ -753,7 +758,7 @@ fn assign_ids(jobs: &mut [Job]) {
             dataset: &j.dataset_id,
             method: j.method.map(Method::as_str),
             params: &j.params,
-            identity: &j.identity,
+            identity: j.identity(),
         })
         .collect();
     let ids = crate::run::ids::readable_ids(&parts);

@@ -127,8 +127,9 @@ fn groups(jobs: &[&dyn JobKind], wave: &[usize]) -> Vec<Vec<usize>> {
 
 /// Runs the jobs `indices` on the installed rayon pool, grouped by the dataset they read,
 /// with the outcomes of `earlier` jobs for those that read other jobs' rows; each job is saved
-/// in the job store as it finishes. `keep_rows`: return the rows (otherwise they are dropped
-/// once stored, so memory is bounded by the jobs in flight).
+/// in the job store as it finishes. `keep_rows`: return every job's outcome with its rows;
+/// otherwise the rows are dropped once stored and only the failed jobs' outcomes are returned,
+/// so that memory is bounded by the jobs in flight (100,000 empty outcomes held 10-20 MB).
 #[allow(clippy::too_many_arguments)]
 pub fn execute(
     plan: &Plan,
@@ -230,6 +231,7 @@ fn run_group(
             }
             (index, outcome)
         })
+        .filter(|(_, o)| keep_rows || o.rows.is_err())
         .collect()
 }
 

@@ -441,9 +441,9 @@ pub fn synthesis_params<'a>(
             t.i("row", r as i64);
             t.i("col", c as i64);
             let (alpha, rs) = match &f.params {
-                CellParams::Exponential { alpha_h, alpha_v } => {
-                    (Some((alpha_h[[r, c]], alpha_v[[r, c]])), None)
-                }
+                CellParams::Exponential {
+                    alpha_h, alpha_v, ..
+                } => (Some((alpha_h[[r, c]], alpha_v[[r, c]])), None),
                 CellParams::Dyadic { r_h, r_v } => (None, Some((r_h, r_v))),
             };
             t.f("alpha_h", alpha.map(|a| a.0));

@@ -11,16 +11,66 @@ use crate::stats::analysis::cell_directions;
 use ndarray::{Array2, ArrayView2};
 use num_complex::Complex64;
 
+/// How the exponential filter of a negative `alpha` is signed (dissertation §4.2.4;
+/// docs/definitions.md §5, Method 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NegativeSigns {
+    /// The dissertation's scheme: `s(d) = (-1)^popcount(|d|)` (the Thue-Morse signs), so
+    /// that the shifts by 1, 2 and 4 pixels (the offsets of levels 1, 2 and 3) all correlate
+    /// negatively. It is also what an exhaustive search over the symmetric sign patterns of
+    /// half-width 8 finds closest to the negated correlations at those shifts, for every
+    /// `alpha` from 0.5 to 16. Its lag-1 correlation is about the negated positive one for
+    /// `|alpha| <= 0.5` and reaches at most about -0.507 (at `|alpha|` near 1.20).
+    #[default]
+    Multiscale,
+    /// `s(d) = (-1)^d`: the lag-1 correlation is exactly the negated positive one, while the
+    /// 2- and 4-pixel shifts correlate positively.
+    Alternating,
+}
+
+impl NegativeSigns {
+    /// The sign of tap `d` of a negative-`alpha` filter.
+    pub fn sign(self, d: i64) -> f64 {
+        let odd = match self {
+            NegativeSigns::Multiscale => d.unsigned_abs().count_ones() % 2 == 1,
+            NegativeSigns::Alternating => d % 2 != 0,
+        };
+        if odd {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+
+    /// The scheme's name as a spec writes it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            NegativeSigns::Multiscale => "multiscale",
+            NegativeSigns::Alternating => "alternating",
+        }
+    }
+}
+
 /// Exponential taps `f(d) = exp(-|d| / |alpha|)` on `|d| <= half_width` (eq. 65, 68).
 ///
 /// A negative `alpha` gives the sign-alternating filter `(-1)^d exp(-|d| / |alpha|)` whose
 /// lag-1 correlation is the negative of the positive filter's (docs/definitions.md §5,
-/// Method 1). `alpha = +-inf` gives a constant (or alternating) filter, `alpha = 0` the delta
-/// filter (the limit `alpha -> 0`: white output).
+/// Method 1; [`exponential_taps_signed`] for the other scheme). `alpha = +-inf` gives a
+/// constant (or alternating) filter, `alpha = 0` the delta filter (the limit `alpha -> 0`:
+/// white output).
 ///
 /// # Panics
 /// If `alpha` is NaN.
 pub fn exponential_taps(alpha: f64, half_width: usize) -> Vec<f64> {
+    exponential_taps_signed(alpha, half_width, NegativeSigns::Alternating)
+}
+
+/// [`exponential_taps`] with a negative `alpha` signed by `signs`.
+///
+/// # Panics
+/// If `alpha` is NaN.
+pub fn exponential_taps_signed(alpha: f64, half_width: usize, signs: NegativeSigns) -> Vec<f64> {
     assert!(!alpha.is_nan(), "alpha must not be NaN");
     let k = half_width as i64;
     (-k..=k)
@@ -30,8 +80,8 @@ pub fn exponential_taps(alpha: f64, half_width: usize) -> Vec<f64> {
             } else {
                 (-(d.abs() as f64) / alpha.abs()).exp()
             };
-            if alpha < 0.0 && d % 2 != 0 {
-                -mag
+            if alpha < 0.0 {
+                signs.sign(d) * mag
             } else {
                 mag
             }

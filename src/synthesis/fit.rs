@@ -4,9 +4,52 @@
 
 use super::*;
 
-/// Lag-1 correlation `g(alpha)` of the exponential filter of half-width `K`.
+/// Lag-1 correlation `g(alpha)` of the exponential filter of half-width `K` (a negative
+/// `alpha` sign-alternating).
 pub fn exponential_lag1(alpha: f64, half_width: usize) -> f64 {
     lag_correlation(&exponential_taps(alpha, half_width), 1)
+}
+
+/// [`exponential_lag1`] of a negative `alpha` signed by `signs`.
+pub fn exponential_lag1_signed(alpha: f64, half_width: usize, signs: NegativeSigns) -> f64 {
+    lag_correlation(&exponential_taps_signed(alpha, half_width, signs), 1)
+}
+
+/// The first peak `(alpha*, |g(-alpha*)|)` of the magnitude of the lag-1 correlation of a
+/// negative-`alpha` filter signed by `signs`: [`exponential_peak`] for
+/// [`NegativeSigns::Alternating`] (the mirror image of the positive branch); for
+/// [`NegativeSigns::Multiscale`] the first local maximum of `|g|` over `alpha` (it is not
+/// unimodal: for `K = 8` it peaks at about 0.507 near `alpha = 1.20`, dips and rises again
+/// to below that), found on a grid of `log(alpha)` and refined by golden-section search.
+/// `|g|` increases on `(0, alpha*]`, the branch Method 1 inverts.
+pub fn negative_peak(half_width: usize, signs: NegativeSigns) -> (f64, f64) {
+    if signs == NegativeSigns::Alternating {
+        return exponential_peak(half_width);
+    }
+    let g = |la: f64| -exponential_lag1_signed(-la.exp(), half_width, signs);
+    let (lo, hi, steps) = (1e-3f64.ln(), 1e6f64.ln(), 400);
+    let at = |i: usize| lo + (hi - lo) * i as f64 / steps as f64;
+    // Past the flat start (for tiny alpha every tap but the centre underflows to 0), up to
+    // the first grid point the next one does not exceed.
+    let mut i = 1;
+    while i < steps && (g(at(i)) < 1e-12 || g(at(i + 1)) > g(at(i))) {
+        i += 1;
+    }
+    let (mut a, mut b) = (at(i - 1), at((i + 1).min(steps)));
+    let phi = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..200 {
+        let (x1, x2) = (b - phi * (b - a), a + phi * (b - a));
+        if g(x1) < g(x2) {
+            a = x1;
+        } else {
+            b = x2;
+        }
+        if b - a < 1e-12 {
+            break;
+        }
+    }
+    let alpha = (0.5 * (a + b)).exp();
+    (alpha, g(alpha.ln()))
 }
 
 /// The peak `(alpha*, g(alpha*))` of `g(alpha)` for half-width `K`.
@@ -50,31 +93,81 @@ pub fn exponential_peak(half_width: usize) -> (f64, f64) {
 /// unreachable and clamps to `alpha*`. Bisection on `log(alpha)` to a relative width of
 /// `1e-13` (docs/definitions.md §5).
 pub fn invert_alpha(rho: f64, half_width: usize) -> (f64, bool) {
-    if rho.is_nan() || rho == 0.0 || half_width == 0 {
-        return (0.0, rho.is_nan() || (half_width == 0 && rho != 0.0));
-    }
-    let (peak_alpha, peak_rho) = exponential_peak(half_width);
-    let target = rho.abs();
-    if target >= peak_rho {
-        return (peak_alpha.copysign(rho), target > peak_rho);
-    }
-    let g = |la: f64| exponential_lag1(la.exp(), half_width);
-    let (mut lo, mut hi) = (1e-3f64.ln(), peak_alpha.ln());
-    if g(lo) >= target {
-        return (lo.exp().copysign(rho), false);
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if g(mid) < target {
-            lo = mid;
+    invert_alpha_signed(rho, half_width, NegativeSigns::Alternating)
+}
+
+/// [`invert_alpha`] with negative targets inverted on the branch of filters signed by
+/// `signs` ([`negative_peak`]): for [`NegativeSigns::Multiscale`], a target below about
+/// -0.507 (`K = 8`) is unreachable and clamps.
+pub fn invert_alpha_signed(rho: f64, half_width: usize, signs: NegativeSigns) -> (f64, bool) {
+    AlphaInverter::new(half_width, signs).invert(rho)
+}
+
+/// Method 1's inversion of `g(alpha) = rho(1)` for one half-width and sign scheme, with the
+/// peaks of both branches found once.
+#[derive(Debug, Clone, Copy)]
+pub struct AlphaInverter {
+    half_width: usize,
+    signs: NegativeSigns,
+    /// `(alpha*, g(alpha*))` of the positive branch ([`exponential_peak`]).
+    positive: (f64, f64),
+    /// `(alpha*, |g(-alpha*)|)` of the negative branch ([`negative_peak`]).
+    negative: (f64, f64),
+}
+
+impl AlphaInverter {
+    /// The inverter of half-width `K` (the peaks are found when `K > 0`).
+    pub fn new(half_width: usize, signs: NegativeSigns) -> AlphaInverter {
+        let (positive, negative) = if half_width == 0 {
+            ((0.0, 0.0), (0.0, 0.0))
         } else {
-            hi = mid;
-        }
-        if hi - lo < 1e-13 {
-            break;
+            (
+                exponential_peak(half_width),
+                negative_peak(half_width, signs),
+            )
+        };
+        AlphaInverter {
+            half_width,
+            signs,
+            positive,
+            negative,
         }
     }
-    ((0.5 * (lo + hi)).exp().copysign(rho), false)
+
+    /// `(alpha, clamped)` of target `rho` (see [`invert_alpha`]).
+    pub fn invert(&self, rho: f64) -> (f64, bool) {
+        let half_width = self.half_width;
+        if rho.is_nan() || rho == 0.0 || half_width == 0 {
+            return (0.0, rho.is_nan() || (half_width == 0 && rho != 0.0));
+        }
+        let (peak_alpha, peak_rho) = if rho > 0.0 {
+            self.positive
+        } else {
+            self.negative
+        };
+        let target = rho.abs();
+        if target >= peak_rho {
+            return (peak_alpha.copysign(rho), target > peak_rho);
+        }
+        let g =
+            |la: f64| exponential_lag1_signed(la.exp().copysign(rho), half_width, self.signs).abs();
+        let (mut lo, mut hi) = (1e-3f64.ln(), peak_alpha.ln());
+        if g(lo) >= target {
+            return (lo.exp().copysign(rho), false);
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if g(mid) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+            if hi - lo < 1e-13 {
+                break;
+            }
+        }
+        ((0.5 * (lo + hi)).exp().copysign(rho), false)
+    }
 }
 
 /// Group correlations of a dyadic filter at levels `1..=L` (`g = 2^(l-1)`).
@@ -314,11 +407,13 @@ pub fn fit(
             })?;
             let cells = lm.shape();
             let k = opts.half_width;
+            let signs = opts.negative_signs;
+            let inverter = AlphaInverter::new(k, signs);
             let invert = |dir: Direction| {
                 let fitted: Vec<(f64, bool)> = lm
                     .correlation(dir)
                     .iter()
-                    .map(|&rho| invert_alpha(rho, k))
+                    .map(|&rho| inverter.invert(rho))
                     .collect();
                 let alpha = Array2::from_shape_vec(cells, fitted.iter().map(|p| p.0).collect())
                     .expect("cell grid");
@@ -330,14 +425,18 @@ pub fn fit(
                     if target.is_nan() {
                         f64::NAN
                     } else {
-                        (exponential_lag1(alpha[rc], k) - target).abs()
+                        (exponential_lag1_signed(alpha[rc], k, signs) - target).abs()
                     }
                 });
                 (alpha, clamped, residual)
             };
             let (alpha_h, ch, residual_h) = invert(Direction::H);
             let (alpha_v, cv, residual_v) = invert(Direction::V);
-            let params = CellParams::Exponential { alpha_h, alpha_v };
+            let params = CellParams::Exponential {
+                alpha_h,
+                alpha_v,
+                signs,
+            };
             model.filter = Some(FilterModel::new(
                 params,
                 (residual_h, residual_v),

@@ -21,8 +21,10 @@
 //! model's statistics; format 2 is several times faster.
 
 use crate::stats::analysis::{Analysis, Direction};
+pub use crate::stats::filters::NegativeSigns;
 use crate::stats::filters::{
-    dyadic_taps, exponential_taps, filter_seed, group_correlation, lag_correlation, FilterBank,
+    dyadic_taps, exponential_taps, exponential_taps_signed, filter_seed, group_correlation,
+    lag_correlation, FilterBank,
 };
 use ndarray::{Array2, Array3, ArrayView3};
 use num_complex::Complex64;
@@ -71,12 +73,14 @@ impl Method {
 /// Per-cell filter parameters of Methods 1 and 2 (level-1 cell grid).
 #[derive(Debug, Clone, PartialEq)]
 pub enum CellParams {
-    /// Method 1: `alpha` per direction (negative: sign-alternating; 0: delta; inf: constant).
+    /// Method 1: `alpha` per direction (negative: signed by `signs`; 0: delta; inf: constant).
     Exponential {
         /// Horizontal alpha per cell.
         alpha_h: Array2<f64>,
         /// Vertical alpha per cell.
         alpha_v: Array2<f64>,
+        /// How the filters of negative `alpha` are signed.
+        signs: NegativeSigns,
     },
     /// Method 2: `r_1..r_L` per direction, `[L][rows][cols]`.
     Dyadic {
@@ -106,9 +110,13 @@ impl CellParams {
             for j in 0..w {
                 let c = cell_of(i, j, cells);
                 let (v, hz) = match self {
-                    CellParams::Exponential { alpha_h, alpha_v } => (
-                        exponential_taps(alpha_v[c], k),
-                        exponential_taps(alpha_h[c], k),
+                    CellParams::Exponential {
+                        alpha_h,
+                        alpha_v,
+                        signs,
+                    } => (
+                        exponential_taps_signed(alpha_v[c], k, *signs),
+                        exponential_taps_signed(alpha_h[c], k, *signs),
                     ),
                     CellParams::Dyadic { r_h, r_v } => {
                         let at = |p: &[Array2<f64>]| p.iter().map(|m| m[c]).collect::<Vec<_>>();
@@ -214,6 +222,8 @@ pub struct FitOptions {
     pub half_width: usize,
     /// Method 2: number of dyadic parameters `L` (levels of the analysis used).
     pub levels: usize,
+    /// Method 1: how the filters of negative correlations are signed (dissertation §4.2.4).
+    pub negative_signs: NegativeSigns,
 }
 
 impl Default for FitOptions {
@@ -221,6 +231,7 @@ impl Default for FitOptions {
         FitOptions {
             half_width: 8,
             levels: 3,
+            negative_signs: NegativeSigns::default(),
         }
     }
 }

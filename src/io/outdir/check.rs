@@ -59,39 +59,25 @@ pub fn check_complete(root: &Path) -> Result<()> {
         }
     }
     let path = root.join("manifest.json");
-    let text = fs::read_to_string(&path).with_context(|| {
+    let file = fs::File::open(&path).with_context(|| {
         format!(
             "{} has no manifest.json: not a finished run's folder; {hint}",
             root.display()
         )
     })?;
-    let manifest: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
-    let Some(files) = manifest["files"].as_object() else {
-        return Ok(()); // written by a version that did not list its files
-    };
+    // Read as a stream, each file checked as its record is read: a manifest of 100,000 jobs
+    // is tens of MB of JSON, and as a `serde_json::Value` it took 370 MB.
     let mut problems = vec![];
-    for (rel, rec) in files {
-        let file = root.join(rel);
-        match fs::metadata(&file) {
-            Err(_) => problems.push(format!("{rel} is missing")),
-            Ok(m) if Some(m.len()) != rec["bytes"].as_u64() => problems.push(format!(
-                "{rel} has {} bytes, the manifest says {}",
-                m.len(),
-                rec["bytes"]
-            )),
-            Ok(_) => {
-                if let Some(want) = rec["sha256"].as_str() {
-                    let got = fs::File::open(&file)
-                        .and_then(crate::seeds::sha256_hex_of)
-                        .unwrap_or_default();
-                    if got != want {
-                        problems.push(format!("{rel} differs from the file the run wrote"));
-                    }
-                }
-            }
-        }
-    }
+    let mut de = serde_json::Deserializer::from_reader(std::io::BufReader::new(file));
+    serde::de::DeserializeSeed::deserialize(
+        ManifestFiles {
+            root,
+            problems: &mut problems,
+        },
+        &mut de,
+    )
+    .and_then(|()| de.end())
+    .with_context(|| format!("reading {}", path.display()))?;
     if !problems.is_empty() {
         let n = problems.len();
         problems.truncate(8);
@@ -104,6 +90,103 @@ pub fn check_complete(root: &Path) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// A file's record in the manifest (`files`): its size and, for a table, its SHA-256.
+#[derive(serde::Deserialize)]
+struct FileRecord {
+    bytes: Option<u64>,
+    sha256: Option<String>,
+}
+
+/// Checks one listed file against its record; a problem found is pushed.
+fn check_file(root: &Path, rel: &str, rec: &FileRecord, problems: &mut Vec<String>) {
+    let file = root.join(rel);
+    match fs::metadata(&file) {
+        Err(_) => problems.push(format!("{rel} is missing")),
+        Ok(m) if Some(m.len()) != rec.bytes => problems.push(format!(
+            "{rel} has {} bytes, the manifest says {}",
+            m.len(),
+            rec.bytes.map_or("nothing".to_string(), |b| b.to_string())
+        )),
+        Ok(_) => {
+            if let Some(want) = &rec.sha256 {
+                let got = fs::File::open(&file)
+                    .and_then(crate::seeds::sha256_hex_of)
+                    .unwrap_or_default();
+                if &got != want {
+                    problems.push(format!("{rel} differs from the file the run wrote"));
+                }
+            }
+        }
+    }
+}
+
+/// The manifest read for its `files` alone, each record checked as it is read (every other
+/// field skipped without being built); a manifest without `files` (of a version that did not
+/// list them) passes.
+struct ManifestFiles<'a> {
+    root: &'a Path,
+    problems: &'a mut Vec<String>,
+}
+
+impl<'de> serde::de::DeserializeSeed<'de> for ManifestFiles<'_> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for ManifestFiles<'_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("the tool's manifest (a JSON object)")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        while let Some(key) = map.next_key::<std::borrow::Cow<'de, str>>()? {
+            if key == "files" {
+                map.next_value_seed(FileList {
+                    root: self.root,
+                    problems: &mut *self.problems,
+                })?;
+            } else {
+                map.next_value::<serde::de::IgnoredAny>()?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The manifest's `files` object, checked entry by entry ([`check_file`]).
+struct FileList<'a> {
+    root: &'a Path,
+    problems: &'a mut Vec<String>,
+}
+
+impl<'de> serde::de::DeserializeSeed<'de> for FileList<'_> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for FileList<'_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("an object of file records")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        while let Some((rel, rec)) = map.next_entry::<String, FileRecord>()? {
+            check_file(self.root, &rel, &rec, self.problems);
+        }
+        Ok(())
+    }
 }
 
 /// The writer holding one of `root`'s locks now (`lock`, `lock.shard-<i>`), described; `None`

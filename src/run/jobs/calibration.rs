@@ -28,8 +28,8 @@ impl JobKind for CalibrationJob {
         "calibration"
     }
 
-    fn identity(&self) -> &str {
-        ""
+    fn identity(&self) -> std::borrow::Cow<'_, str> {
+        "".into()
     }
 
     fn seed(&self) -> Option<u64> {

@@ -36,8 +36,8 @@ impl JobKind for Job {
         }
     }
 
-    fn identity(&self) -> &str {
-        &self.identity
+    fn identity(&self) -> std::borrow::Cow<'_, str> {
+        Job::identity(self).into()
     }
 
     fn seed(&self) -> Option<u64> {
@@ -365,6 +365,7 @@ fn run_synthesis_job(
     let opts = FitOptions {
         half_width: syn.half_width,
         levels,
+        negative_signs: syn.negative_signs,
     };
     let model = fit(method, &original, stack.as_ref().map(|s| s.view()), opts)
         .with_context(|| format!("fitting {}", method.as_str()))?;

@@ -128,8 +128,8 @@ impl JobKind for HypothesesJob {
         "hypotheses"
     }
 
-    fn identity(&self) -> &str {
-        ""
+    fn identity(&self) -> std::borrow::Cow<'_, str> {
+        "".into()
     }
 
     fn seed(&self) -> Option<u64> {

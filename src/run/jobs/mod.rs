@@ -95,8 +95,9 @@ pub trait JobKind: Send + Sync {
     fn id(&self) -> &str;
     /// The kind's name (`analysis`, `synthesis`, `calibration`, `hypotheses`).
     fn kind(&self) -> &'static str;
-    /// Canonical identity from which the seed is derived.
-    fn identity(&self) -> &str;
+    /// Canonical identity from which the seed is derived (made on demand where the job's
+    /// fields give it: a plan of 100,000 jobs held 15 MB of identities).
+    fn identity(&self) -> std::borrow::Cow<'_, str>;
     /// The job's seed (derived from the master seed and the identity); `None` for a job that
     /// draws no random numbers.
     fn seed(&self) -> Option<u64>;

@@ -102,8 +102,8 @@ impl JobKind for ClassificationJob {
         "classification"
     }
 
-    fn identity(&self) -> &str {
-        &self.identity
+    fn identity(&self) -> std::borrow::Cow<'_, str> {
+        self.identity.as_str().into()
     }
 
     fn seed(&self) -> Option<u64> {
@@ -171,6 +171,7 @@ impl JobKind for ClassificationJob {
                         FitOptions {
                             half_width: cp.spec.half_width,
                             levels: cp.spec.levels,
+                            negative_signs: cp.spec.negative_signs,
                         },
                     )
                     .with_context(|| format!("class {}", class.id))?,

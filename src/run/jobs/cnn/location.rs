@@ -112,8 +112,8 @@ impl JobKind for LocationJob {
         "location"
     }
 
-    fn identity(&self) -> &str {
-        &self.identity
+    fn identity(&self) -> std::borrow::Cow<'_, str> {
+        self.identity.as_str().into()
     }
 
     fn seed(&self) -> Option<u64> {
@@ -196,6 +196,7 @@ impl JobKind for LocationJob {
                     FitOptions {
                         half_width: lp.spec.half_width,
                         levels: lp.spec.levels,
+                        negative_signs: lp.spec.negative_signs,
                     },
                 )?;
                 let g = lp.spec.generated_samples;
@@ -345,8 +346,8 @@ impl JobKind for LocationSummaryJob {
         "location_summary"
     }
 
-    fn identity(&self) -> &str {
-        ""
+    fn identity(&self) -> std::borrow::Cow<'_, str> {
+        "".into()
     }
 
     fn seed(&self) -> Option<u64> {
