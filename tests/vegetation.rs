@@ -101,6 +101,67 @@ fn hypotheses_table_from_a_small_plant_run() {
     assert_eq!(verdict[i].as_deref(), Some("verified"));
     let cf = read(&out, "correlating_function.parquet");
     assert_eq!(cf.height(), 2 * 25, "5 x 5 offsets per dataset");
+    // The report draws Figs. 50-56 from these tables: the correlating function's map and cuts,
+    // the correlation by level for each wind, and against the wind for each level.
+    let report = isar_clutter::report::build(&out, false).unwrap();
+    let stems: Vec<String> = report
+        .figures
+        .iter()
+        .map(|f| {
+            f.files[0]
+                .file_stem()
+                .unwrap()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    for stem in [
+        "plants_correlating_function",
+        "plants_correlating_horizontal",
+        "plants_correlating_vertical",
+        "plants_correlation_by_level_none",
+        "plants_correlation_by_level_light",
+        "plants_correlation_by_wind_level_1",
+        "plants_correlation_by_wind_level_2",
+        "plants_mean_kspace",
+    ] {
+        assert!(stems.iter().any(|s| s == stem), "no {stem} in {stems:?}");
+        assert!(out.join("figures").join(format!("{stem}.png")).is_file());
+    }
+}
+
+/// The mean k-space image (Fig. 48) an analysis job writes is the mean over the samples of the
+/// k-space data it simulated (checked against the saved samples, complex64: to their rounding).
+#[test]
+fn the_mean_kspace_image_is_the_mean_of_the_kspace_samples() {
+    let tmp = tempfile::tempdir().unwrap();
+    let spec = tmp.path().join("k.yaml");
+    std::fs::write(
+        &spec,
+        "name: k\nseed: 3\ndatasets:\n  - {id: plant_B_light, kind: vegetation_isar, plant: B, wind: light, samples: 5, image_size: 32, save_kspace: true, measurement: {frequencies: 40, azimuths: 24}}\nanalysis:\n  levels: 1\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    run(&spec, &out, "2");
+    let k: ndarray::Array3<num_complex::Complex<f32>> =
+        ndarray_npy::read_npy(out.join("kspace/plant_B_light.npy")).unwrap();
+    let mean: ndarray::Array2<num_complex::Complex64> =
+        ndarray_npy::read_npy(out.join("kspace/plant_B_light.mean.npy")).unwrap();
+    assert_eq!(mean.dim(), (40, 24));
+    let scale = mean.iter().map(|z| z.norm()).fold(0.0, f64::max);
+    for ((f, a), m) in mean.indexed_iter() {
+        let want: num_complex::Complex64 = (0..5)
+            .map(|s| {
+                let z = k[[s, f, a]];
+                num_complex::Complex64::new(z.re as f64, z.im as f64)
+            })
+            .sum::<num_complex::Complex64>()
+            / 5.0;
+        assert!(
+            (m - want).norm() <= 1e-6 * scale,
+            "[{f}, {a}]: {m} vs {want}"
+        );
+    }
 }
 
 /// Plant k-space data measured through the simulated chain (system response, chamber clutter,

@@ -46,6 +46,9 @@ pub struct Materialised {
     pub truth: Option<(FilterBank, Array2<f64>)>,
     /// For `vegetation_isar` with `save_kspace`: the simulated `E(f, phi)`, `[N, n_f, n_phi]`.
     pub kspace: Option<Array3<Complex64>>,
+    /// For `vegetation_isar`: the mean over the samples of `E(f, phi)`, `[n_f, n_phi]` (the
+    /// dissertation's mean k-space image, Fig. 48).
+    pub mean_kspace: Option<Array2<Complex64>>,
 }
 
 /// Builds the per-pixel filter bank of a `filtered_noise` dataset.
@@ -129,6 +132,7 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Da
                 hwn: false,
                 truth: Some((bank, std)),
                 kspace: None,
+                mean_kspace: None,
             }
         }
         Dataset::Kspace(k) => {
@@ -164,6 +168,9 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Da
                 hwn: false,
                 truth: None,
                 kspace: None,
+                mean_kspace: e
+                    .slice(ndarray::s![..k.samples, .., ..])
+                    .mean_axis(ndarray::Axis(0)),
             }
         }
         Dataset::Vegetation(v) => {
@@ -189,6 +196,7 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Da
                 stack: Stack::Generated(images),
                 hwn: false,
                 truth: None,
+                mean_kspace: kspace.mean_axis(ndarray::Axis(0)),
                 kspace: v.save_kspace.then_some(kspace),
             }
         }
@@ -202,18 +210,21 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Da
             hwn: false,
             truth: None,
             kspace: None,
+            mean_kspace: None,
         },
         Dataset::Mat(m) => Materialised {
             stack: crate::io::mat::load_stack(&m.path, Some(&m.variable))?,
             hwn: m.layout == Layout::Hwn,
             truth: None,
             kspace: None,
+            mean_kspace: None,
         },
         Dataset::Npy(n) => Materialised {
             stack: Stack::load(&n.path)?,
             hwn: n.layout == Layout::Hwn,
             truth: None,
             kspace: None,
+            mean_kspace: None,
         },
     })
 }

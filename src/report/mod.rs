@@ -14,6 +14,7 @@ pub mod figures;
 mod jobs;
 pub mod manifest;
 mod page;
+mod plants;
 mod runwide;
 pub mod select;
 pub mod table;
@@ -106,6 +107,7 @@ pub fn build_claimed_with(outdir: &crate::io::outdir::OutDir, options: &Options)
     // then the chosen jobs' figures in plan order.
     let mut tasks = runwide::sweep_figures(dir)?;
     tasks.extend(runwide::calibration_figures(dir)?);
+    tasks.extend(plants::plant_figures(dir)?);
     let per_job: Vec<Vec<Task>> = selection
         .jobs
         .par_iter()

@@ -53,7 +53,7 @@ pub(super) fn calibration_figures(dir: &Path) -> Result<Vec<Task>> {
 }
 
 /// A run-wide figure of named curves (`figures/<stem>`) to draw, drawn from the table `data`.
-fn curves_task(
+pub(super) fn curves_task(
     dir: &Path,
     stem: &str,
     caption: String,

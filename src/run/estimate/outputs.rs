@@ -16,6 +16,7 @@
 //! each table, 65,536 rows, and the jobs being read: counted as 160 MB, see BENCHMARKS.md) and
 //! the largest job on each thread.
 
+use crate::experiment::Dataset;
 use crate::run::plan::Plan;
 use std::fmt;
 
@@ -85,6 +86,16 @@ pub fn footprint(plan: &Plan, jobs: usize) -> Footprint {
         if plan.spec.outputs.npy_maps {
             f.files += 2.0 * maps.len() as f64;
             f.maps += maps.iter().sum::<f64>();
+        }
+        // The mean k-space image of an analysis job on k-space data (complex128 `[n_f, n_phi]`).
+        let kspace = match &job.dataset {
+            Dataset::Vegetation(v) => Some((v.measurement.frequencies, v.measurement.azimuths)),
+            Dataset::Kspace(k) => Some((k.measurement.freqs.len(), k.measurement.azimuths.len())),
+            _ => None,
+        };
+        if let (Some((nf, nphi)), true, None) = (kspace, plan.spec.outputs.npy_maps, job.method) {
+            f.files += 2.0;
+            f.maps += npy((nf * nphi) as f64, 16.0);
         }
         if let Some(s) = job.synthesis.as_ref().filter(|s| s.save_samples) {
             f.files += 2.0;

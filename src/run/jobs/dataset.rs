@@ -226,6 +226,12 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
         write_npy(&files[1], &ndarray::Array1::from(grid.freqs.clone()))?;
         write_npy(&files[2], &ndarray::Array1::from(deg))?;
     }
+    if let (Some(m), true) = (&data.mean_kspace, plan.spec.outputs.npy_maps) {
+        // The mean k-space image (Fig. 48): rows frequency, columns azimuth.
+        let path = out.join("kspace").join(format!("{}.mean.npy", job.id));
+        write_npy(&path, m)?;
+        files.push(path);
+    }
     let correlating = plan
         .spec
         .hypotheses

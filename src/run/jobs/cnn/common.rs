@@ -41,6 +41,7 @@ pub(super) fn materialise_all(data: &[DataRef]) -> Result<Materialised> {
         hwn: false,
         truth: None,
         kspace: None,
+        mean_kspace: None,
     })
 }
 
