@@ -120,3 +120,85 @@ fn run_seed_is_recorded_and_merge_uses_it() {
     assert_eq!(manifest["master_seed"], 5);
     assert_eq!(manifest["master_seed_from"], "--seed");
 }
+
+/// Every table the document covers, rerun once at the dissertation's sizes with the specs' own
+/// seeds (the first repeat of `make reproduce`), gives the numbers `docs/reproduction.json`
+/// records for that repeat. A change that moves a reproduced number by more than a tenth of
+/// its sampling spread (the standard deviation over the document's repeats; for an exact
+/// value, or one without spread, 1e-9 of it) fails here, naming the table and cell, and asks
+/// for `make reproduce` to write the document again. Floating-point differences between CPUs
+/// (the f32 kernels' paths) are far below that.
+#[test]
+fn every_covered_table_gives_the_numbers_the_document_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let numbers: Vec<u32> = rep::Coverage::all()
+        .recipes
+        .iter()
+        .map(|r| r.number)
+        .collect();
+    let recipes = rep::Coverage::tables(&numbers);
+    let opts = rep::Options {
+        out: dir.path().to_path_buf(),
+        specs: PathBuf::from("experiments"),
+        repeats: 1,
+        threads: 2,
+        write_only: false,
+        quiet: true,
+    };
+    let runs = rep::run_all(&opts, &recipes).unwrap();
+    let doc = dir.path().join("reproduction.md");
+    rep::write(&recipes, &runs, &doc, &header()).unwrap();
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let fresh = read(&doc.with_extension("json"));
+    let recorded = read(Path::new("docs/reproduction.json"));
+    let tables = |v: &serde_json::Value| -> Vec<serde_json::Value> {
+        v["tables"].as_array().unwrap().clone()
+    };
+    let recorded_tables = tables(&recorded);
+    let mut checked = 0;
+    for t in tables(&fresh) {
+        let n = t["number"].as_u64().unwrap();
+        let r = recorded_tables
+            .iter()
+            .find(|x| x["number"].as_u64() == Some(n))
+            .unwrap_or_else(|| panic!("Table {n} is not in docs/reproduction.json"));
+        for (i, (row, rrow)) in t["cells"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(r["cells"].as_array().unwrap())
+            .enumerate()
+        {
+            for (j, (c, rc)) in row
+                .as_array()
+                .unwrap()
+                .iter()
+                .zip(rrow.as_array().unwrap())
+                .enumerate()
+            {
+                let at = format!("Table {n}, row {}, column {}", i + 1, j + 1);
+                assert_eq!(c.is_null(), rc.is_null(), "{at}: computed in one only");
+                if c.is_null() {
+                    continue;
+                }
+                let (got, want) = (c["first"].as_f64(), rc["first"].as_f64());
+                match (got, want) {
+                    (Some(g), Some(w)) => {
+                        let sd = rc["sd"].as_f64().unwrap_or(0.0);
+                        let tol = (0.1 * sd).max(1e-9 * w.abs()).max(1e-300);
+                        assert!(
+                            (g - w).abs() <= tol,
+                            "{at}: {g} now, {w} in docs/reproduction.json (tolerance {tol}): \
+                             run `make reproduce` if the change is meant"
+                        );
+                    }
+                    (g, w) => assert_eq!(g.is_none(), w.is_none(), "{at}: NaN in one only"),
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 300, "only {checked} cells compared");
+}

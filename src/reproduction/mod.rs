@@ -164,6 +164,9 @@ pub struct Cell {
     pub verdict: Option<Verdict>,
     /// The tolerance the verdict used.
     pub tolerance: Option<f64>,
+    /// The tool's value in the first repeat (the spec's own seed): what a rerun of the spec
+    /// gives again ([`write`] records it for the quick tests).
+    pub first: Option<f64>,
 }
 
 /// One table of the document: the recipe's cells evaluated.
@@ -200,6 +203,7 @@ pub fn evaluate(
                 Spread::Conclusion => table.conclusion_at(r, c),
                 _ => table.number_at(r, c),
             };
+            let mut first = None;
             let tool = match query {
                 None => None,
                 Some(q) => {
@@ -210,6 +214,7 @@ pub fn evaluate(
                         .with_context(|| {
                             format!("Table {}, row {}, column {}", table.number, r + 1, c + 1)
                         })?;
+                    first = values.first().copied();
                     (!values.is_empty()).then(|| Summary::of(&values))
                 }
             };
@@ -230,6 +235,7 @@ pub fn evaluate(
                 difference,
                 verdict,
                 tolerance,
+                first,
             });
         }
         // A row that keeps the dissertation's order turns its differing cells into
@@ -312,12 +318,50 @@ pub fn write(
         .map(|st| evaluate_statement(st, &dissertation, runs, &mut tables))
         .collect::<Result<Vec<_>>>()?;
     let (text, counts) = render::document(&dissertation, &evaluated, &stated, header);
+    let values = doc.with_extension("json");
+    crate::io::atomic::atomic_write(&values, |w| {
+        serde_json::to_writer_pretty(&mut *w, &tool_values(&evaluated))?;
+        w.write_all(b"\n")?;
+        Ok(())
+    })
+    .with_context(|| format!("writing {}", values.display()))?;
     crate::io::atomic::atomic_write(doc, |w| {
         w.write_all(text.as_bytes())?;
         Ok(())
     })
     .with_context(|| format!("writing {}", doc.display()))?;
     Ok(counts)
+}
+
+/// The tool's numbers of every evaluated table, for the file beside the document
+/// (`docs/reproduction.json`) that the quick tests compare a fresh run with: per table, rows
+/// of cells, each `null` (not computed) or `{first, mean, sd, n}` (`first`: the repeat of the
+/// spec's own seed).
+pub fn tool_values(evaluated: &[Evaluated]) -> serde_json::Value {
+    let tables: Vec<serde_json::Value> = evaluated
+        .iter()
+        .map(|e| {
+            let rows: Vec<Vec<serde_json::Value>> = e
+                .cells
+                .iter()
+                .map(|row| {
+                    row.iter()
+                        .map(|c| match (c.tool, c.first) {
+                            (Some(t), Some(first)) => serde_json::json!({
+                                "first": first,
+                                "mean": t.mean,
+                                "sd": t.sd,
+                                "n": t.n,
+                            }),
+                            _ => serde_json::Value::Null,
+                        })
+                        .collect()
+                })
+                .collect();
+            serde_json::json!({ "number": e.number, "cells": rows })
+        })
+        .collect();
+    serde_json::json!({ "format": "isar-clutter-reproduction-values/1", "tables": tables })
 }
 
 /// Fits the stand-in plants to Table 16 ([`crate::physics::vegetation::calibration`]) with
