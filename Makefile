@@ -33,7 +33,8 @@ run-experiment: build
 	$(BIN) run $(SPEC) $(ARGS)
 
 ## reproduce: run the specs the dissertation's tables need (REPEATS runs of each random
-## statistic, resumable) into outputs/reproduction/ and write docs/reproduction.md from them
+## statistic, resumable) into outputs/reproduction/ and write docs/reproduction.md (and the
+## numbers it shows, docs/reproduction.json, which make test checks a fresh run against) from them
 REPEATS ?= 5
 reproduce: build
 	$(BIN) reproduce --repeats $(REPEATS) $(ARGS)
