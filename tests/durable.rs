@@ -378,3 +378,60 @@ fn the_input_hash_memo_never_hides_a_changed_input() {
         text(&o)
     );
 }
+
+/// A stored result that another build of the tool computed is merged as it is (the store's keys
+/// do not hold the tool's version), and the merge says so, naming that build; the manifest
+/// records the build that computed each job (`computed_by`). The other build is made by
+/// rewriting one job's pack record (and its hash) as an older build would have written it.
+#[test]
+fn results_of_another_build_are_merged_and_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec(dir.path());
+    let out = dir.path().join("out");
+    let o = run(&spec, &out, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains("different build"), "{}", text(&o));
+    let jobs = |out: &Path| -> Vec<serde_json::Value> {
+        let m: serde_json::Value =
+            serde_json::from_slice(&fs::read(out.join("manifest.json")).unwrap()).unwrap();
+        m["jobs"].as_array().unwrap().clone()
+    };
+    let this = jobs(&out)[0]["computed_by"].as_str().unwrap().to_string();
+    assert!(jobs(&out).iter().all(|j| j["computed_by"] == this.as_str()));
+    // One pack as an older build wrote it: header (magic, record length, XXH3-128 of the
+    // body), then the record (JSON) and the fragments.
+    let pack = fs::read_dir(out.join("jobs"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path().join("job.pack"))
+        .find(|p| p.is_file())
+        .unwrap();
+    let bytes = fs::read(&pack).unwrap();
+    let len = u64::from_le_bytes(bytes[8..16].try_into().unwrap()) as usize;
+    let body = &bytes[32..];
+    let mut record: serde_json::Value = serde_json::from_slice(&body[..len]).unwrap();
+    let id = record["id"].as_str().unwrap().to_string();
+    record["built_by"] = "0123abc (an older build)".into();
+    let mut new_body = serde_json::to_vec(&record).unwrap();
+    new_body.extend_from_slice(&body[len..]);
+    let mut new = bytes[..8].to_vec();
+    new.extend_from_slice(&(new_body.len() - (body.len() - len)).to_le_bytes()[..8]);
+    new.extend_from_slice(&xxhash_rust::xxh3::xxh3_128(&new_body).to_le_bytes());
+    new.extend_from_slice(&new_body);
+    fs::write(&pack, new).unwrap();
+    let o = bin(&["merge", out.to_str().unwrap(), "--no-report"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains(
+            "1 job(s) were merged from results a different build of the tool computed \
+             (first: 0123abc (an older build)"
+        ),
+        "{}",
+        text(&o)
+    );
+    let entry = jobs(&out)
+        .into_iter()
+        .find(|j| j["job"] == id.as_str())
+        .unwrap();
+    assert_eq!(entry["computed_by"], "0123abc (an older build)");
+}

@@ -82,8 +82,9 @@ impl Manifest {
         })
     }
 
-    /// Appends the entry of `job`: its outcome (`Ok` with its timings, or the error) and wall
-    /// time.
+    /// Appends the entry of `job`: its outcome (`Ok` with its timings, or the error), wall
+    /// time and `computed_by`, the build of the tool that computed a stored result (null for
+    /// a failed job or a record that did not keep it).
     ///
     /// # Errors
     /// If the file cannot be written.
@@ -92,6 +93,7 @@ impl Manifest {
         job: &dyn JobKind,
         outcome: std::result::Result<Option<&serde_json::Value>, &str>,
         elapsed_s: f64,
+        built_by: Option<&str>,
     ) -> Result<()> {
         let mut entry = json!({
             "job": job.id(),
@@ -106,6 +108,7 @@ impl Manifest {
         entry["error"] = json!(outcome.err());
         entry["elapsed_s"] = json!(elapsed_s);
         entry["timing"] = json!(outcome.ok().flatten());
+        entry["computed_by"] = json!(built_by);
         let sep = if self.jobs == 0 { "" } else { "," };
         write!(self.file, "{sep}\n    {}", serde_json::to_string(&entry)?)?;
         self.jobs += 1;

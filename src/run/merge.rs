@@ -275,6 +275,10 @@ pub fn merge_claimed(
     // The next chunk is read on the pool while this thread appends the current one (and
     // encodes the row groups it completes), so that neither waits for the other.
     let mut next = chunks.first().map(|c| read(c)).transpose()?;
+    // Stored results computed by another build of the tool (the store's keys do not hold the
+    // tool's version): counted, and the first such build named.
+    let this_build = crate::run::manifest::build_commit();
+    let mut other_builds: (usize, Option<String>) = (0, None);
     for (c, chunk) in chunks.iter().enumerate() {
         let loaded = next.take().expect("read ahead");
         let (ahead, appended) = rayon::join(
@@ -290,7 +294,13 @@ pub fn merge_claimed(
                         Some(e) => Err(e.as_str()),
                         None => Ok(l.timing.as_ref()),
                     };
-                    manifest.job(jobs[i], outcome, l.elapsed_s)?;
+                    manifest.job(jobs[i], outcome, l.elapsed_s, l.built_by.as_deref())?;
+                    if l.error.is_none() && l.built_by.as_deref() != Some(this_build.as_str()) {
+                        other_builds.0 += 1;
+                        other_builds.1.get_or_insert_with(|| {
+                            l.built_by.clone().unwrap_or_else(|| "not recorded".into())
+                        });
+                    }
                 }
                 Ok(())
             },
@@ -301,6 +311,13 @@ pub fn merge_claimed(
     }
     for (_, sink) in sinks {
         sink.finish()?;
+    }
+    if let (n, Some(build)) = other_builds {
+        merged.notes.push(format!(
+            "{n} job(s) were merged from results a different build of the tool computed \
+             (first: {build}; this build: {this_build}): the job store reuses a result whatever \
+             the tool's version; `run --fresh` computes them again"
+        ));
     }
     let tables_s = t_tables.elapsed().as_secs_f64();
     // Everything an earlier run wrote that this one did not (the store stays: its keys are a
@@ -416,6 +433,8 @@ struct Loaded {
     error: Option<String>,
     timing: Option<serde_json::Value>,
     elapsed_s: f64,
+    /// The build that computed a stored result (`None`: failed, or not recorded).
+    built_by: Option<String>,
 }
 
 /// Reads one job for pass 2.
@@ -449,6 +468,7 @@ fn load(
                 error: None,
                 timing: done.timing,
                 elapsed_s: done.elapsed_s,
+                built_by: done.built_by,
             });
         }
         Ok(None) => state(out, key, unsaved),
@@ -470,6 +490,7 @@ fn load(
         error: Some(error),
         timing: None,
         elapsed_s,
+        built_by: None,
     })
 }
 

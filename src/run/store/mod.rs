@@ -94,6 +94,11 @@ pub struct Done {
     /// `files`, checked whenever the entry is verified, so that a damaged file is never
     /// resumed or merged (the pack's own bytes are covered by the hash in its header).
     pub hashes: BTreeMap<String, String>,
+    /// The build of the tool that computed the result ([`crate::run::manifest::build_commit`]);
+    /// absent in records written before it was kept. The key does not hold the tool's
+    /// version, so a result is reused by later builds: the merge says so when it does.
+    #[serde(default)]
+    pub built_by: Option<String>,
 }
 
 /// The record of a failed job (`failed.json`).
@@ -417,6 +422,7 @@ pub fn save(out: &Path, key: &str, job: &dyn JobKind, outcome: &Outcome) -> Resu
         fragments,
         files,
         hashes,
+        built_by: Some(crate::run::manifest::build_commit()),
     };
     let mut body = serde_json::to_vec(&done)?;
     let record = body.len() as u64;
