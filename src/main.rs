@@ -366,6 +366,7 @@ fn real_main() -> Result<ExitCode> {
                     isar_clutter::run::manifest::build_commit()
                 ),
                 repeats,
+                builds: vec![],
             };
             let counts = rep::write(&coverage, &runs, &doc, &header)?;
             let n = |v| counts.get(&v).copied().unwrap_or(0);

@@ -13,6 +13,7 @@ fn header() -> render::Header {
         machine: "test".into(),
         tool: "test".into(),
         repeats: 2,
+        builds: vec![],
     }
 }
 
@@ -48,6 +49,13 @@ fn tables_3_and_4_match_the_dissertation() {
     assert_eq!(counts.len(), 1, "{counts:?}");
     let text = std::fs::read_to_string(&doc).unwrap();
     assert!(text.contains("## Table 3: Correlation for Pixel Offsets"));
+    // The build that computed the results is named (from the run folders' manifests).
+    let builds = rep::builds(&runs);
+    assert_eq!(builds.len(), 1, "{builds:?}");
+    assert!(
+        text.contains(&format!("- Results computed by: {} (", builds[0].0)),
+        "{text}"
+    );
     assert!(
         text.contains("| 1 | Correlation | 0.6481 | 0.6481 |"),
         "{text}"

@@ -317,7 +317,11 @@ pub fn write(
         .iter()
         .map(|st| evaluate_statement(st, &dissertation, runs, &mut tables))
         .collect::<Result<Vec<_>>>()?;
-    let (text, counts) = render::document(&dissertation, &evaluated, &stated, header);
+    let header = render::Header {
+        builds: builds(runs),
+        ..header.clone()
+    };
+    let (text, counts) = render::document(&dissertation, &evaluated, &stated, &header);
     let values = doc.with_extension("json");
     crate::io::atomic::atomic_write(&values, |w| {
         serde_json::to_writer_pretty(&mut *w, &tool_values(&evaluated))?;
@@ -433,6 +437,25 @@ pub fn record_wall(out: &Path, wall_s: f64, repeats: usize) -> Result<()> {
         serde_json::to_writer_pretty(&mut *w, &record)?;
         Ok(())
     })
+}
+
+/// The builds of the tool that computed the jobs of every run folder in `runs` (the manifests'
+/// `computed_by`; `not recorded` for a job without it), with their job counts.
+pub fn builds(runs: &[SpecRuns]) -> Vec<(String, usize)> {
+    let mut count: BTreeMap<String, usize> = BTreeMap::new();
+    for (_, dir) in runs.iter().flat_map(|r| &r.runs) {
+        let Ok(text) = std::fs::read(dir.join("manifest.json")) else {
+            continue;
+        };
+        let Ok(m) = serde_json::from_slice::<serde_json::Value>(&text) else {
+            continue;
+        };
+        for job in m["jobs"].as_array().into_iter().flatten() {
+            let b = job["computed_by"].as_str().unwrap_or("not recorded");
+            *count.entry(b.to_string()).or_default() += 1;
+        }
+    }
+    count.into_iter().collect()
 }
 
 /// The wall time [`record_wall`] recorded in `out`, if any.

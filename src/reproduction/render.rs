@@ -23,6 +23,10 @@ pub struct Header {
     pub tool: String,
     /// Repeats of the random statistics.
     pub repeats: usize,
+    /// The builds that computed the results the document reads, with their job counts (from
+    /// the run folders' manifests, `computed_by`; filled by [`super::write`]): the job store
+    /// reuses a result whatever the tool's version, so these can differ from `tool`.
+    pub builds: Vec<(String, usize)>,
 }
 
 /// The machine this process runs on: CPU model, cores and memory (Linux; else the
@@ -131,6 +135,14 @@ pub fn document(
     );
     let _ = writeln!(s, "- Machine: {}", header.machine);
     let _ = writeln!(s, "- Tool: {}", header.tool);
+    if !header.builds.is_empty() {
+        let builds: Vec<String> = header
+            .builds
+            .iter()
+            .map(|(b, n)| format!("{b} ({n} job(s))"))
+            .collect();
+        let _ = writeln!(s, "- Results computed by: {}", builds.join(", "));
+    }
     match header.wall_s {
         Some(w) => {
             let _ = writeln!(
