@@ -18,6 +18,74 @@ use std::path::Path;
 /// The winds in the order of motion (the x axis of Figs. 54-56).
 const WINDS: [&str; 3] = ["none", "light", "medium"];
 
+/// Where `wind` falls in [`WINDS`] (after them if it is none of them).
+fn wind_rank(wind: &str) -> usize {
+    WINDS.iter().position(|x| *x == wind).unwrap_or(WINDS.len())
+}
+
+/// Maps keyed by (wind rank, plant), in that order, as rows of `(title, map)`: a row per wind.
+fn rows_by_wind(
+    maps: BTreeMap<(usize, String), (String, Array2<f64>)>,
+) -> Vec<Vec<(String, Array2<f64>)>> {
+    let mut rows: Vec<Vec<(String, Array2<f64>)>> = vec![];
+    let mut last = None;
+    for ((w, _), titled) in maps {
+        if last != Some(w) {
+            rows.push(vec![]);
+            last = Some(w);
+        }
+        rows.last_mut().expect("a row").push(titled);
+    }
+    rows
+}
+
+/// A run-wide figure (`figures/<stem>`) of heatmap panels, a row of `rows` each, on one colour
+/// scale, drawn from the files `data` (relative to `dir`).
+fn heatmap_task(
+    dir: &Path,
+    stem: &'static str,
+    caption: String,
+    rows: Vec<Vec<(String, Array2<f64>)>>,
+    scale: (Scale, &'static str),
+    [x_label, y_label]: [String; 2],
+    data: Vec<std::path::PathBuf>,
+) -> Task {
+    let dir = dir.to_path_buf();
+    Box::new(move || {
+        let panels: Vec<Vec<Panel>> = rows
+            .iter()
+            .map(|row| {
+                row.iter()
+                    .map(|(title, m)| Panel {
+                        title: title.clone(),
+                        map: m.view(),
+                    })
+                    .collect()
+            })
+            .collect();
+        let options = figures::heatmap::GridOptions {
+            x_label: &x_label,
+            y_label: &y_label,
+            ..Default::default()
+        };
+        let files = figures::heatmap::heatmap_grid_with(
+            &dir.join("figures"),
+            stem,
+            &caption,
+            &panels,
+            scale,
+            &options,
+        )
+        .with_context(|| format!("drawing {stem}"))?;
+        Ok(Figure {
+            job: String::new(),
+            caption,
+            files: files.map(|f| rel(&dir, &f)),
+            data,
+        })
+    })
+}
+
 /// The plant figures of the run in `dir` (none when it has no plant datasets).
 ///
 /// # Errors
@@ -68,7 +136,7 @@ fn correlating_figures(dir: &Path) -> Result<Vec<Task>> {
         let Some((plant, wind)) = parse_id(&datasets[i]) else {
             continue;
         };
-        let w = WINDS.iter().position(|x| *x == wind).unwrap_or(WINDS.len());
+        let w = wind_rank(&wind);
         let (_, map) = maps.entry((w, plant)).or_insert_with(|| {
             (
                 datasets[i].clone(),
@@ -122,59 +190,19 @@ fn correlating_figures(dir: &Path) -> Result<Vec<Task>> {
             &path,
         ),
     ];
-    // The heatmaps: a row of panels per wind, plants in order.
-    let mut rows: Vec<Vec<(String, Array2<f64>)>> = vec![];
-    let mut last = None;
-    for ((w, _), (id, m)) in &maps {
-        if last != Some(*w) {
-            rows.push(vec![]);
-            last = Some(*w);
-        }
-        rows.last_mut()
-            .expect("a row")
-            .push((id.clone(), m.clone()));
-    }
-    let data = path.clone();
-    let dir = dir.to_path_buf();
-    tasks.push(Box::new(move || {
-        let panels: Vec<Vec<Panel>> = rows
-            .iter()
-            .map(|row| {
-                row.iter()
-                    .map(|(id, m)| Panel {
-                        title: id.clone(),
-                        map: m.view(),
-                    })
-                    .collect()
-            })
-            .collect();
-        let stem = "plants_correlating_function";
-        let caption = format!(
-            "Magnitude of the mean 2-D correlating function, offsets -{reach}..{reach} (rows dy, \
-             columns dx; Figs. 50-51)"
-        );
-        let (x_label, y_label) = (format!("dx + {reach}"), format!("dy + {reach}"));
-        let options = figures::heatmap::GridOptions {
-            x_label: &x_label,
-            y_label: &y_label,
-            ..Default::default()
-        };
-        let files = figures::heatmap::heatmap_grid_with(
-            &dir.join("figures"),
-            stem,
-            &caption,
-            &panels,
-            (Scale::Diverging { lo: -1.0, hi: 1.0 }, "|mean correlation|"),
-            &options,
-        )
-        .with_context(|| format!("drawing {stem}"))?;
-        Ok(Figure {
-            job: String::new(),
-            caption,
-            files: files.map(|f| rel(&dir, &f)),
-            data: vec![rel(&dir, &data)],
-        })
-    }));
+    let caption = format!(
+        "Magnitude of the mean 2-D correlating function, offsets -{reach}..{reach} (rows dy, \
+         columns dx; Figs. 50-51)"
+    );
+    tasks.push(heatmap_task(
+        dir,
+        "plants_correlating_function",
+        caption,
+        rows_by_wind(maps),
+        (Scale::Diverging { lo: -1.0, hi: 1.0 }, "|mean correlation|"),
+        [format!("dx + {reach}"), format!("dy + {reach}")],
+        vec![rel(dir, &path)],
+    ));
     Ok(tasks)
 }
 
@@ -276,7 +304,7 @@ fn kspace_figure(dir: &Path) -> Result<Vec<Task>> {
         let Some((plant, wind)) = parse_id(id) else {
             continue;
         };
-        let w = WINDS.iter().position(|x| *x == wind).unwrap_or(WINDS.len());
+        let w = wind_rank(&wind);
         found
             .entry((w, plant))
             .or_insert((job.to_string(), e.path()));
@@ -284,56 +312,22 @@ fn kspace_figure(dir: &Path) -> Result<Vec<Task>> {
     if found.is_empty() {
         return Ok(vec![]);
     }
-    let mut rows: Vec<Vec<(String, Array2<f64>)>> = vec![];
+    let mut maps = BTreeMap::new();
     let mut data = vec![];
-    let mut last = None;
-    for ((w, _), (job, path)) in &found {
+    for (key, (job, path)) in found {
         let mean: Array2<num_complex::Complex64> =
-            ndarray_npy::read_npy(path).with_context(|| format!("reading {}", path.display()))?;
-        let db = mean.mapv(|z| 20.0 * z.norm().log10());
-        if last != Some(*w) {
-            rows.push(vec![]);
-            last = Some(*w);
-        }
-        rows.last_mut().expect("a row").push((job.clone(), db));
-        data.push(rel(dir, path));
+            ndarray_npy::read_npy(&path).with_context(|| format!("reading {}", path.display()))?;
+        maps.insert(key, (job, mean.mapv(|z| 20.0 * z.norm().log10())));
+        data.push(rel(dir, &path));
     }
-    let dir = dir.to_path_buf();
-    Ok(vec![Box::new(move || {
-        let panels: Vec<Vec<Panel>> = rows
-            .iter()
-            .map(|row| {
-                row.iter()
-                    .map(|(id, m)| Panel {
-                        title: id.clone(),
-                        map: m.view(),
-                    })
-                    .collect()
-            })
-            .collect();
-        let stem = "plants_mean_kspace";
-        let caption = "Mean k-space image, 20 log10 |mean E(f, phi)| (rows frequency, columns \
-                       azimuth; Fig. 48)"
-            .to_string();
-        let options = figures::heatmap::GridOptions {
-            x_label: "azimuth index",
-            y_label: "frequency index",
-            ..Default::default()
-        };
-        let files = figures::heatmap::heatmap_grid_with(
-            &dir.join("figures"),
-            stem,
-            &caption,
-            &panels,
-            (Scale::Perceptual, "dB"),
-            &options,
-        )
-        .with_context(|| format!("drawing {stem}"))?;
-        Ok(Figure {
-            job: String::new(),
-            caption,
-            files: files.map(|f| rel(&dir, &f)),
-            data,
-        })
-    })])
+    Ok(vec![heatmap_task(
+        dir,
+        "plants_mean_kspace",
+        "Mean k-space image, 20 log10 |mean E(f, phi)| (rows frequency, columns azimuth; Fig. 48)"
+            .to_string(),
+        rows_by_wind(maps),
+        (Scale::Perceptual, "dB"),
+        ["azimuth index".to_string(), "frequency index".to_string()],
+        data,
+    )])
 }
