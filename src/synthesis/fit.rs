@@ -121,10 +121,13 @@ impl AlphaInverter {
         let (positive, negative) = if half_width == 0 {
             ((0.0, 0.0), (0.0, 0.0))
         } else {
-            (
-                exponential_peak(half_width),
-                negative_peak(half_width, signs),
-            )
+            let positive = exponential_peak(half_width);
+            // The alternating branch mirrors the positive one: its peak is the same search.
+            let negative = match signs {
+                NegativeSigns::Alternating => positive,
+                NegativeSigns::Multiscale => negative_peak(half_width, signs),
+            };
+            (positive, negative)
         };
         AlphaInverter {
             half_width,
