@@ -57,7 +57,7 @@ validate: build
 
 ## test: every test, with the release profile (shares the release build's dependencies)
 test: test-deps
-	cargo test --release --locked $(CARGO_FEATURES)
+	cargo test --release --locked --workspace $(CARGO_FEATURES)
 
 ## hdf5: Debian's libhdf5-dev (and pkg-config) for the mat73 feature, installed with apt when
 ## running as root, otherwise a hint; then the static layout of HDF5_DIR (above) from it.
@@ -104,8 +104,8 @@ test-deps: hdf5 $(VENV)/bin/python
 ## lint: formatting and clippy with warnings as errors
 lint: hdf5
 	cargo fmt --all -- --check
-	cargo clippy --release --all-targets --locked $(CARGO_FEATURES) -- -D warnings
-	cargo clippy --release --all-targets --locked -- -D warnings
+	cargo clippy --release --workspace --all-targets --locked $(CARGO_FEATURES) -- -D warnings
+	cargo clippy --release --workspace --all-targets --locked -- -D warnings
 
 fmt:
 	cargo fmt --all

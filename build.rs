@@ -41,6 +41,7 @@ fn main() {
     );
     for path in [
         "src",
+        "crates",
         "Cargo.toml",
         "Cargo.lock",
         "build.rs",

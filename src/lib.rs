@@ -20,18 +20,15 @@
 
 #![warn(missing_docs)]
 
-pub mod alloc;
 pub mod apps;
 pub mod data;
 pub mod experiment;
 pub mod io;
-pub mod physics;
 pub mod report;
 pub mod reproduction;
 pub mod run;
-pub mod seeds;
-pub mod stats;
-pub mod synthesis;
+
+pub use isar_clutter_core::{alloc, physics, seeds, stats, synthesis, workflow};
 
 /// An error and its causes as one line, `context: cause: root` as anyhow's `{:#}` prints them,
 /// except that a cause whose text the line already ends with is left out: some libraries put

@@ -70,7 +70,7 @@ fn table(out: &Path, args: &[&str]) -> String {
 
 /// Test accuracies (%) of `method` at `column = x` in a run's table.
 fn accuracies(out: &Path, file: &str, method: &str, column: &str, x: f64) -> Vec<f64> {
-    let df = isar_clutter::io::atomic::read_parquet(&out.join(file))
+    let df = isar_clutter::io::parquet::read_parquet(&out.join(file))
         .unwrap()
         .unwrap();
     let col = |c: &str| {

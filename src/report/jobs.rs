@@ -269,7 +269,7 @@ impl Params {
     /// # Errors
     /// If the file cannot be read or lacks a column the tool writes.
     pub(super) fn load(dir: &Path) -> Result<Option<Params>> {
-        let Some(df) = crate::io::atomic::read_parquet(&dir.join("synthesis_params.parquet"))?
+        let Some(df) = crate::io::parquet::read_parquet(&dir.join("synthesis_params.parquet"))?
         else {
             return Ok(None);
         };

@@ -116,7 +116,7 @@ fn floats(df: &DataFrame, c: &str) -> Result<Vec<f64>> {
 /// offsets `-R..=R` (a heatmap grid, a row per wind), and its cuts through the origin.
 fn correlating_figures(dir: &Path) -> Result<Vec<Task>> {
     let path = dir.join("correlating_function.parquet");
-    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
     if df.column("mean_magnitude").is_err() {
@@ -211,7 +211,7 @@ fn correlating_figures(dir: &Path) -> Result<Vec<Task>> {
 /// for each level.
 fn level_figures(dir: &Path) -> Result<Vec<Task>> {
     let path = dir.join("analysis_summary.parquet");
-    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
     let (datasets, sources, directions) = (

@@ -12,7 +12,7 @@ use std::path::Path;
 /// The calibration's spectra (Figs. 11-14): Mie, raw and calibrated sphere, and the error.
 pub(super) fn calibration_figures(dir: &Path) -> Result<Vec<Task>> {
     let path = dir.join("calibration.parquet");
-    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
     let col = |c: &str| -> Result<Vec<f64>> {
@@ -154,7 +154,7 @@ fn curve_figures(
     pick: &dyn Fn(&Row) -> Option<(String, String)>,
 ) -> Result<Vec<Task>> {
     let path = dir.join(file);
-    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
     let axes: Vec<String> = df

@@ -263,7 +263,7 @@ pub(super) fn render_limited(
     limit: Option<RowLimit>,
 ) -> Result<Option<Rendered>> {
     let path = dir.join(def.file);
-    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(None);
     };
     let names: Vec<String> = df
@@ -584,7 +584,7 @@ mod tests {
             cols.insert(0, Column::new("job".into(), ids));
         }
         let mut df = DataFrame::new(n, cols).unwrap();
-        crate::io::atomic::write_parquet(&dir.join("analysis_summary.parquet"), &mut df).unwrap();
+        crate::io::parquet::write_parquet(&dir.join("analysis_summary.parquet"), &mut df).unwrap();
     }
 
     #[test]

@@ -8,8 +8,8 @@
 //! its SHA-256, the schema and the shard count), so that `merge OUT` and `status OUT` need
 //! nothing else, and refuse when the spec changed since the shards ran.
 
-use crate::io::atomic::write_parquet;
 use crate::io::outdir::{OutDir, Purpose, STATE};
+use crate::io::parquet::write_parquet;
 use crate::run::jobs::all::AllJobs;
 use crate::run::jobs::{Inputs, JobKind, Outcome, Status};
 use crate::run::plan::{self, Plan};

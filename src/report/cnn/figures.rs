@@ -184,7 +184,7 @@ pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
 
 /// A Parquet table of the run, if present.
 fn read(dir: &Path, file: &str) -> Result<Option<DataFrame>> {
-    crate::io::atomic::read_parquet(&dir.join(file))
+    crate::io::parquet::read_parquet(&dir.join(file))
 }
 
 /// Test accuracy (%) against x per method, with error bars.

@@ -163,7 +163,7 @@ fn load(
     strict: bool,
 ) -> Result<Option<Vec<Group>>> {
     let path = dir.join(app.file());
-    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(None);
     };
     let Some(keep) = kept_rows(&df, &path, filters, strict)? else {

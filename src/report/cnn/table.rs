@@ -234,7 +234,7 @@ type Summary = Vec<((String, String), [Option<f64>; 4])>;
 fn summary(dir: &Path) -> Result<Summary> {
     use super::super::table::{floats, strings};
     let path = dir.join("location_summary.parquet");
-    let Some(df) = crate::io::atomic::read_parquet(&path)? else {
+    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
     let (t, m) = (strings(&df, "target")?, strings(&df, "method")?);

@@ -17,7 +17,7 @@ pub enum MatVersion {
 }
 
 /// The MATLAB class of the written values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MatClass {
     /// `single` complex: 8 bytes per value (what `.npy` samples hold).
     Single,
@@ -25,7 +25,23 @@ pub enum MatClass {
     Double,
 }
 
+impl std::str::FromStr for MatClass {
+    type Err = String;
+
+    /// The class of MATLAB's name (`single`, `double`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "single" => Ok(MatClass::Single),
+            "double" => Ok(MatClass::Double),
+            other => Err(format!("unknown MAT class {other:?} (single or double)")),
+        }
+    }
+}
+
 impl MatClass {
+    /// MATLAB's names of the classes, as a command line offers them.
+    pub const NAMES: [&'static str; 2] = ["single", "double"];
+
     /// MATLAB's name of the class.
     pub fn name(self) -> &'static str {
         match self {

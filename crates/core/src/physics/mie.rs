@@ -194,7 +194,7 @@ mod tests {
 
     const FIXTURE: &str = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/mie_pec_reference.txt"
+        "/../../tests/data/mie_pec_reference.txt"
     );
 
     /// (ka, s) pairs and the (ka, value) of the first peak from the fixture.

@@ -20,7 +20,7 @@
 //!   are known too);
 //! - `previous-manifest.json`: the manifest of the run before this one (moved aside when a
 //!   run starts, so that a folder has a `manifest.json` only when its run completed);
-//! - `figures.json`: the report's figure cache (see [`crate::report::figures::cache`]).
+//! - `figures.json`: the report's figure cache (the `isar-clutter` crate's `report::figures::cache`).
 
 use anyhow::{bail, Context, Result};
 use serde::Serialize;

@@ -587,11 +587,11 @@ fn corrupted_headers_never_panic() {
 
 const FIXTURE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
-    "/tests/data/navy_winds_values.txt"
+    "/../../tests/data/navy_winds_values.txt"
 );
 const SLICE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
-    "/tests/data/navy_winds_slice.nc"
+    "/../../tests/data/navy_winds_slice.nc"
 );
 
 /// Locations of the real file: `$NAVY_WINDS_CDF`, then where

@@ -20,7 +20,7 @@ use crate::physics::isar::{ImagingOptions, Measurement};
 use serde::{Deserialize, Serialize};
 
 /// The committed fit record.
-pub const RECORD: &str = include_str!("../../../reproduction/plant_calibration.json");
+pub const RECORD: &str = include_str!("../../../../../reproduction/plant_calibration.json");
 
 /// One plant's fitted factors and what they achieve.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

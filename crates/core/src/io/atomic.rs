@@ -1,11 +1,10 @@
 //! Writing outputs so that a reader never sees half a file: every file is written to a
 //! temporary name in its folder and renamed into place (swapped in with `RENAME_EXCHANGE` where
-//! the kernel has it); Parquet tables and `.npy` arrays through the same path; a whole folder
+//! the kernel has it); `.npy` arrays (and the runner's Parquet tables) through the same path; a whole folder
 //! (a model) swapped in the same way. Nothing is ever renamed over a folder or a link that is
 //! not the caller's.
 
 use anyhow::{Context, Result};
-use polars::prelude::*;
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -256,7 +255,7 @@ impl Drop for Staged {
 /// new file's data back at once (its `auto_da_alloc` safeguard), about 0.2 ms per file on the
 /// development VM, which was a fifth of a short run's time. Readers see the old or the new
 /// file, never a partial one, either way.
-pub(crate) fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
+pub fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
     if fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
         return Err(std::io::Error::other(
             "it exists and is not a regular file (nothing is renamed over a folder or a link)",
@@ -335,35 +334,6 @@ pub fn swap_in_dir(tmp: &Path, path: &Path) -> Result<bool> {
         .and_then(|()| fs::rename(&aside, tmp))
         .with_context(|| format!("cannot replace {}", path.display()))?;
     Ok(true)
-}
-
-/// Reads a Parquet table of a results folder; `Ok(None)` if the file does not exist.
-///
-/// # Errors
-/// If the file exists but cannot be opened or read; the message names it.
-pub fn read_parquet(path: &Path) -> Result<Option<DataFrame>> {
-    if !path.exists() {
-        return Ok(None);
-    }
-    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let df = anyhow::Context::with_context(ParquetReader::new(file).finish(), || {
-        format!("reading {}", path.display())
-    })?;
-    Ok(Some(df))
-}
-
-/// Writes a DataFrame as Parquet (Snappy-compressed), atomically.
-///
-/// # Errors
-/// If writing fails.
-pub fn write_parquet(path: &Path, df: &mut DataFrame) -> Result<()> {
-    atomic_write(path, |w| {
-        ParquetWriter::new(w)
-            .with_compression(ParquetCompression::Snappy)
-            .set_parallel(false)
-            .finish(df)?;
-        Ok(())
-    })
 }
 
 /// Writes an array as `.npy`, atomically.

@@ -300,7 +300,7 @@ pub struct Analysis {
 ///
 /// # Example
 /// ```
-/// use isar_clutter::stats::analysis::{analyse, Direction};
+/// use isar_clutter_core::stats::analysis::{analyse, Direction};
 /// use ndarray::Array3;
 /// // Two samples of a 2x2 image whose right column copies the left one: rho_H = 1.
 /// let stack = Array3::from_shape_fn((2, 2, 2), |(n, r, _c)| (n * 2 + r) as f64 * (n as f64 - 0.5));

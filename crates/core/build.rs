@@ -1,0 +1,18 @@
+//! Build script of the core crate: with the mat73 feature and a static libhdf5 (HDF5_DIR laid
+//! out by the workspace's `make hdf5`), the libraries that libhdf5.a needs, after it on the link
+//! line of this crate's tests (the `isar-clutter` crate's own build script does the same for
+//! its binaries and tests).
+
+fn main() {
+    println!("cargo:rerun-if-env-changed=HDF5_DIR");
+    let static_hdf5 = std::env::var_os("CARGO_FEATURE_MAT73").is_some()
+        && std::env::var_os("HDF5_DIR").is_some_and(|dir| {
+            let lib = std::path::Path::new(&dir).join("lib");
+            lib.join("libhdf5.a").exists() && !lib.join("libhdf5.so").exists()
+        });
+    if static_hdf5 {
+        for lib in ["sz", "z", "m", "dl"] {
+            println!("cargo:rustc-link-arg=-l{lib}");
+        }
+    }
+}

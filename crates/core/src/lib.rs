@@ -1,0 +1,27 @@
+//! isar-clutter-core: the science of isar-clutter without its runner. The multiscale
+//! statistics of a stack of complex ISAR images (Haar coefficient variances, directional
+//! correlations, metrics, similarity), the correlating filters and the five synthesis methods
+//! (fit a model, generate samples), the ISAR imaging chain and the vegetation stand-in, seeds
+//! and ChaCha random streams, and the file formats that `fit` and `generate` need (`.npy`,
+//! `.mat`, NetCDF, model folders, atomic writes, output folders). It compiles without polars,
+//! burn, plotters or clap: the runner, the report and the networks live in the `isar-clutter`
+//! crate above it, and the Python bindings build on this crate alone.
+//!
+//! - [`seeds`]: seed derivation and random streams, usable from every layer;
+//! - [`stats`]: multiscale analysis, filters, metrics, CMD, similarity, samplers, slow oracles;
+//! - [`synthesis`]: fit a model to a stack, generate new samples;
+//! - [`physics`]: the ISAR imaging chain, Mie series, calibration, the vegetation stand-in;
+//! - [`io`]: file formats and atomic writes;
+//! - [`workflow`]: `fit` and `generate` from files to files (the model-folder policy);
+//! - [`alloc`]: the allocator of the binaries (large blocks mapped from the kernel) and fallible
+//!   allocation of stacks.
+
+#![warn(missing_docs)]
+
+pub mod alloc;
+pub mod io;
+pub mod physics;
+pub mod seeds;
+pub mod stats;
+pub mod synthesis;
+pub mod workflow;

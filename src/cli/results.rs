@@ -1,0 +1,171 @@
+//! The commands that read finished results or write the reproduction: `report`, `table`,
+//! `reproduce` and `calibrate-plants`, each a function of its arguments.
+
+use super::args::{CalibratePlantsArgs, ReportArgs, ReproduceArgs, TableArgs};
+use super::pool;
+use anyhow::Result;
+use isar_clutter::run::scheduler;
+use std::process::ExitCode;
+
+/// `table`: the standard comparison tables (or one) of a results folder.
+///
+/// # Errors
+/// What the command cannot do, naming the file or the job.
+pub fn table(a: TableArgs) -> Result<ExitCode> {
+    let TableArgs {
+        results,
+        table,
+        format,
+        pivot,
+        filter,
+        allow_incomplete,
+    } = a;
+    if !allow_incomplete {
+        isar_clutter::io::outdir::check_complete(&results)?;
+    }
+    table_command(
+        &results,
+        table.as_deref(),
+        format,
+        pivot.as_deref(),
+        &filter,
+    )?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `calibrate-plants`: the stand-in plants fitted to Table 16, written as the fit record.
+///
+/// # Errors
+/// What the command cannot do, naming the file or the job.
+pub fn calibrate_plants(a: CalibratePlantsArgs) -> Result<ExitCode> {
+    let CalibratePlantsArgs { samples, seed, out } = a;
+    isar_clutter::reproduction::calibrate_plants(samples, seed, &out)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `reproduce`: the specs the dissertation's tables need, then the reproduction document.
+///
+/// # Errors
+/// What the command cannot do, naming the file or the job.
+pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
+    let ReproduceArgs {
+        out,
+        specs,
+        doc,
+        repeats,
+        jobs,
+        write_only,
+        quiet,
+    } = a;
+    use isar_clutter::reproduction::{self as rep, render};
+    let opts = rep::Options {
+        out,
+        specs,
+        repeats,
+        threads: jobs.unwrap_or_else(scheduler::default_threads),
+        write_only,
+        quiet,
+    };
+    let start = std::time::Instant::now();
+    let coverage = rep::Coverage::all();
+    let runs = rep::run_all(&opts, &coverage)?;
+    if !write_only {
+        rep::record_wall(&opts.out, start.elapsed().as_secs_f64(), repeats)?;
+    }
+    let header = render::Header {
+        command: format!("isar-clutter reproduce --repeats {repeats}"),
+        wall_s: rep::recorded_wall(&opts.out),
+        machine: render::machine(),
+        tool: format!(
+            "isar-clutter {} (commit {})",
+            env!("CARGO_PKG_VERSION"),
+            isar_clutter::run::manifest::build_commit()
+        ),
+        repeats,
+        builds: vec![],
+    };
+    let counts = rep::write(&coverage, &runs, &doc, &header)?;
+    let n = |v| counts.get(&v).copied().unwrap_or(0);
+    eprintln!(
+        "{}: {} matches, {} ordering holds, {} differs",
+        doc.display(),
+        n(rep::compare::Verdict::Matches),
+        n(rep::compare::Verdict::OrderingHolds),
+        n(rep::compare::Verdict::Differs)
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `report`: figures/ and report.html of a results folder.
+///
+/// # Errors
+/// What the command cannot do, naming the file or the job.
+pub fn report(a: ReportArgs) -> Result<ExitCode> {
+    let ReportArgs {
+        results,
+        jobs,
+        allow_incomplete,
+        figures_for,
+    } = a;
+    let t = std::time::Instant::now();
+    let options = isar_clutter::report::select::Options { figures_for };
+    let report = pool(jobs)?
+        .install(|| isar_clutter::report::build_with(&results, allow_incomplete, &options))?;
+    let selection = &report.selection;
+    eprintln!(
+        "{} ({} figures{}, {:.2} s)",
+        report.html.display(),
+        report.figures.len(),
+        if selection.limited {
+            format!(
+                "; per-job figures for {} of {} jobs",
+                selection.jobs.len(),
+                selection.candidates
+            )
+        } else {
+            String::new()
+        },
+        t.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Prints the standard tables (or one) of a results folder.
+fn table_command(
+    results: &std::path::Path,
+    name: Option<&str>,
+    format: isar_clutter::report::table::Format,
+    pivot: Option<&str>,
+    filters: &[(String, Vec<String>)],
+) -> Result<()> {
+    use isar_clutter::report::catalog::{names, render_named};
+    if !results.is_dir() {
+        anyhow::bail!("{} is not a results folder", results.display());
+    }
+    let chosen: Vec<&str> = match name {
+        None => names(),
+        Some(n) => vec![n],
+    };
+    let mut printed = 0;
+    for table in chosen {
+        if let Some(text) = render_named(results, table, filters, pivot, format, name.is_some())? {
+            if printed > 0 {
+                println!();
+            }
+            print!("{text}");
+            printed += 1;
+        }
+    }
+    if printed == 0 {
+        anyhow::bail!(
+            "no table of {} has rows{}",
+            results.display(),
+            if filters.is_empty() && pivot.is_none() {
+                ""
+            } else {
+                " with these filters and pivot (name one with --table to see why)"
+            }
+        );
+    }
+    Ok(())
+}
