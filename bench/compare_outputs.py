@@ -12,7 +12,8 @@ of the same name). For each pair it compares
 
 * every `*.parquet` table: the same columns in the same order with the same types, the same
   number of rows, and every value equal (NaN equals NaN, null equals null); columns that hold
-  wall times (`elapsed_s`, `*_s`) are left out, as they differ from run to run;
+  wall times or rates (`elapsed_s`, `*_s`, `*_seconds`, `*_per_second`) are left out, as they
+  differ from run to run;
 * every `.npy` file below `maps/`, `samples/`, `models/` and `kspace/` byte for byte, and the
   files of the models (JSON) with their timing-free keys;
 * the manifest's per-job identities and seeds.
@@ -36,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 
-TIMING_SUFFIXES = ("_s",)
+TIMING_SUFFIXES = ("_s", "_seconds", "_per_second")
 # Set from --rtol; WORST[0] is the largest scaled difference accepted.
 RTOL = 0.0
 WORST = [0.0]
