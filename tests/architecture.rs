@@ -602,3 +602,81 @@ fn every_path_and_item_the_architecture_document_cites_exists() {
         ]
     );
 }
+
+/// The functions of `text` over `limit` lines (from the `fn` line to its closing brace at the
+/// same indentation) whose doc comment gives no reason (a line starting `Long because`), with
+/// their first line numbers. Unit-test modules (after `#[cfg(test)]`) are left out.
+fn long_functions_without_reason(text: &str, limit: usize) -> Vec<(usize, String)> {
+    let text = text.split("#[cfg(test)]").next().unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = Vec::new();
+    for (i, l) in lines.iter().enumerate() {
+        let t = l.trim_start();
+        let indent = l.len() - t.len();
+        let t = t
+            .trim_start_matches("pub(crate) ")
+            .trim_start_matches("pub(super) ")
+            .trim_start_matches("pub ")
+            .trim_start_matches("unsafe ");
+        let Some(rest) = t.strip_prefix("fn ") else {
+            continue;
+        };
+        if l.trim_end().ends_with(';') {
+            continue;
+        }
+        let close = format!("{}}}", " ".repeat(indent));
+        let Some(end) = lines[i + 1..].iter().position(|x| *x == close) else {
+            continue;
+        };
+        if end + 2 <= limit {
+            continue;
+        }
+        let docs = lines[..i]
+            .iter()
+            .rev()
+            .take_while(|x| {
+                let x = x.trim_start();
+                x.starts_with("///") || x.starts_with("#[")
+            })
+            .any(|x| {
+                x.trim_start()
+                    .trim_start_matches("///")
+                    .trim_start()
+                    .starts_with("Long because")
+            });
+        if !docs {
+            let name = rest.split(['(', '<']).next().unwrap_or(rest).to_string();
+            out.push((i + 1, name));
+        }
+    }
+    out
+}
+
+#[test]
+fn no_function_over_100_lines_without_a_reason() {
+    let mut bare = Vec::new();
+    for (_, src) in crates() {
+        for f in rust_files(&src) {
+            if f.file_name().is_some_and(|n| n == "tests.rs") {
+                continue;
+            }
+            let text = fs::read_to_string(&f).unwrap();
+            for (line, name) in long_functions_without_reason(&text, 100) {
+                bare.push(format!("{}:{line} {name}", f.display()));
+            }
+        }
+    }
+    assert!(
+        bare.is_empty(),
+        "functions over 100 lines without `Long because`: {bare:#?}"
+    );
+    // The reader finds a long function, and accepts it with a reason.
+    let body = "    let x = 1;\n".repeat(101);
+    let long = format!("/// Adds.\npub fn f() {{\n{body}}}\n");
+    assert_eq!(
+        long_functions_without_reason(&long, 100),
+        [(2, "f".to_string())]
+    );
+    let reasoned = format!("/// Adds.\n///\n/// Long because it must.\npub fn f() {{\n{body}}}\n");
+    assert!(long_functions_without_reason(&reasoned, 100).is_empty());
+}

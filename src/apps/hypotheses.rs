@@ -176,6 +176,9 @@ pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
 }
 
 /// The tests over the datasets (see `docs/hypotheses.md`).
+///
+/// Long because the four hypotheses are computed in turn from the same grouped rows, a few lines
+/// each.
 pub fn test(stats: &[PlantStats]) -> Vec<Row> {
     let mut rows = vec![];
     let row = |h, d: &str, s: &str, v, verdict| Row {

@@ -121,6 +121,8 @@ pub fn generate(
 ///
 /// # Errors
 /// [`DataError`] if a file's stack cannot be read or a stack does not fit in memory.
+///
+/// Long because it is the one match over the dataset kinds, each arm a few lines.
 pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, DataError> {
     Ok(match dataset {
         Dataset::FilteredNoise(d) => {

@@ -261,6 +261,9 @@ impl ClassificationSpec {
     ///
     /// # Errors
     /// A [`SpecError`] with the YAML path of the first problem.
+    ///
+    /// Long because each field of the CNN sections is checked in turn, each with its YAML path and
+    /// message.
     pub fn validate(&self, ctx: &Ctx, stacks: &[DataRef]) -> Result<ClassificationPlan, SpecError> {
         let at = "classification";
         if self.classes.len() < 2 {

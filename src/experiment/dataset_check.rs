@@ -395,6 +395,10 @@ impl DatasetSpec {
         })
     }
 
+    /// Checks a filtered-noise dataset's fields into its typed parameters.
+    ///
+    /// Long because every family (exponential, dyadic, patterned maps) has its own fields, each
+    /// checked with its YAML path.
     fn check_noise(&self, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecError> {
         let family = self.family.ok_or_else(|| {
             ctx.err(

@@ -6,6 +6,7 @@
 
 use super::figures::{self, Scale};
 use super::{abs_max, grid, rel, Figure, Grid, Task};
+use crate::io::results::{self, col};
 use anyhow::{Context, Result};
 use ndarray::Array2;
 use num_complex::Complex64;
@@ -62,7 +63,7 @@ pub(super) fn job_figures(dir: &Path, job: &str, params: Option<&Params>) -> Res
 /// The correlation maps by level and direction, and a histogram of their values per level
 /// (Figs. 86-102).
 fn correlation_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
-    let (corr, corr_files) = level_maps(maps, "", "correlation")?;
+    let (corr, corr_files) = level_maps(maps, "", col::CORRELATION)?;
     if corr.is_empty() {
         return Ok(vec![]);
     }
@@ -79,11 +80,11 @@ fn correlation_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> 
     let mut out = vec![grid(
         dir,
         job,
-        "correlation",
+        col::CORRELATION,
         format!("{job}: directional correlation maps by level (rows) and direction (columns)"),
         corr,
         Scale::Diverging { lo: -1.0, hi: 1.0 },
-        "correlation",
+        col::CORRELATION,
         corr_files.clone(),
     )];
     for (level, (sets, files)) in values.chunks(3).zip(corr_files.chunks(3)).enumerate() {
@@ -103,7 +104,7 @@ fn correlation_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> 
                 &caption,
                 &refs,
                 30,
-                "correlation",
+                col::CORRELATION,
             )
             .with_context(|| format!("drawing {stem} of {job}"))?;
             Ok(Figure {
@@ -120,30 +121,30 @@ fn correlation_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> 
 /// The exact expected correlation maps of a synthetic model, and the covariance maps.
 fn level_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
     let mut out = vec![];
-    let (expected, files) = level_maps(maps, "expected_", "correlation")?;
+    let (expected, files) = level_maps(maps, "expected_", col::CORRELATION)?;
     if !expected.is_empty() {
         out.push(grid(
             dir,
             job,
-            "expected_correlation",
+            col::EXPECTED_CORRELATION,
             format!("{job}: exact expected correlation maps of the synthetic model"),
             expected,
             Scale::Diverging { lo: -1.0, hi: 1.0 },
-            "correlation",
+            col::CORRELATION,
             files,
         ));
     }
-    let (cov, files) = level_maps(maps, "", "covariance")?;
+    let (cov, files) = level_maps(maps, "", col::COVARIANCE)?;
     if !cov.is_empty() {
         let m = abs_max(cov.iter().flatten().map(|(_, m)| m));
         out.push(grid(
             dir,
             job,
-            "covariance",
+            col::COVARIANCE,
             format!("{job}: directional covariance maps by level and direction"),
             cov,
             Scale::Diverging { lo: -m, hi: m },
-            "covariance",
+            col::COVARIANCE,
             files,
         ));
     }
@@ -179,11 +180,11 @@ fn moment_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
         out.push(grid(
             dir,
             job,
-            "variance",
+            col::VARIANCE,
             format!("{job}: pixel variance"),
-            vec![vec![("variance".into(), v)]],
+            vec![vec![(col::VARIANCE.into(), v)]],
             Scale::Perceptual,
-            "variance",
+            col::VARIANCE,
             vec![var_file],
         ));
     }
@@ -269,8 +270,7 @@ impl Params {
     /// # Errors
     /// If the file cannot be read or lacks a column the tool writes.
     pub(super) fn load(dir: &Path) -> Result<Option<Params>> {
-        let Some(df) = crate::io::parquet::read_parquet(&dir.join("synthesis_params.parquet"))?
-        else {
+        let Some(df) = results::SYNTHESIS_PARAMS.read(dir)? else {
             return Ok(None);
         };
         if df.height() == 0 {
@@ -286,13 +286,13 @@ impl Params {
                 .collect())
         };
         let mut rows: HashMap<String, Vec<usize>> = HashMap::new();
-        let jobs = df.column("job")?.cast(&DataType::String)?;
+        let jobs = df.column(col::JOB)?.cast(&DataType::String)?;
         for (i, job) in jobs.str()?.iter().enumerate() {
             if let Some(job) = job {
                 rows.entry(job.to_string()).or_default().push(i);
             }
         }
-        let cells = ints("row")?.into_iter().zip(ints("col")?).collect();
+        let cells = ints(col::ROW)?.into_iter().zip(ints(col::COL)?).collect();
         let columns = df
             .get_column_names()
             .iter()
@@ -343,7 +343,7 @@ impl Params {
         // Horizontal parameters on the first row, vertical on the second.
         let (hz, vt): (Vec<_>, Vec<_>) = maps.into_iter().partition(|(n, _)| n.contains("_h"));
         let m = abs_max(hz.iter().chain(&vt).map(|(_, m)| m));
-        let data = vec![dir.join("synthesis_params.parquet")];
+        let data = vec![results::SYNTHESIS_PARAMS.path(dir)];
         Some(grid(
             dir,
             job,

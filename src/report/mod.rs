@@ -12,16 +12,15 @@ pub mod catalog;
 pub mod cnn;
 pub mod figures;
 mod jobs;
-pub mod manifest;
 mod page;
 mod plants;
 mod runwide;
 pub mod select;
 pub mod table;
 
+use crate::io::manifest::Manifest;
 use anyhow::{Context, Result};
 use figures::{Panel, Scale};
-use manifest::Manifest;
 use ndarray::Array2;
 use page::page;
 use rayon::prelude::*;

@@ -4,10 +4,11 @@
 //! more jobs with figures than the limit of [`super::select`]), and every table over jobs is
 //! bounded ([`TABLE_ROWS`]).
 
-use super::manifest::{Job, Manifest};
 use super::select::Selection;
 use super::table::{self, escape, Format, RowLimit};
 use super::{cnn, Figure};
+use crate::io::manifest::{Job, Manifest};
+use crate::io::results::{self, Table};
 use anyhow::Result;
 use serde_json::Value as Json;
 use std::fmt::Write as _;
@@ -20,22 +21,22 @@ use std::path::Path;
 pub const TABLE_ROWS: usize = 500;
 
 /// The tables the page links at its end, when the run wrote them.
-const TABLES: [&str; 15] = [
-    "analysis_maps.parquet",
-    "analysis_summary.parquet",
-    "pixel_stats.parquet",
-    "jobs.parquet",
-    "similarity.parquet",
-    "model_order.parquet",
-    "synthesis_params.parquet",
-    "filter_correlation.parquet",
-    "calibration.parquet",
-    "calibration_summary.parquet",
-    "classification.parquet",
-    "location.parquet",
-    "location_summary.parquet",
-    "training_history.parquet",
-    "confusion.parquet",
+const TABLES: [Table; 15] = [
+    results::ANALYSIS_MAPS,
+    results::ANALYSIS_SUMMARY,
+    results::PIXEL_STATS,
+    results::JOBS,
+    results::SIMILARITY,
+    results::MODEL_ORDER,
+    results::SYNTHESIS_PARAMS,
+    results::FILTER_CORRELATION,
+    results::CALIBRATION,
+    results::CALIBRATION_SUMMARY,
+    results::CLASSIFICATION,
+    results::LOCATION,
+    results::LOCATION_SUMMARY,
+    results::TRAINING_HISTORY,
+    results::CONFUSION,
 ];
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
@@ -90,6 +91,9 @@ fn sections_html(h: &mut String, sections: &[cnn::Section]) {
 
 /// The HTML page: the standard tables, the CNN applications' sections, the run-wide and the
 /// chosen jobs' figures (`figures`, in that order), the spec and the provenance.
+///
+/// Long because the page is written top to bottom in one pass, each section a few lines of HTML
+/// that share the selection and the manifest.
 pub(super) fn page(
     dir: &Path,
     manifest: &Manifest,
@@ -120,7 +124,7 @@ pub(super) fn page(
     let mut any = false;
     let chosen = selection.set();
     // A big run's report: some jobs without their figures, or more jobs than a table shows.
-    let big = selection.limited || manifest.jobs().len() > TABLE_ROWS;
+    let big = selection.limited || manifest.jobs.len() > TABLE_ROWS;
     let limit = big.then_some(RowLimit {
         jobs: &chosen,
         max_rows: TABLE_ROWS,
@@ -146,7 +150,7 @@ pub(super) fn page(
                 def.name
             );
         }
-        let _ = writeln!(h, "Data: {}</p>", link(Path::new(def.file)));
+        let _ = writeln!(h, "Data: {}</p>", link(Path::new(&def.table.file_name())));
         any = true;
     }
     if !any {
@@ -174,50 +178,42 @@ pub(super) fn page(
     let _ = writeln!(
         h,
         "<h2 id=\"spec\">Spec</h2>\n<p>File {} (SHA-256 {}), with defaults filled in:</p>\n<pre>{}</pre>",
-        escape(manifest.spec_file.as_str().unwrap_or("?")),
-        escape(manifest.spec_hash_sha256.as_str().unwrap_or("?")),
+        escape(&manifest.spec_file),
+        escape(&manifest.spec_hash_sha256),
         escape(&spec_yaml)
     );
     let _ = writeln!(h, "<h2 id=\"provenance\">Provenance</h2>\n<table><tbody>");
-    let git = &manifest.git;
+    // Numbers as JSON prints them (`null` for one the manifest lacks).
+    let json = |v: Json| v.to_string();
     let rows = [
         (
             "tool",
-            format!(
-                "{} {}",
-                manifest.tool["name"].as_str().unwrap_or("?"),
-                manifest.tool["version"].as_str().unwrap_or("?")
-            ),
+            format!("{} {}", manifest.tool.name, manifest.tool.version),
         ),
         (
             "git commit",
-            if git.is_null() {
-                "not recorded".into()
-            } else {
-                format!(
-                    "{} (dirty: {})",
-                    git["commit"].as_str().unwrap_or("?"),
-                    git["dirty"]
-                )
+            match &manifest.git {
+                None => "not recorded".into(),
+                Some(git) => format!("{} (dirty: {})", git.commit, git.dirty),
             },
         ),
-        ("master seed", manifest.master_seed.to_string()),
+        ("master seed", json(manifest.master_seed.into())),
+        ("seed derivation", manifest.seed_derivation.clone()),
+        ("threads", json(manifest.threads.into())),
         (
-            "seed derivation",
-            manifest.seed_derivation.as_str().unwrap_or("").to_string(),
+            "total time (s)",
+            json(manifest.timings.map(|t| t.total_s).into()),
         ),
-        ("threads", manifest.threads.to_string()),
-        ("total time (s)", manifest.timings["total_s"].to_string()),
-        ("finished (unix s)", manifest.finished_unix_s.to_string()),
+        ("finished (unix s)", json(manifest.finished_unix_s.into())),
     ];
     for (k, v) in rows {
         let _ = writeln!(h, "<tr><th>{}</th><td>{}</td></tr>", escape(k), escape(&v));
     }
     let _ = writeln!(h, "</tbody></table>\n<table><thead><tr><th>job</th><th>dataset</th><th>method</th><th>status</th><th>seed</th><th>data seed</th><th>generation seed</th><th>elapsed (s)</th><th>error</th></tr></thead><tbody>");
-    let jobs = manifest.jobs();
+    let jobs = &manifest.jobs;
     let shown: Vec<&Job> = if big {
         jobs.iter()
-            .filter(|j| !j.ok() || j.job.as_str().is_some_and(|id| chosen.contains(id)))
+            .filter(|j| !j.ok() || chosen.contains(j.job.as_str()))
             .take(TABLE_ROWS)
             .collect()
     } else {
@@ -246,7 +242,7 @@ pub(super) fn page(
              record. ",
             shown.len(),
             jobs.len(),
-            link(Path::new("jobs.parquet")),
+            link(Path::new(&results::JOBS.file_name())),
         )
     } else {
         String::new()
@@ -254,11 +250,11 @@ pub(super) fn page(
     let _ = writeln!(
         h,
         "</tbody></table>\n<p>{note}Full record: {}. Tables: {}.</p>\n</body>\n</html>",
-        link(Path::new("manifest.json")),
+        link(Path::new(crate::io::manifest::FILE)),
         TABLES
             .iter()
-            .filter(|f| dir.join(f).exists())
-            .map(|f| link(Path::new(f)))
+            .filter(|t| t.path(dir).exists())
+            .map(|t| link(Path::new(&t.file_name())))
             .collect::<Vec<_>>()
             .join(", ")
     );
@@ -267,10 +263,10 @@ pub(super) fn page(
 
 /// The note of a big run's report on which jobs have figures, and where the others' are.
 fn selection_html(h: &mut String, dir: &Path, selection: &Selection) {
-    let files: Vec<String> = ["analysis_maps.parquet", "pixel_stats.parquet"]
+    let files: Vec<String> = [results::ANALYSIS_MAPS, results::PIXEL_STATS]
         .iter()
-        .filter(|f| dir.join(f).exists())
-        .map(|f| link(Path::new(f)))
+        .filter(|t| t.path(dir).exists())
+        .map(|t| link(Path::new(&t.file_name())))
         .collect();
     let _ = writeln!(
         h,

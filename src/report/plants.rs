@@ -9,6 +9,7 @@ use super::figures::{self, Panel, Scale};
 use super::runwide::curves_task;
 use super::{rel, Figure, Task};
 use crate::apps::hypotheses::parse_id;
+use crate::io::results::{self, col};
 use anyhow::{Context, Result};
 use ndarray::Array2;
 use polars::prelude::{DataFrame, DataType};
@@ -115,18 +116,18 @@ fn floats(df: &DataFrame, c: &str) -> Result<Vec<f64>> {
 /// Figs. 50-51: per plant dataset the magnitude of the mean correlating function over the
 /// offsets `-R..=R` (a heatmap grid, a row per wind), and its cuts through the origin.
 fn correlating_figures(dir: &Path) -> Result<Vec<Task>> {
-    let path = dir.join("correlating_function.parquet");
+    let path = results::CORRELATING_FUNCTION.path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
-    if df.column("mean_magnitude").is_err() {
+    if df.column(col::MEAN_MAGNITUDE).is_err() {
         return Ok(vec![]); // written before the magnitude was stored
     }
     let (datasets, dy, dx, mag) = (
-        strings(&df, "dataset")?,
-        floats(&df, "dy")?,
-        floats(&df, "dx")?,
-        floats(&df, "mean_magnitude")?,
+        strings(&df, col::DATASET)?,
+        floats(&df, col::DY)?,
+        floats(&df, col::DX)?,
+        floats(&df, col::MEAN_MAGNITUDE)?,
     );
     let reach = dy.iter().chain(&dx).fold(0.0f64, |m, v| m.max(v.abs())) as usize;
     let side = 2 * reach + 1;
@@ -210,16 +211,19 @@ fn correlating_figures(dir: &Path) -> Result<Vec<Task>> {
 /// (H and V, as the dissertation plots them): by level for each wind, and against the wind
 /// for each level.
 fn level_figures(dir: &Path) -> Result<Vec<Task>> {
-    let path = dir.join("analysis_summary.parquet");
+    let path = results::ANALYSIS_SUMMARY.path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
     let (datasets, sources, directions) = (
-        strings(&df, "dataset")?,
-        strings(&df, "source")?,
-        strings(&df, "direction")?,
+        strings(&df, col::DATASET)?,
+        strings(&df, col::SOURCE)?,
+        strings(&df, col::DIRECTION)?,
     );
-    let (levels, values) = (floats(&df, "level")?, floats(&df, "mean_correlation")?);
+    let (levels, values) = (
+        floats(&df, col::LEVEL)?,
+        floats(&df, col::MEAN_CORRELATION)?,
+    );
     // (plant, wind, level, direction) -> mean correlation.
     let mut at: BTreeMap<(String, usize, usize, String), f64> = BTreeMap::new();
     for i in 0..datasets.len() {

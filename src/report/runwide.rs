@@ -3,7 +3,8 @@
 //! run's Parquet tables. They come first among the report's figures.
 
 use super::figures;
-use super::{rel, table, Figure, Task};
+use super::{rel, Figure, Task};
+use crate::io::results::{self, col, Table};
 use anyhow::{Context, Result};
 use polars::prelude::DataType;
 use std::collections::BTreeMap;
@@ -11,7 +12,7 @@ use std::path::Path;
 
 /// The calibration's spectra (Figs. 11-14): Mie, raw and calibrated sphere, and the error.
 pub(super) fn calibration_figures(dir: &Path) -> Result<Vec<Task>> {
-    let path = dir.join("calibration.parquet");
+    let path = results::CALIBRATION.path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
@@ -23,15 +24,15 @@ pub(super) fn calibration_figures(dir: &Path) -> Result<Vec<Task>> {
             .map(|v| v.unwrap_or(f64::NAN))
             .collect())
     };
-    let f = col("freq_ghz")?;
+    let f = col(col::FREQ_GHZ)?;
     let series =
         |c: &str| -> Result<Vec<(f64, f64)>> { Ok(f.iter().copied().zip(col(c)?).collect()) };
     let spectra = vec![
-        ("Mie (exact)".to_string(), series("mie_dbsm")?),
-        ("raw sphere measurement".into(), series("raw_db")?),
-        ("calibrated sphere".into(), series("calibrated_dbsm")?),
+        ("Mie (exact)".to_string(), series(col::MIE_DBSM)?),
+        ("raw sphere measurement".into(), series(col::RAW_DB)?),
+        ("calibrated sphere".into(), series(col::CALIBRATED_DBSM)?),
     ];
-    let error = vec![("calibrated - Mie".to_string(), series("error_db")?)];
+    let error = vec![("calibrated - Mie".to_string(), series(col::ERROR_DB)?)];
     Ok(vec![
         curves_task(
             dir,
@@ -92,31 +93,31 @@ pub(super) fn curves_task(
 pub(super) fn sweep_figures(dir: &Path) -> Result<Vec<Task>> {
     let mut out = curve_figures(
         dir,
-        "analysis_summary.parquet",
-        "mean_correlation",
-        &["dataset", "source", "level", "direction"],
+        results::ANALYSIS_SUMMARY,
+        col::MEAN_CORRELATION,
+        &[col::DATASET, col::SOURCE, col::LEVEL, col::DIRECTION],
         &|r| {
             Some((
-                format!("{} ({})", r.get("dataset"), r.get("source")),
-                format!("level {} {}", r.get("level"), r.get("direction")),
+                format!("{} ({})", r.get(col::DATASET), r.get(col::SOURCE)),
+                format!("level {} {}", r.get(col::LEVEL), r.get(col::DIRECTION)),
             ))
         },
     )?;
     out.extend(curve_figures(
         dir,
-        "similarity.parquet",
-        "value",
-        &["statistic", "dataset", "method"],
+        results::SIMILARITY,
+        col::VALUE,
+        &[col::STATISTIC, col::DATASET, col::METHOD],
         &|r| {
-            let what = match r.get("statistic") {
+            let what = match r.get(col::STATISTIC) {
                 "average_level_1" => "multiscale RMSE, average level 1",
                 "average_levels_1_3" => "multiscale RMSE, average levels 1-3",
                 "distance" => "correlation matrix distance",
                 _ => return None,
             };
             Some((
-                format!("{}: {what}", r.get("dataset")),
-                r.get("method").to_string(),
+                format!("{}: {what}", r.get(col::DATASET)),
+                r.get(col::METHOD).to_string(),
             ))
         },
     )?);
@@ -146,14 +147,17 @@ impl Row<'_> {
 /// Draws `y` against every numeric swept column of `file`: `pick` maps a row (of which it reads
 /// the `columns`) to its figure (title) and series (legend name), or `None` to leave it out. A
 /// figure needs two distinct x values.
+///
+/// Long because it groups the rows by curve and by axis, keeps the axes with two x values and makes
+/// the tasks in one pass over the table.
 fn curve_figures(
     dir: &Path,
-    file: &str,
+    table: Table,
     y: &str,
     columns: &[&str],
     pick: &dyn Fn(&Row) -> Option<(String, String)>,
 ) -> Result<Vec<Task>> {
-    let path = dir.join(file);
+    let path = table.path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
@@ -161,7 +165,8 @@ fn curve_figures(
         .columns()
         .iter()
         .filter(|c| {
-            !table::LIBRARY_COLUMNS.contains(&c.name().as_str()) && c.dtype() == &DataType::Float64
+            // A column the contract does not declare is a swept parameter.
+            !table.columns.contains(&c.name().as_str()) && c.dtype() == &DataType::Float64
         })
         .map(|c| c.name().to_string())
         .collect();
@@ -231,7 +236,7 @@ fn curve_figures(
             };
             let stem = format!("sweep_{}_{}", safe(title), safe(&axis));
             let caption = format!("{title} against {axis}");
-            let y_label = if y == "value" {
+            let y_label = if y == col::VALUE {
                 "value"
             } else {
                 "mean correlation"

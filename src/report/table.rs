@@ -3,6 +3,7 @@
 //! long-format file, groups its rows by key columns and spreads one column (the pivot, by
 //! default the method) across the page, in aligned text for the terminal or in Markdown.
 
+use crate::io::results::{self, col, Table};
 use anyhow::{bail, Context, Result};
 use polars::prelude::{DataFrame, DataType};
 use std::collections::{BTreeSet, HashMap};
@@ -27,8 +28,8 @@ pub struct TableDef {
     pub name: &'static str,
     /// Title printed above the table.
     pub title: &'static str,
-    /// Parquet file in the results folder.
-    pub file: &'static str,
+    /// The table of the results folder it reads.
+    pub table: Table,
     /// Fixed filters `(column, accepted values)`.
     pub filters: Vec<(&'static str, Vec<&'static str>)>,
     /// Row key columns (swept parameter columns are added after them).
@@ -45,56 +46,17 @@ pub struct TableDef {
     pub null_label: &'static str,
 }
 
-/// Columns the library writes; any other column of a file is a swept parameter (a row key
-/// here, a curve's axis in the report).
-pub const LIBRARY_COLUMNS: &[&str] = &[
-    "dataset",
-    "method",
-    "source",
-    "metric",
-    "component",
-    "statistic",
-    "level",
-    "direction",
-    "model_order",
-    "band",
-    "hypothesis",
-    "verdict",
-    "job",
-    "value",
-    "units",
-    "samples_original",
-    "samples_compared",
-    "noise_floor",
-    "bins",
-    "smoothing",
-    "symmetric",
-    "db",
-    "block",
-    "cmd_form",
-    "kl_mean_db",
-    "kl_worst_db",
-    "pixels",
-    "mean_correlation",
-    "mean_covariance",
-    "nan_cells",
-    "cells",
-    "rows",
-    "cols",
-    "expected_mean_correlation",
-];
-
 /// The standard tables, in print order.
 pub fn standard() -> Vec<TableDef> {
     vec![
         TableDef {
             name: "rmse",
             title: "Multiscale correlation RMSE, eq. 25 (Tables 6, 26, 28): original vs each method; noise_floor = two independent stacks of the original",
-            file: "similarity.parquet",
-            filters: vec![("metric", vec!["multiscale_rmse"])],
-            rows: vec!["dataset", "statistic", "level", "direction"],
-            pivot: "method",
-            values: vec!["value"],
+            table: results::SIMILARITY,
+            filters: vec![(col::METRIC, vec!["multiscale_rmse"])],
+            rows: vec![col::DATASET, col::STATISTIC, col::LEVEL, col::DIRECTION],
+            pivot: col::METHOD,
+            values: vec![col::VALUE],
             value_labels: vec![],
             pivot_prefix: "",
             null_label: "-",
@@ -102,11 +64,11 @@ pub fn standard() -> Vec<TableDef> {
         TableDef {
             name: "cmd",
             title: "Correlation matrix distance, eq. 24 (Tables 7, 25, 27)",
-            file: "similarity.parquet",
-            filters: vec![("metric", vec!["cmd"])],
-            rows: vec!["dataset"],
-            pivot: "method",
-            values: vec!["value"],
+            table: results::SIMILARITY,
+            filters: vec![(col::METRIC, vec!["cmd"])],
+            rows: vec![col::DATASET],
+            pivot: col::METHOD,
+            values: vec![col::VALUE],
             value_labels: vec![],
             pivot_prefix: "",
             null_label: "-",
@@ -114,14 +76,14 @@ pub fn standard() -> Vec<TableDef> {
         TableDef {
             name: "kl",
             title: "Mean KL divergence by pixel and by image area (Tables 8-10)",
-            file: "similarity.parquet",
+            table: results::SIMILARITY,
             filters: vec![
-                ("metric", vec!["kl_pixel", "kl_area"]),
-                ("statistic", vec!["mean"]),
+                (col::METRIC, vec!["kl_pixel", "kl_area"]),
+                (col::STATISTIC, vec!["mean"]),
             ],
-            rows: vec!["dataset", "metric", "component"],
-            pivot: "method",
-            values: vec!["value"],
+            rows: vec![col::DATASET, col::METRIC, col::COMPONENT],
+            pivot: col::METHOD,
+            values: vec![col::VALUE],
             value_labels: vec![],
             pivot_prefix: "",
             null_label: "-",
@@ -129,11 +91,11 @@ pub fn standard() -> Vec<TableDef> {
         TableDef {
             name: "model_order",
             title: "Model order, per-pixel KL in dB (Tables 1-2): mean and worst pixel",
-            file: "model_order.parquet",
+            table: results::MODEL_ORDER,
             filters: vec![],
-            rows: vec!["dataset", "component"],
-            pivot: "model_order",
-            values: vec!["kl_mean_db", "kl_worst_db"],
+            rows: vec![col::DATASET, col::COMPONENT],
+            pivot: col::MODEL_ORDER,
+            values: vec![col::KL_MEAN_DB, col::KL_WORST_DB],
             value_labels: vec!["mean dB", "worst dB"],
             pivot_prefix: "order ",
             null_label: "noise_floor",
@@ -141,11 +103,11 @@ pub fn standard() -> Vec<TableDef> {
         TableDef {
             name: "hypotheses",
             title: "Hypothesis tests (Table 24; Table 16 = mean pixel variance); definitions in docs/hypotheses.md",
-            file: "hypotheses.parquet",
+            table: results::HYPOTHESES,
             filters: vec![],
-            rows: vec!["hypothesis", "dataset", "statistic"],
-            pivot: "verdict",
-            values: vec!["value"],
+            rows: vec![col::HYPOTHESIS, col::DATASET, col::STATISTIC],
+            pivot: col::VERDICT,
+            values: vec![col::VALUE],
             value_labels: vec![],
             pivot_prefix: "",
             null_label: "value",
@@ -153,11 +115,11 @@ pub fn standard() -> Vec<TableDef> {
         TableDef {
             name: "calibration",
             title: "Sphere calibration (Figs. 11-14): calibrated vs Mie, dB and degrees; inner = central 90 % of the band",
-            file: "calibration_summary.parquet",
+            table: results::CALIBRATION_SUMMARY,
             filters: vec![],
-            rows: vec!["statistic"],
-            pivot: "band",
-            values: vec!["value"],
+            rows: vec![col::STATISTIC],
+            pivot: col::BAND,
+            values: vec![col::VALUE],
             value_labels: vec![],
             pivot_prefix: "",
             null_label: "-",
@@ -165,11 +127,11 @@ pub fn standard() -> Vec<TableDef> {
         TableDef {
             name: "summary",
             title: "Mean directional correlation by level (Table 4); source = original or the method",
-            file: "analysis_summary.parquet",
+            table: results::ANALYSIS_SUMMARY,
             filters: vec![],
-            rows: vec!["dataset", "level", "direction"],
-            pivot: "source",
-            values: vec!["mean_correlation"],
+            rows: vec![col::DATASET, col::LEVEL, col::DIRECTION],
+            pivot: col::SOURCE,
+            values: vec![col::MEAN_CORRELATION],
             value_labels: vec![],
             pivot_prefix: "",
             null_label: "-",
@@ -253,6 +215,9 @@ pub(super) struct Rendered {
 ///
 /// # Errors
 /// As [`render`].
+///
+/// Long because it pivots, labels and lays out the table in one pass over its rows, each step
+/// reading the maps of the one before.
 pub(super) fn render_limited(
     dir: &Path,
     def: &TableDef,
@@ -262,7 +227,7 @@ pub(super) fn render_limited(
     strict: bool,
     limit: Option<RowLimit>,
 ) -> Result<Option<Rendered>> {
-    let path = dir.join(def.file);
+    let path = def.table.path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(None);
     };
@@ -301,7 +266,8 @@ pub(super) fn render_limited(
         .filter(|k| k != pivot && names.contains(k))
         .collect();
     for n in &names {
-        if !LIBRARY_COLUMNS.contains(&n.as_str()) && !keys.contains(n) && n != pivot {
+        // Any column the contract does not declare for the table is a swept parameter.
+        if !def.table.columns.contains(&n.as_str()) && !keys.contains(n) && n != pivot {
             keys.push(n.clone());
         }
     }
@@ -322,7 +288,7 @@ pub(super) fn render_limited(
     let mut cells: HashMap<(usize, usize, usize), f64> = HashMap::new();
     // With a limit: whether a row of the table holds a value of a job it keeps (or of no job).
     let job_col = match limit {
-        Some(_) if names.iter().any(|n| n == "job") => Some(strings(&df, "job")?),
+        Some(_) if names.iter().any(|n| n == col::JOB) => Some(strings(&df, col::JOB)?),
         _ => None,
     };
     let mut marked: Vec<bool> = vec![];

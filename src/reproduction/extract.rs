@@ -4,6 +4,7 @@
 //! map from a printed table to the tool's columns lives here and nowhere else.
 
 use super::compare::Spread;
+use crate::io::results::{self, col, Table};
 use anyhow::{bail, Context, Result};
 use polars::prelude::{
     BooleanChunked, ChunkCompareEq, ChunkFull, DataFrame, DataType, ParquetReader, SerReader,
@@ -28,8 +29,8 @@ pub enum Key {
 pub struct Query {
     /// The spec under `experiments/` whose runs hold the value (name without `.yaml`).
     pub spec: &'static str,
-    /// The Parquet table of the run (without `.parquet`).
-    pub table: &'static str,
+    /// The Parquet table of the run.
+    pub table: Table,
     /// `(column, value)` pairs every selected row has.
     pub filters: Vec<(&'static str, Key)>,
     /// The value's column.
@@ -56,7 +57,7 @@ pub struct Recipe {
 
 fn q(
     spec: &'static str,
-    table: &'static str,
+    table: Table,
     filters: Vec<(&'static str, Key)>,
     column: &'static str,
 ) -> Query {
@@ -90,24 +91,24 @@ fn sim(
     metric: &'static str,
 ) -> Vec<(&'static str, Key)> {
     vec![
-        ("dataset", Key::S(dataset)),
-        ("method", Key::S(method)),
-        ("metric", Key::S(metric)),
+        (col::DATASET, Key::S(dataset)),
+        (col::METHOD, Key::S(method)),
+        (col::METRIC, Key::S(metric)),
     ]
 }
 
 fn rmse_average(dataset: &'static str, method: &'static str, statistic: &'static str) -> Query {
     let mut f = sim(dataset, method, "multiscale_rmse");
-    f.push(("statistic", Key::S(statistic)));
-    q(spec_of(dataset), "similarity", f, "value")
+    f.push((col::STATISTIC, Key::S(statistic)));
+    q(spec_of(dataset), results::SIMILARITY, f, col::VALUE)
 }
 
 fn cmd(dataset: &'static str, method: &'static str) -> Query {
     q(
         spec_of(dataset),
-        "similarity",
+        results::SIMILARITY,
         sim(dataset, method, "cmd"),
-        "value",
+        col::VALUE,
     )
 }
 
@@ -118,20 +119,20 @@ fn kl(
     part: &'static str,
 ) -> Query {
     let mut f = sim(dataset, method, metric);
-    f.push(("component", Key::S(part)));
-    f.push(("statistic", Key::S("mean")));
-    q(spec_of(dataset), "similarity", f, "value")
+    f.push((col::COMPONENT, Key::S(part)));
+    f.push((col::STATISTIC, Key::S("mean")));
+    q(spec_of(dataset), results::SIMILARITY, f, col::VALUE)
 }
 
 /// The directional RMSE of level `level`, direction `d`, in percent (the appendix tables).
 fn rmse_percent(dataset: &'static str, method: &'static str, level: i64, d: &'static str) -> Query {
     let mut f = sim(dataset, method, "multiscale_rmse");
-    f.push(("statistic", Key::S("rmse")));
-    f.push(("level", Key::I(level)));
-    f.push(("direction", Key::S(d)));
+    f.push((col::STATISTIC, Key::S("rmse")));
+    f.push((col::LEVEL, Key::I(level)));
+    f.push((col::DIRECTION, Key::S(d)));
     Query {
         scale: 100.0,
-        ..q(spec_of(dataset), "similarity", f, "value")
+        ..q(spec_of(dataset), results::SIMILARITY, f, col::VALUE)
     }
 }
 
@@ -205,10 +206,15 @@ pub fn recipes() -> Vec<Recipe> {
             spread: Spread::Exact,
             cells: (0..=8)
                 .map(|lag| {
-                    let f = || vec![("direction", Key::S("H")), ("lag", Key::I(lag))];
+                    let f = || vec![(col::DIRECTION, Key::S("H")), (col::LAG, Key::I(lag))];
                     vec![
-                        Some(q(T3, "filter_correlation", f(), "filter_coefficient")),
-                        Some(q(T3, "filter_correlation", f(), "correlation")),
+                        Some(q(
+                            T3,
+                            results::FILTER_CORRELATION,
+                            f(),
+                            col::FILTER_COEFFICIENT,
+                        )),
+                        Some(q(T3, results::FILTER_CORRELATION, f(), col::CORRELATION)),
                     ]
                 })
                 .collect(),
@@ -224,13 +230,13 @@ pub fn recipes() -> Vec<Recipe> {
                         .map(|&d| {
                             Some(q(
                                 "table4_exponential",
-                                "analysis_summary",
+                                results::ANALYSIS_SUMMARY,
                                 vec![
-                                    ("source", Key::S("original")),
-                                    ("level", Key::I(level)),
-                                    ("direction", Key::S(d)),
+                                    (col::SOURCE, Key::S("original")),
+                                    (col::LEVEL, Key::I(level)),
+                                    (col::DIRECTION, Key::S(d)),
                                 ],
-                                "mean_correlation",
+                                col::MEAN_CORRELATION,
                             ))
                         })
                         .collect()
@@ -288,7 +294,7 @@ const MODEL_ORDER: &str = "The measured plants are not public: the tool's values
 /// Tables 1 and 2 (model order: mean and worst-case KL divergence in dB, 2nd- and 4th-order
 /// models) and Table 16 (mean pixel variance by plant and wind).
 fn model_order(r: &mut Vec<Recipe>) {
-    for (number, column) in [(1, "kl_mean_db"), (2, "kl_worst_db")] {
+    for (number, column) in [(1, col::KL_MEAN_DB), (2, col::KL_WORST_DB)] {
         r.push(Recipe {
             number,
             spread: Spread::Random,
@@ -300,11 +306,11 @@ fn model_order(r: &mut Vec<Recipe>) {
                         .map(|&order| {
                             Some(q(
                                 "model_order",
-                                "model_order",
+                                results::MODEL_ORDER,
                                 vec![
-                                    ("dataset", Key::S(ds)),
-                                    ("model_order", Key::I(order)),
-                                    ("component", Key::S("re")),
+                                    (col::DATASET, Key::S(ds)),
+                                    (col::MODEL_ORDER, Key::I(order)),
+                                    (col::COMPONENT, Key::S("re")),
                                 ],
                                 column,
                             ))
@@ -326,13 +332,13 @@ fn model_order(r: &mut Vec<Recipe>) {
                     .map(|plant| {
                         Some(q(
                             "hypotheses",
-                            "hypotheses",
+                            results::HYPOTHESES,
                             vec![
-                                ("hypothesis", Key::S("table16")),
-                                ("dataset", Key::S(PLANTS_ABC[2 * plant + wind])),
-                                ("statistic", Key::S("mean_pixel_variance")),
+                                (col::HYPOTHESIS, Key::S("table16")),
+                                (col::DATASET, Key::S(PLANTS_ABC[2 * plant + wind])),
+                                (col::STATISTIC, Key::S("mean_pixel_variance")),
                             ],
-                            "value",
+                            col::VALUE,
                         ))
                     })
                     .collect()
@@ -349,9 +355,12 @@ fn model_order(r: &mut Vec<Recipe>) {
             all_verified: true,
             ..q(
                 "hypotheses",
-                "hypotheses",
-                vec![("hypothesis", Key::S(hypothesis)), ("statistic", statistic)],
-                "verdict",
+                results::HYPOTHESES,
+                vec![
+                    (col::HYPOTHESIS, Key::S(hypothesis)),
+                    (col::STATISTIC, statistic),
+                ],
+                col::VERDICT,
             )
         })
     };
@@ -440,9 +449,9 @@ impl Tables {
     /// If the table cannot be read (the file is named), or the filters select no row or
     /// several (the query and the folder are named).
     pub fn value(&mut self, dir: &Path, query: &Query) -> Result<f64> {
-        let key = (dir.to_path_buf(), query.table);
+        let key = (dir.to_path_buf(), query.table.name);
         if !self.read.contains_key(&key) {
-            let path = dir.join(format!("{}.parquet", query.table));
+            let path = query.table.path(dir);
             let file = std::fs::File::open(&path)
                 .with_context(|| format!("cannot read {}", path.display()))?;
             let df = ParquetReader::new(file)
@@ -457,7 +466,7 @@ impl Tables {
                 format!(
                     "{}/{}.parquet has no column {column}",
                     dir.display(),
-                    query.table
+                    query.table.name
                 )
             })?;
             let hit = match want {
@@ -473,7 +482,7 @@ impl Tables {
         }
         let picked = df.filter(&mask)?;
         if query.all_verified && picked.height() > 0 {
-            let verdicts = picked.column("verdict")?.str()?.clone();
+            let verdicts = picked.column(col::VERDICT)?.str()?.clone();
             let all = verdicts.iter().all(|v| v == Some("verified"));
             return Ok(f64::from(u8::from(all)));
         }
@@ -481,7 +490,7 @@ impl Tables {
             bail!(
                 "{}/{}.parquet: {} row(s) where {:?} (expected one)",
                 dir.display(),
-                query.table,
+                query.table.name,
                 picked.height(),
                 query.filters
             );
@@ -518,13 +527,13 @@ pub fn statements() -> Vec<Statement> {
     let worst = |spec: &'static str, ds: &'static str, order: i64| {
         q(
             spec,
-            "model_order",
+            results::MODEL_ORDER,
             vec![
-                ("dataset", Key::S(ds)),
-                ("model_order", Key::I(order)),
-                ("component", Key::S("re")),
+                (col::DATASET, Key::S(ds)),
+                (col::MODEL_ORDER, Key::I(order)),
+                (col::COMPONENT, Key::S("re")),
             ],
-            "kl_worst_db",
+            col::KL_WORST_DB,
         )
     };
     let terms = PLANTS_ABC

@@ -444,14 +444,11 @@ pub fn record_wall(out: &Path, wall_s: f64, repeats: usize) -> Result<()> {
 pub fn builds(runs: &[SpecRuns]) -> Vec<(String, usize)> {
     let mut count: BTreeMap<String, usize> = BTreeMap::new();
     for (_, dir) in runs.iter().flat_map(|r| &r.runs) {
-        let Ok(text) = std::fs::read(dir.join("manifest.json")) else {
+        let Ok(m) = crate::io::manifest::Manifest::read(dir) else {
             continue;
         };
-        let Ok(m) = serde_json::from_slice::<serde_json::Value>(&text) else {
-            continue;
-        };
-        for job in m["jobs"].as_array().into_iter().flatten() {
-            let b = job["computed_by"].as_str().unwrap_or("not recorded");
+        for job in &m.jobs {
+            let b = job.computed_by.as_deref().unwrap_or("not recorded");
             *count.entry(b.to_string()).or_default() += 1;
         }
     }

@@ -84,6 +84,8 @@ fn not_covered(kind: &str, number: u32) -> &'static str {
 }
 
 /// The document and the count of verdicts in it.
+///
+/// Long because the document is written section by section in one pass.
 pub fn document(
     dissertation: &Dissertation,
     evaluated: &[Evaluated],

@@ -24,6 +24,9 @@ use std::time::Instant;
 /// failed job is recorded in the store, in `jobs.parquet` (or,
 /// for a job of the run as a whole, in the manifest) and in the returned summary. A run that
 /// stops with an error leaves its folder marked in progress, which `table` and `report` refuse.
+///
+/// Long because it is a run from start to end in order (claim, key, skip what the store holds,
+/// execute, merge), each step a few lines.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let start = Instant::now();
     let purpose = match opts.shard {

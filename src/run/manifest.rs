@@ -3,10 +3,10 @@
 //! with its identity, seeds, status, error and timings; written as a stream, job by job.
 
 use crate::io::atomic::Staged;
+use crate::io::manifest as format;
 use crate::run::jobs::JobKind;
 use crate::run::plan::Plan;
 use anyhow::Result;
-use serde_json::json;
 use std::io::Write;
 use std::path::Path;
 
@@ -23,16 +23,18 @@ pub fn build_commit() -> String {
     }
 }
 
-/// Commit and dirty flag of the source tree when the binary was built (null outside git).
-fn git_state() -> serde_json::Value {
+/// Commit and dirty flag of the source tree when the binary was built (`None` outside git).
+fn git_state() -> Option<format::Git> {
     match (
         env!("ISAR_CLUTTER_GIT_COMMIT"),
         env!("ISAR_CLUTTER_GIT_DIRTY"),
     ) {
-        ("", _) => serde_json::Value::Null,
-        (commit, dirty) => {
-            json!({ "commit": commit, "dirty": dirty == "true", "recorded": "at build time" })
-        }
+        ("", _) => None,
+        (commit, dirty) => Some(format::Git {
+            commit: commit.into(),
+            dirty: dirty == "true",
+            recorded: "at build time".into(),
+        }),
     }
 }
 
@@ -56,22 +58,26 @@ impl Manifest {
     /// # Errors
     /// If the file cannot be written.
     pub fn start(plan: &Plan, threads: usize, out: &Path) -> Result<Manifest> {
-        let head = json!({
-            "format": "isar-clutter-manifest/1",
-            "tool": { "name": env!("CARGO_PKG_NAME"), "version": env!("CARGO_PKG_VERSION") },
-            "git": git_state(),
-            "spec_file": plan.file.display().to_string(),
-            "spec_hash_sha256": plan.spec_hash,
-            "spec": plan.spec,
-            "master_seed": plan.spec.seed,
-            "master_seed_from": if plan.seed_override.is_some() { "--seed" } else { "spec" },
-            "seed_derivation": "first 8 bytes (LE) of SHA-256('isar-clutter/v1/<job|data>/<master seed>/<identity>'); simulated data use ChaCha20 seeded with data_seed, stream = sample index; generated samples use the sample format below, seeded with generation_seed, stream = sample index",
-            "sample_format": crate::synthesis::SAMPLE_FORMAT,
-            "threads": threads,
-            "calibration_seed": plan.spec.calibration.as_ref().map(|_| plan.calibration_seed()),
-        });
+        let head = format::Manifest {
+            format: format::FORMAT.into(),
+            tool: format::Tool {
+                name: env!("CARGO_PKG_NAME").into(),
+                version: env!("CARGO_PKG_VERSION").into(),
+            },
+            git: git_state(),
+            spec_file: plan.file.display().to_string(),
+            spec_hash_sha256: plan.spec_hash.clone(),
+            spec: serde_json::to_value(&plan.spec)?,
+            master_seed: Some(plan.spec.seed),
+            master_seed_from: if plan.seed_override.is_some() { "--seed" } else { "spec" }.into(),
+            seed_derivation: "first 8 bytes (LE) of SHA-256('isar-clutter/v1/<job|data>/<master seed>/<identity>'); simulated data use ChaCha20 seeded with data_seed, stream = sample index; generated samples use the sample format below, seeded with generation_seed, stream = sample index".into(),
+            sample_format: Some(crate::synthesis::SAMPLE_FORMAT),
+            threads: Some(threads),
+            calibration_seed: plan.spec.calibration.as_ref().map(|_| plan.calibration_seed()),
+            ..Default::default()
+        };
         let text = serde_json::to_string_pretty(&head)?;
-        let mut file = Staged::new(&out.join("manifest.json"));
+        let mut file = Staged::new(&format::path(out));
         // The object left open after its last field, for the jobs.
         let open = text.strip_suffix("\n}").unwrap_or(&text);
         write!(file, "{open},\n  \"jobs\": [")?;
@@ -95,20 +101,24 @@ impl Manifest {
         elapsed_s: f64,
         built_by: Option<&str>,
     ) -> Result<()> {
-        let mut entry = json!({
-            "job": job.id(),
-            "kind": job.kind(),
-            "identity": job.identity(),
-            "seed": job.seed(),
-        });
-        if let serde_json::Value::Object(fields) = job.manifest() {
-            entry.as_object_mut().expect("an object").extend(fields);
+        let mut entry = serde_json::to_value(format::Job {
+            job: job.id().into(),
+            kind: job.kind().into(),
+            identity: job.identity().into_owned(),
+            seed: job.seed(),
+            status: if outcome.is_ok() { "ok" } else { "failed" }.into(),
+            error: outcome.err().map(str::to_string),
+            elapsed_s: Some(elapsed_s),
+            timing: outcome.ok().flatten().cloned(),
+            computed_by: built_by.map(str::to_string),
+            ..Default::default()
+        })?;
+        // The kind's own fields (a dataset job's `dataset`, `data_seed`, ...).
+        if let (serde_json::Value::Object(entry), serde_json::Value::Object(fields)) =
+            (&mut entry, job.manifest())
+        {
+            entry.extend(fields);
         }
-        entry["status"] = json!(if outcome.is_ok() { "ok" } else { "failed" });
-        entry["error"] = json!(outcome.err());
-        entry["elapsed_s"] = json!(elapsed_s);
-        entry["timing"] = json!(outcome.ok().flatten());
-        entry["computed_by"] = json!(built_by);
         let sep = if self.jobs == 0 { "" } else { "," };
         write!(self.file, "{sep}\n    {}", serde_json::to_string(&entry)?)?;
         self.jobs += 1;
@@ -166,7 +176,7 @@ impl Manifest {
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.as_secs())
             .unwrap_or(0);
-        let timings = json!({ "total_s": total_s, "tables_s": tables_s });
+        let timings = format::Timings { total_s, tables_s };
         write!(
             self.file,
             ",\n  \"timings\": {},\n  \"finished_unix_s\": {unix}\n}}\n",

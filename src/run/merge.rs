@@ -10,6 +10,7 @@
 
 use crate::io::outdir::{OutDir, Purpose, STATE};
 use crate::io::parquet::write_parquet;
+use crate::io::results::check_columns;
 use crate::run::jobs::all::AllJobs;
 use crate::run::jobs::{Inputs, JobKind, Outcome, Status};
 use crate::run::plan::{self, Plan};
@@ -193,6 +194,9 @@ fn missing_message(out: &Path, missing: &[String]) -> String {
 ///
 /// # Errors
 /// If a job is missing and not `partial`, or a file cannot be read or written.
+///
+/// Long because the merge's steps (read the records, run the row jobs, publish files, stream the
+/// tables and the manifest) share the claimed folder and its layout.
 #[allow(clippy::too_many_arguments)]
 pub fn merge_claimed(
     plan: &Plan,
@@ -534,6 +538,11 @@ fn open_tables(
         let widest = match &t.widest {
             None => {
                 let mut df = tables::empty(plan, &t.name)?;
+                check_columns(
+                    &t.name,
+                    df.get_column_names().into_iter().map(|n| n.as_str()),
+                    &plan.param_keys,
+                )?;
                 write_parquet(&out.join(format!("{}.parquet", t.name)), &mut df)?;
                 continue;
             }
@@ -547,6 +556,11 @@ fn open_tables(
                 store::fragment(&done, &body, *index)?.clear()
             }
         };
+        check_columns(
+            &t.name,
+            widest.get_column_names().into_iter().map(|n| n.as_str()),
+            &plan.param_keys,
+        )?;
         if t.rows == 0 {
             // Fragments without rows: the table is their widest columns.
             write_parquet(

@@ -194,6 +194,9 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
 ///
 /// # Errors
 /// As [`load`].
+///
+/// Long because it builds the plan in order (spec, sweep points, jobs, seeds, checks), each step
+/// using the one before.
 pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
     let bytes = std::fs::read(file)
         .map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;

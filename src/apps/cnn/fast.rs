@@ -510,6 +510,9 @@ pub fn block_forward_train(
 }
 
 /// The backward pass of a training block from the gradient `dout` of its output.
+///
+/// Long because the block's backward pass is one sequence of kernels over shared buffers; split,
+/// the buffers would be threaded through every part.
 pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads {
     let g = &t.g;
     let (p, f, kk, s) = (g.p(), g.f, g.kk(), g.chunk());

@@ -144,6 +144,9 @@ impl Loaded {
 ///
 /// # Errors
 /// A message naming the folder and the file for a missing, misshapen or non-finite file.
+///
+/// Long because each file of the network folder is read and checked (shape, finite values) with its
+/// own message.
 pub fn load(dir: &Path) -> Result<Loaded> {
     let json = dir.join("network.json");
     let text = std::fs::read_to_string(&json)

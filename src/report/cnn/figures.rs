@@ -11,6 +11,7 @@ use super::super::figures::{Panel, Scale};
 use super::super::{rel, Figure};
 use super::{App, Group, Representative};
 use crate::apps::cnn::location::{centre, GRID, TARGET};
+use crate::io::results::{self, col};
 use anyhow::{Context, Result};
 use ndarray::{Array2, Axis};
 use polars::prelude::DataFrame;
@@ -64,8 +65,8 @@ fn figure(dir: &Path, caption: String, files: [PathBuf; 2], data: &[&str]) -> Fi
 /// The classification's figures: per normalisation, accuracy against training size, the
 /// representative training's confusion matrix and the training curves.
 pub(super) fn classification(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
-    let history = read(dir, "training_history.parquet")?;
-    let confusion = read(dir, "confusion.parquet")?;
+    let history = results::TRAINING_HISTORY.read(dir)?;
+    let confusion = results::CONFUSION.read(dir)?;
     // One group's figures after another's, each group's drawn while the others are.
     let per_group = |g: &Group| -> Result<Vec<Figure>> {
         let mut out = vec![];
@@ -129,8 +130,8 @@ fn in_parallel(
 /// The location's figures: per target, accuracy against SCR, the representative training's
 /// confusion matrix, the training curves and example training images.
 pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
-    let history = read(dir, "training_history.parquet")?;
-    let confusion = read(dir, "confusion.parquet")?;
+    let history = results::TRAINING_HISTORY.read(dir)?;
+    let confusion = results::CONFUSION.read(dir)?;
     let per_group = |g: &Group| -> Result<Vec<Figure>> {
         let mut out = vec![];
         let stem = format!("location_accuracy_{}", safe(&g.name));
@@ -182,11 +183,6 @@ pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
     in_parallel(groups, per_group)
 }
 
-/// A Parquet table of the run, if present.
-fn read(dir: &Path, file: &str) -> Result<Option<DataFrame>> {
-    crate::io::parquet::read_parquet(&dir.join(file))
-}
-
 /// Test accuracy (%) against x per method, with error bars.
 fn accuracy(
     dir: &Path,
@@ -205,7 +201,12 @@ fn accuracy(
         return Ok(None);
     }
     let files = plot(dir, stem, title, &curves, (x_label, "test accuracy (%)"))?;
-    Ok(Some(figure(dir, caption, files, &[app.file()])))
+    Ok(Some(figure(
+        dir,
+        caption,
+        files,
+        &[&app.table().file_name()],
+    )))
 }
 
 /// The class names of a classification job: `jobs.parquet`'s `dataset` (the class ids,
@@ -213,8 +214,8 @@ fn accuracy(
 /// neither says.
 fn class_names(dir: &Path, job: &str) -> Result<Vec<String>> {
     use super::super::table::strings;
-    if let Some(df) = read(dir, "jobs.parquet")? {
-        let (jobs, data) = (strings(&df, "job")?, strings(&df, "dataset")?);
+    if let Some(df) = results::JOBS.read(dir)? {
+        let (jobs, data) = (strings(&df, col::JOB)?, strings(&df, col::DATASET)?);
         if let Some(Some(d)) = jobs
             .iter()
             .zip(&data)
@@ -224,11 +225,10 @@ fn class_names(dir: &Path, job: &str) -> Result<Vec<String>> {
             return Ok(d.split(',').map(str::to_string).collect());
         }
     }
-    let manifest: serde_json::Value = std::fs::read(dir.join("manifest.json"))
-        .ok()
-        .and_then(|b| serde_json::from_slice(&b).ok())
+    let spec = crate::io::manifest::Manifest::read(dir)
+        .map(|m| m.spec)
         .unwrap_or_default();
-    Ok(manifest["spec"]["classification"]["classes"]
+    Ok(spec["classification"]["classes"]
         .as_array()
         .into_iter()
         .flatten()
@@ -249,10 +249,10 @@ fn confusion_figure(
 ) -> Result<Option<Figure>> {
     use super::super::table::{floats, strings};
     let (jobs, t, p, n) = (
-        strings(df, "job")?,
-        floats(df, "true_class")?,
-        floats(df, "predicted_class")?,
-        floats(df, "count")?,
+        strings(df, col::JOB)?,
+        floats(df, col::TRUE_CLASS)?,
+        floats(df, col::PREDICTED_CLASS)?,
+        floats(df, col::COUNT)?,
     );
     let cells: Vec<(usize, usize, f64)> = (0..df.height())
         .filter(|&i| jobs[i].as_deref() == Some(rep.job.as_str()))
@@ -307,7 +307,12 @@ fn confusion_figure(
         &options,
     )
     .with_context(|| format!("drawing {stem}"))?;
-    Ok(Some(figure(dir, caption, files, &["confusion.parquet"])))
+    Ok(Some(figure(
+        dir,
+        caption,
+        files,
+        &[&results::CONFUSION.file_name()],
+    )))
 }
 
 /// Where a representative training sits, for titles.
@@ -331,9 +336,9 @@ fn training_curves(
     use super::super::table::{floats, strings};
     let title = format!("{}: validation accuracy by epoch", g.name);
     let (jobs, epoch, val) = (
-        strings(df, "job")?,
-        floats(df, "epoch")?,
-        floats(df, "validation_accuracy")?,
+        strings(df, col::JOB)?,
+        floats(df, col::EPOCH)?,
+        floats(df, col::VALIDATION_ACCURACY)?,
     );
     let mut series: Vec<(String, Vec<Point>)> = vec![];
     for m in &g.methods {
@@ -357,7 +362,7 @@ fn training_curves(
         dir,
         caption,
         files,
-        &["training_history.parquet"],
+        &[&results::TRAINING_HISTORY.file_name()],
     )))
 }
 

@@ -9,6 +9,7 @@ pub mod table;
 
 use super::table::{floats, kept_rows, strings, Format};
 use super::Figure;
+use crate::io::results::{self, col, Table};
 use anyhow::{Context, Result};
 use std::path::Path;
 
@@ -23,26 +24,26 @@ pub enum App {
 
 impl App {
     /// The table of its trainings.
-    pub fn file(self) -> &'static str {
+    pub fn table(self) -> Table {
         match self {
-            App::Classification => "classification.parquet",
-            App::Location => "location.parquet",
+            App::Classification => results::CLASSIFICATION,
+            App::Location => results::LOCATION,
         }
     }
 
     /// The column that splits its trainings into tables and figures.
     fn group_column(self) -> &'static str {
         match self {
-            App::Classification => "normalise",
-            App::Location => "target",
+            App::Classification => col::NORMALISE,
+            App::Location => col::TARGET,
         }
     }
 
     /// The column across the page (tables) and along the x axis (figures).
     fn x_column(self) -> &'static str {
         match self {
-            App::Classification => "train_size",
-            App::Location => "scr_db",
+            App::Classification => col::TRAIN_SIZE,
+            App::Location => col::SCR_DB,
         }
     }
 }
@@ -162,7 +163,7 @@ fn load(
     filters: &[(String, Vec<String>)],
     strict: bool,
 ) -> Result<Option<Vec<Group>>> {
-    let path = dir.join(app.file());
+    let path = app.table().path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(None);
     };
@@ -178,18 +179,18 @@ fn load(
             Ok(vec![None; df.height()])
         }
     };
-    let job = strings(&df, "job").with_context(context)?;
-    let method = strings(&df, "method").with_context(context)?;
+    let job = strings(&df, col::JOB).with_context(context)?;
+    let method = strings(&df, col::METHOD).with_context(context)?;
     let group = strings(&df, app.group_column()).with_context(context)?;
     let x = floats(&df, app.x_column()).with_context(context)?;
-    let repeat = floats(&df, "repeat").with_context(context)?;
-    let test = floats(&df, "test_accuracy").with_context(context)?;
-    let train = optional_floats("train_accuracy")?;
-    let validation = optional_floats("validation_accuracy")?;
-    let test_samples = optional_floats("test_samples")?;
-    let speed = optional_floats("train_samples_per_second")?;
-    let protocol = if has("protocol") {
-        strings(&df, "protocol")?
+    let repeat = floats(&df, col::REPEAT).with_context(context)?;
+    let test = floats(&df, col::TEST_ACCURACY).with_context(context)?;
+    let train = optional_floats(col::TRAIN_ACCURACY)?;
+    let validation = optional_floats(col::VALIDATION_ACCURACY)?;
+    let test_samples = optional_floats(col::TEST_SAMPLES)?;
+    let speed = optional_floats(col::TRAIN_SAMPLES_PER_SECOND)?;
+    let protocol = if has(col::PROTOCOL) {
+        strings(&df, col::PROTOCOL)?
     } else {
         vec![None; df.height()]
     };

@@ -8,6 +8,7 @@
 
 use super::super::table::{layout, Format};
 use super::{load, App, Group, Stats};
+use crate::io::results::{self, col};
 use anyhow::{bail, Result};
 use std::path::Path;
 
@@ -170,7 +171,7 @@ fn classification(g: &Group, format: Format) -> String {
         g.name,
         protocols.join(", ")
     );
-    let mut header = vec!["method".to_string()];
+    let mut header = vec![col::METHOD.to_string()];
     header.extend(g.xs.iter().map(|&x| x_label(App::Classification, x)));
     layout(&title, &header, &body, 1, format)
 }
@@ -178,8 +179,8 @@ fn classification(g: &Group, format: Format) -> String {
 /// Every statistic per normalisation, method and training size.
 fn classification_detail(groups: &[Group], format: Format) -> String {
     let header: Vec<String> = [
-        "normalise",
-        "method",
+        col::NORMALISE,
+        col::METHOD,
         "N",
         "repeats",
         "test mean",
@@ -233,15 +234,20 @@ type Summary = Vec<((String, String), [Option<f64>; 4])>;
 /// `location_summary.parquet`, if present.
 fn summary(dir: &Path) -> Result<Summary> {
     use super::super::table::{floats, strings};
-    let path = dir.join("location_summary.parquet");
+    let path = results::LOCATION_SUMMARY.path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
-    let (t, m) = (strings(&df, "target")?, strings(&df, "method")?);
-    let cols = ["scr_50_db", "scr_90_db", "gain_50_db", "gain_90_db"]
-        .iter()
-        .map(|c| floats(&df, c))
-        .collect::<Result<Vec<_>>>()?;
+    let (t, m) = (strings(&df, col::TARGET)?, strings(&df, col::METHOD)?);
+    let cols = [
+        col::SCR_50_DB,
+        col::SCR_90_DB,
+        col::GAIN_50_DB,
+        col::GAIN_90_DB,
+    ]
+    .iter()
+    .map(|c| floats(&df, c))
+    .collect::<Result<Vec<_>>>()?;
     Ok((0..df.height())
         .filter_map(|i| {
             let key = (t[i].clone()?, m[i].clone()?);
@@ -256,7 +262,7 @@ fn location(dir: &Path, groups: &[Group], format: Format) -> Result<String> {
     let mut xs: Vec<f64> = groups.iter().flat_map(|g| g.xs.iter().copied()).collect();
     xs.sort_by(f64::total_cmp);
     xs.dedup();
-    let mut header = vec!["target".to_string(), "method".to_string()];
+    let mut header = vec![col::TARGET.to_string(), col::METHOD.to_string()];
     header.extend(xs.iter().map(|&x| x_label(App::Location, x)));
     header.extend(
         [

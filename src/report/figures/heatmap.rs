@@ -236,6 +236,10 @@ impl Figure for HeatGrid<'_, '_> {
         out
     }
 
+    /// Draws the panels, their axes and labels and the colour bar onto `root`.
+    ///
+    /// Long because plotters draws each part (panels, axes, labels, colour bar) through its own
+    /// chart context, a few lines each.
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
     where
         DB::ErrorType: 'static,

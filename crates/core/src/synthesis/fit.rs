@@ -362,6 +362,8 @@ pub(super) fn cell_of(i: usize, j: usize, cells: (usize, usize)) -> (usize, usiz
 /// [`FitError`] if the stack has NaN or infinite values ([`check_finite`]: the model would
 /// hold a mean or standard deviation that is not finite), the analysis lacks levels the method
 /// needs, or the model's arrays (the full-covariance deviations) do not fit in memory.
+///
+/// Long because it is the one match over the five methods, each arm a few lines.
 pub fn fit(
     method: Method,
     analysis: &Analysis,

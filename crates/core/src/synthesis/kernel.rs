@@ -298,6 +298,9 @@ impl FastFilter {
     /// One row group (output rows `g0 .. g1`) on the tile of columns `j0 .. j0 + tw`, its
     /// seed rows' class sums in the ring: the horizontal sums H of its seed rows, then its
     /// output pixels.
+    ///
+    /// Long because it is the inner kernel, unrolled by hand so that the compiler keeps its
+    /// accumulators in registers.
     #[inline(always)]
     fn group_tile<const AVX: bool>(
         &self,

@@ -140,6 +140,11 @@ impl JobKind for ClassificationJob {
         materialise_all(&self.classes)
     }
 
+    /// Fits and generates each class's training samples, trains and evaluates the classifier, and
+    /// makes the job's rows.
+    ///
+    /// Long because the steps (data, training, evaluation, three tables' rows) follow one another
+    /// over the same arrays.
     fn run(&self, cx: &JobContext) -> Result<Rows> {
         let plan = cx.plan;
         let cp = plan

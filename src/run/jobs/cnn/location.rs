@@ -144,6 +144,11 @@ impl JobKind for LocationJob {
         materialise_all(&self.clutter)
     }
 
+    /// Fits and generates the training clutter, trains and evaluates the location network, and
+    /// makes the job's rows.
+    ///
+    /// Long because the steps (data, targets, training, evaluation, four tables' rows) follow one
+    /// another over the same arrays.
     fn run(&self, cx: &JobContext) -> Result<Rows> {
         let plan = cx.plan;
         let lp = plan.location.as_ref().expect("a location section");

@@ -191,6 +191,10 @@ type ParsedHeader = (
     u64,
 );
 
+/// Parses a NetCDF-3 header: dimensions, global attributes and variables, in file order.
+///
+/// Long because the header's parts are read in file order from one cursor, each checked with its
+/// own error.
 pub(super) fn parse_header(path: &Path, bytes: &[u8]) -> Result<ParsedHeader, NcError> {
     if bytes.len() < 4 || &bytes[..3] != b"CDF" {
         return Err(NcError::BadMagic {

@@ -86,6 +86,9 @@ impl OutDir {
     ///
     /// # Errors
     /// As above; every message names the folder and says why.
+    ///
+    /// Long because each state a folder can be in (new, empty, the tool's, another tool's, locked,
+    /// in progress) is handled with its own message.
     pub fn claim(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<OutDir> {
         match fs::symlink_metadata(root) {
             Ok(m) if !m.is_dir() => bail!(

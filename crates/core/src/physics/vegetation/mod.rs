@@ -199,6 +199,8 @@ impl PlantParams {
 
     /// The physical preset before calibration: the geometry, amplitudes and wind response as
     /// designed (see [`PlantParams::preset`]).
+    ///
+    /// Long because it lists the presets' parameters (plants A-E) as data.
     pub fn uncalibrated(name: &str) -> Option<PlantParams> {
         let base = PlantParams {
             n_stems: 2,
@@ -307,6 +309,8 @@ impl PlantParams {
     }
 
     /// Checks ranges; the error names the first offending parameter.
+    ///
+    /// Long because each parameter's range is checked in turn, with its name.
     pub fn validate(&self) -> Result<(), VegError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
         let nonneg = |v: f64| v.is_finite() && v >= 0.0;

@@ -80,6 +80,10 @@ pub(super) fn normal(rng: &mut ChaCha8Rng) -> f64 {
     StandardNormal.sample(rng)
 }
 
+/// A plant's scatterers (stem, branches, leaves) drawn from its parameters.
+///
+/// Long because the parts are placed in one pass over the same random stream: split, the order of
+/// the draws (and so every plant) would have to be kept by hand.
 pub(super) fn build_plant(p: &PlantParams, rng: &mut ChaCha8Rng) -> Plant {
     let tau = 2.0 * std::f64::consts::PI;
     let mut points = vec![];

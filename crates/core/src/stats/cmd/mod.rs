@@ -511,6 +511,10 @@ struct Lane {
     tile: [Vec<f64>; 2],
 }
 
+/// The three terms of eq. 24 for two normalised stacks with the given forms and kernel.
+///
+/// Long because the blocked loop keeps the three terms' accumulators and packed tiles together
+/// across pixel blocks.
 fn cmd_terms_impl(a1: &Normalised, a2: &Normalised, forms: [Form; 3], kern: Kernel) -> CmdTerms {
     assert_eq!(a1.p, a2.p, "the two stacks must have the same pixels");
     let [form1, form2, form_cross] = forms;
