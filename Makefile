@@ -12,7 +12,12 @@ VENV := .venv
 # libhdf5 (Debian's libhdf5-dev, installed by the `hdf5` target). `make FEATURES=` builds
 # without it: MAT v5 only, and a v7.3 file is a clear error.
 FEATURES ?= mat73
-CARGO_FEATURES := $(if $(strip $(FEATURES)),--features $(FEATURES))
+CARGO_FEATURES := $(if $(strip $(FEATURES)),--features "$(addprefix isar-clutter/,$(FEATURES))")
+# The Rust crates that `make test` and `make lint` build together. Not --workspace: the Python
+# extension's pyo3 turns on features of shared dependencies (once_cell, syn, ...), and built
+# together the binary's dependencies would be compiled a second time with them; maturin builds
+# the extension on its own (`make python`).
+RUST_PACKAGES := -p isar-clutter -p isar-clutter-core
 # mat73 links Debian's static libhdf5.a, through the HDF5_DIR that the `hdf5` target lays out
 # (include/; lib/ with libhdf5.a alone; bin/ with the shared library that hdf5-metno-sys's build
 # script loads to check the version). Linked dynamically, libhdf5 brings 33 more shared
@@ -21,7 +26,7 @@ CARGO_FEATURES := $(if $(strip $(FEATURES)),--features $(FEATURES))
 HDF5_DIR ?= $(CARGO_TARGET_DIR)/hdf5-static
 export HDF5_DIR
 
-.PHONY: build run-experiment reproduce run-all compare validate test test-deps hdf5 lint fmt bench bench-scale bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
+.PHONY: build run-experiment reproduce run-all compare validate test test-deps python hdf5 lint fmt bench bench-scale bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
 
 ## build: release build of the isar-clutter binary (with FEATURES; add `cuda` for
 ## `training: {device: cuda}`: make build FEATURES="mat73 cuda")
@@ -55,9 +60,24 @@ compare: bench-deps
 validate: build
 	$(BIN) validate $(SPEC)
 
-## test: every test, with the release profile (shares the release build's dependencies)
-test: test-deps
-	cargo test --release --locked --workspace $(CARGO_FEATURES)
+## test: every test, with the release profile (shares the release build's dependencies), then
+## the Python package's tests (pytest, against the binary the Rust tests built)
+test: test-deps python
+	cargo test --release --locked $(RUST_PACKAGES) $(CARGO_FEATURES)
+	ISAR_CLUTTER_BIN=$(BIN) $(PYVENV)/bin/python -m pytest -q python/tests
+
+## python: the Python package isar_clutter (python/: maturin and pyo3 over the core crate)
+## installed into PYVENV, a virtualenv under $HOME like the target directory, with what its tests
+## need (pinned): pytest, numpy and PyTorch (the PyPI wheel, a large CUDA build; its CPU path is
+## what the tests use). A user's own environment: pip install ./python
+PYVENV ?= $(HOME)/.cache/isar-clutter/venv-python
+PYVENV_DEPS := maturin==1.16.0 pytest==8.4.2 numpy==2.3.5 torch==2.15.0
+$(PYVENV)/.deps-1:
+	$(PYTHON) -m venv $(PYVENV)
+	$(PYVENV)/bin/pip install --quiet $(PYVENV_DEPS)
+	touch $@
+python: $(PYVENV)/.deps-1
+	PATH=$(PYVENV)/bin:$$PATH $(PYVENV)/bin/pip install --quiet --no-build-isolation ./python
 
 ## hdf5: Debian's libhdf5-dev (and pkg-config) for the mat73 feature, installed with apt when
 ## running as root, otherwise a hint; then the static layout of HDF5_DIR (above) from it.
@@ -104,8 +124,9 @@ test-deps: hdf5 $(VENV)/bin/python
 ## lint: formatting and clippy with warnings as errors
 lint: hdf5
 	cargo fmt --all -- --check
-	cargo clippy --release --workspace --all-targets --locked $(CARGO_FEATURES) -- -D warnings
-	cargo clippy --release --workspace --all-targets --locked -- -D warnings
+	cargo clippy --release $(RUST_PACKAGES) --all-targets --locked $(CARGO_FEATURES) -- -D warnings
+	cargo clippy --release $(RUST_PACKAGES) --all-targets --locked -- -D warnings
+	cargo clippy --release -p isar-clutter-python --locked -- -D warnings
 
 fmt:
 	cargo fmt --all

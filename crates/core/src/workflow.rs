@@ -240,30 +240,69 @@ pub fn fit_folder(
     // Held until the model folder is in place: a second `fit` into `out` is refused.
     let _lock = crate::io::outdir::lock_output(out, "fit")?;
     let Loaded { stack, hwn, source } = input.load()?;
-    let depth = if method == Method::Method2 {
-        options.levels
-    } else {
-        1
-    };
+    let depth = depth(method, options.levels);
     let analysis = stack
         .analyse(hwn, depth)
         .with_context(|| format!("analysing {source}"))?;
-    let full = matches!(method, Method::FullCovariance | Method::FourthOrder)
-        .then(|| stack.to_complex128(hwn));
-    let half_width = options.half_width;
+    let full = needs_stack(method).then(|| stack.to_complex128(hwn));
+    let (model, info) = fit_analysed(method, &analysis, full.as_ref(), options, source)?;
+    let removed = save_model(&model, &info, out)?;
+    Ok(Fitted { info, removed })
+}
+
+/// The analysis depth `method` fits from: `levels` for Method 2, one level otherwise.
+pub fn depth(method: Method, levels: usize) -> usize {
+    if method == Method::Method2 {
+        levels
+    } else {
+        1
+    }
+}
+
+/// Whether `method` needs the stack itself besides its analysis (full covariance, fourth
+/// order).
+pub fn needs_stack(method: Method) -> bool {
+    matches!(method, Method::FullCovariance | Method::FourthOrder)
+}
+
+/// Fits `method` to a stack's `analysis` (at [`depth`]; `full`: the stack as complex128
+/// `[N, H, W]` where [`needs_stack`]) and makes the model folder's record, `source` naming
+/// the stack: what `fit` does between reading the input and saving the folder, shared with
+/// the Python bindings so that both give the same model.
+///
+/// # Errors
+/// Naming `source` and the method, when the fit fails.
+pub fn fit_analysed(
+    method: Method,
+    analysis: &crate::stats::analysis::Analysis,
+    full: Option<&ndarray::Array3<num_complex::Complex64>>,
+    options: FitOptions,
+    source: String,
+) -> Result<(Model, ModelInfo)> {
+    let depth = depth(method, options.levels);
     let model = fit(
         method,
-        &analysis,
-        full.as_ref().map(|s| s.view()),
+        analysis,
+        full.map(|s| s.view()),
         FitOptions {
             levels: depth,
             ..options
         },
     )
     .with_context(|| format!("fitting {} to {source}", method.as_str()))?;
-    let info = ModelInfo::new(&model, &analysis, half_width, depth, source);
-    let removed = save_model(&model, &info, out)?;
-    Ok(Fitted { info, removed })
+    let info = ModelInfo::new(&model, analysis, options.half_width, depth, source);
+    Ok((model, info))
+}
+
+/// Saves `model` as the model folder `out` with the policy of `fit` (locked while written;
+/// refused over anything but an empty folder or an earlier model of the tool's; swapped in
+/// whole). Returns the temporaries of killed writers it removed.
+///
+/// # Errors
+/// Naming `out`: locked, not a model folder, or the writing failed.
+pub fn save_model_folder(model: &Model, info: &ModelInfo, out: &Path) -> Result<Vec<String>> {
+    let _lock = crate::io::outdir::lock_output(out, "fit")?;
+    save_model(model, info, out)
 }
 
 /// Saves a model folder at `out`: refused if `out` is a file, or a folder that is neither

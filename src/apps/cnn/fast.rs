@@ -18,6 +18,8 @@
 //! order. Results are therefore bit-identical on a rayon pool of any size.
 //!
 //! `tests/cnn.rs` checks every kernel against plain loops in f64 (forward and all gradients).
+//! Process-wide state: a pool of large buffers (`POOL`) and per-thread scratch (`SCRATCH`),
+//! reused between training steps; neither carries values from one call to the next.
 
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;

@@ -1,7 +1,9 @@
 //! `.npy` input: a header reader that validates files at spec-validation time without loading
 //! them, and loaders for image stacks (complex64, complex128, float32, float64) and real
 //! parameter maps. Stacks stay in their stored element type so that memory is the input's
-//! size; the analysis converts to f64 on the fly.
+//! size; the analysis converts to f64 on the fly. Process-wide state: the mappings that
+//! `map_for_reading` offers (`OFFERED`, by file identity), held until the `Stack::load` of the
+//! same unchanged file takes them, so that a file validated and then loaded is mapped once.
 
 use super::FileId;
 use crate::stats::analysis::{analyse, Analysis, AnalysisError, Sample};

@@ -1,0 +1,237 @@
+//! `isar_clutter._native`: the Python extension over the core crate. `analyse` gives a
+//! stack's multiscale maps as numpy arrays (the names and numbers of a run's `maps/`), `fit`
+//! a [`Model`], which saves and loads the command line's model folders and generates samples
+//! straight into a numpy array with the GIL released (sample `i` of a seed is the one
+//! `isar-clutter generate --seed` writes). The Python package `isar_clutter` wraps it.
+
+use isar_clutter_core::io::model::ModelInfo;
+use isar_clutter_core::stats::analysis::{Analysis, Direction};
+use isar_clutter_core::synthesis::{FitOptions, Model as CoreModel};
+use isar_clutter_core::workflow;
+use numpy::{IntoPyArray, PyArray3};
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+mod input;
+
+/// An error of the core as a Python exception: its message with its causes.
+fn os_error(e: &anyhow::Error) -> PyErr {
+    PyOSError::new_err(format!("{e:#}"))
+}
+
+/// The maps of an analysis as a dict of numpy arrays, named as a run's `maps/<job>/` files
+/// (without `.npy`): `mean` (complex128 `[H, W]`), `variance`, and
+/// `level{L}_correlation_{D}` / `level{L}_covariance_{D}` for every level and direction.
+fn maps<'py>(py: Python<'py>, a: Analysis) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("samples", a.samples)?;
+    d.set_item("mean", a.mean.into_pyarray(py))?;
+    d.set_item("variance", a.variance.into_pyarray(py))?;
+    for lm in a.levels {
+        for dir in Direction::ALL {
+            let i = dir as usize;
+            d.set_item(
+                format!("level{}_correlation_{dir}", lm.level),
+                lm.correlation[i].clone().into_pyarray(py),
+            )?;
+            d.set_item(
+                format!("level{}_covariance_{dir}", lm.level),
+                lm.covariance[i].clone().into_pyarray(py),
+            )?;
+        }
+    }
+    Ok(d)
+}
+
+/// analyse(stack, levels=3, layout="nhw")
+/// --
+///
+/// The multiscale analysis of `stack` (`[N, H, W]`, complex or real): a dict of numpy arrays
+/// named as a run's `maps/` files: `mean`, `variance`, `level{L}_correlation_{H,V,D}`,
+/// `level{L}_covariance_{H,V,D}`, and `samples`.
+#[pyfunction]
+#[pyo3(signature = (stack, levels = 3, layout = "nhw"))]
+fn analyse<'py>(
+    py: Python<'py>,
+    stack: &Bound<'py, PyAny>,
+    levels: usize,
+    layout: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let hwn = input::is_hwn(layout)?;
+    let s = input::stack(stack, "stack")?;
+    let a = s.analyse(py, hwn, levels, "stack")?;
+    maps(py, a)
+}
+
+/// A synthesis model: fitted with `fit`, or loaded from a model folder.
+#[pyclass(module = "isar_clutter._native", frozen)]
+struct Model {
+    model: CoreModel,
+    info: ModelInfo,
+}
+
+/// fit(stack, method="method2", half_width=8, levels=3, negative_signs="multiscale",
+/// layout="nhw", source="numpy array")
+/// --
+///
+/// Fits a synthesis model to `stack` as `isar-clutter fit` does.
+#[pyfunction]
+#[pyo3(signature = (stack, method = "method2", half_width = 8, levels = 3,
+                    negative_signs = "multiscale", layout = "nhw", source = "numpy array"))]
+#[allow(clippy::too_many_arguments)]
+fn fit(
+    py: Python<'_>,
+    stack: &Bound<'_, PyAny>,
+    method: &str,
+    half_width: usize,
+    levels: usize,
+    negative_signs: &str,
+    layout: &str,
+    source: &str,
+) -> PyResult<Model> {
+    let method = workflow::method_named(method)
+        .map_err(|e| PyValueError::new_err(format!("method: {e}")))?;
+    let negative_signs = workflow::negative_signs_named(negative_signs)
+        .map_err(|e| PyValueError::new_err(format!("negative_signs: {e}")))?;
+    if half_width == 0 {
+        return Err(PyValueError::new_err("half_width must be at least 1"));
+    }
+    let hwn = input::is_hwn(layout)?;
+    let s = input::stack(stack, "stack")?;
+    let depth = workflow::depth(method, levels);
+    let analysis = s.analyse(py, hwn, depth, "stack")?;
+    let full = if workflow::needs_stack(method) {
+        Some(s.to_complex128(hwn, "stack")?)
+    } else {
+        None
+    };
+    let options = FitOptions {
+        half_width,
+        levels,
+        negative_signs,
+    };
+    let source = source.to_string();
+    let (model, info) = py
+        .detach(|| workflow::fit_analysed(method, &analysis, full.as_ref(), options, source))
+        .map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
+    Ok(Model { model, info })
+}
+
+#[pymethods]
+impl Model {
+    /// Model.load(path): the model folder `path` (written by `fit` here or by the command line).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
+        let (model, info) = py
+            .detach(|| isar_clutter_core::io::model::load(&path))
+            .map_err(|e| os_error(&e))?;
+        Ok(Model { model, info })
+    }
+
+    /// Model.save(path): writes the model folder `path` as `isar-clutter fit --out` does
+    /// (refused over anything but an empty folder or an earlier model folder).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.detach(|| workflow::save_model_folder(&self.model, &self.info, &path))
+            .map_err(|e| os_error(&e))?;
+        Ok(())
+    }
+
+    /// The method's name.
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.model.method.as_str()
+    }
+
+    /// The image shape `(height, width)`.
+    #[getter]
+    fn shape(&self) -> (usize, usize) {
+        self.model.shape()
+    }
+
+    /// The sample format of generated samples (1 or 2).
+    #[getter]
+    fn sample_format(&self) -> u32 {
+        self.model.sample_format
+    }
+
+    /// The model folder's record (`model.json`) as a JSON string.
+    #[getter]
+    fn info_json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.info).map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// generate(n, seed, start=0, threads=None) -> complex64 [n, H, W]: samples
+    /// `start .. start + n` of the generation seeded by `seed`, byte for byte those of
+    /// `isar-clutter generate --seed SEED`; the GIL is released while they are computed on
+    /// `threads` threads (default: all cores).
+    #[pyo3(signature = (n, seed, start = 0, threads = None))]
+    fn generate<'py>(
+        &self,
+        py: Python<'py>,
+        n: i64,
+        seed: u64,
+        start: i64,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray3<num_complex::Complex32>>> {
+        let n = usize::try_from(n)
+            .map_err(|_| PyValueError::new_err(format!("n must be 0 or more, not {n}")))?;
+        let start = usize::try_from(start)
+            .map_err(|_| PyValueError::new_err(format!("start must be 0 or more, not {start}")))?;
+        if start.checked_add(n).is_none() {
+            return Err(PyValueError::new_err("start + n overflows"));
+        }
+        if threads == Some(0) {
+            return Err(PyValueError::new_err("threads must be at least 1"));
+        }
+        let (h, w) = self.model.shape();
+        let mut out = isar_clutter_core::alloc::try_zeros((n, h, w), "the generated samples")
+            .map_err(|e| PyMemoryError::new_err(format!("n = {n}: {e}")))?;
+        let model = &self.model;
+        let slice = out.as_slice_mut().expect("standard layout");
+        py.detach(|| -> PyResult<()> {
+            match threads {
+                None => model.generate_c64_into(seed, start, slice),
+                Some(t) => rayon::ThreadPoolBuilder::new()
+                    .num_threads(t)
+                    .build()
+                    .map_err(|e| PyOSError::new_err(format!("threads = {t}: {e}")))?
+                    .install(|| model.generate_c64_into(seed, start, slice)),
+            }
+            Ok(())
+        })?;
+        Ok(out.into_pyarray(py))
+    }
+
+    fn __repr__(&self) -> String {
+        let (h, w) = self.model.shape();
+        format!(
+            "Model(method={:?}, shape=({h}, {w}), sample_format={})",
+            self.model.method.as_str(),
+            self.model.sample_format
+        )
+    }
+}
+
+/// epoch_seed(seed, epoch): the seed of epoch `epoch` of a stream seeded by `seed` (`seed`
+/// itself for epoch 0; otherwise derived from both as every seed of the tool is).
+#[pyfunction]
+fn epoch_seed(seed: u64, epoch: u64) -> u64 {
+    if epoch == 0 {
+        seed
+    } else {
+        isar_clutter_core::seeds::derive_seed(seed, "epoch", &epoch.to_string())
+    }
+}
+
+/// The module.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(analyse, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(epoch_seed, m)?)?;
+    m.add_class::<Model>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
