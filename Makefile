@@ -17,7 +17,7 @@ CARGO_FEATURES := $(if $(strip $(FEATURES)),--features "$(addprefix isar-clutter
 # extension's pyo3 turns on features of shared dependencies (once_cell, syn, ...), and built
 # together the binary's dependencies would be compiled a second time with them; maturin builds
 # the extension on its own (`make python`).
-RUST_PACKAGES := -p isar-clutter -p isar-clutter-core
+RUST_PACKAGES := -p isar-clutter -p isar-clutter-core -p isar-clutter-tables -p isar-clutter-apps -p isar-clutter-runner -p isar-clutter-report
 # mat73 links Debian's static libhdf5.a, through the HDF5_DIR that the `hdf5` target lays out
 # (include/; lib/ with libhdf5.a alone; bin/ with the shared library that hdf5-metno-sys's build
 # script loads to check the version). Linked dynamically, libhdf5 brings 33 more shared

@@ -1,15 +1,6 @@
-//! Build script: records the git commit of the source tree and whether tracked files differed
-//! from it when the binary was built, for the provenance in every run's `manifest.json`
-//! (`ISAR_CLUTTER_GIT_COMMIT`, `ISAR_CLUTTER_GIT_DIRTY`; empty outside a git checkout).
-
-use std::process::Command;
-
-fn git(args: &[&str]) -> Option<String> {
-    let out = Command::new("git").args(args).output().ok()?;
-    out.status
-        .success()
-        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
-}
+//! Build script of the binary: links it as a position-dependent executable, and tells the
+//! tests whether libhdf5 is linked statically (`ISAR_CLUTTER_HDF5_LINK`). The git commit of the
+//! provenance is the runner's build script's (crates/runner/build.rs).
 
 fn main() {
     // The binary is linked as a position-dependent executable on x86-64 Linux: a PIE of this
@@ -19,8 +10,8 @@ fn main() {
     if target == "x86_64-unknown-linux-gnu" {
         println!("cargo:rustc-link-arg-bins=-no-pie");
     }
-    // mat73 with a static libhdf5 (HDF5_DIR laid out by `make hdf5`): the libraries that
-    // libhdf5.a needs, after it on the link line.
+    // mat73 with a static libhdf5 (HDF5_DIR laid out by `make hdf5`); the libraries that
+    // libhdf5.a needs come from the core crate's build script (linked into every dependent).
     println!("cargo:rerun-if-env-changed=HDF5_DIR");
     // Static where HDF5_DIR's lib/ holds the archive and no shared library (the linker would
     // take the shared one).
@@ -29,36 +20,10 @@ fn main() {
             let lib = std::path::Path::new(&dir).join("lib");
             lib.join("libhdf5.a").exists() && !lib.join("libhdf5.so").exists()
         });
-    if static_hdf5 {
-        for lib in ["sz", "z", "m", "dl"] {
-            println!("cargo:rustc-link-arg=-l{lib}");
-        }
-    }
     // For the test that the binary does not load libhdf5 at start (tests/mat.rs).
     println!(
         "cargo:rustc-env=ISAR_CLUTTER_HDF5_LINK={}",
         if static_hdf5 { "static" } else { "dynamic" }
     );
-    for path in [
-        "src",
-        "crates",
-        "Cargo.toml",
-        "Cargo.lock",
-        "build.rs",
-        ".git/HEAD",
-        ".git/index",
-        ".git/refs",
-    ] {
-        println!("cargo:rerun-if-changed={path}");
-    }
-    let commit = git(&["rev-parse", "HEAD"]).unwrap_or_default();
-    let dirty = if commit.is_empty() {
-        String::new()
-    } else {
-        git(&["status", "--porcelain", "--untracked-files=no"])
-            .map(|s| (!s.is_empty()).to_string())
-            .unwrap_or_default()
-    };
-    println!("cargo:rustc-env=ISAR_CLUTTER_GIT_COMMIT={commit}");
-    println!("cargo:rustc-env=ISAR_CLUTTER_GIT_DIRTY={dirty}");
+    println!("cargo:rerun-if-changed=build.rs");
 }

@@ -15,12 +15,25 @@ fn root() -> PathBuf {
 }
 
 /// The crates' source roots: (how other crates name it, its `src` folder).
-fn crates() -> [(&'static str, PathBuf); 3] {
+fn crates() -> [(&'static str, PathBuf); 7] {
     [
         ("isar_clutter_core", root().join("crates/core/src")),
+        ("isar_clutter_tables", root().join("crates/tables/src")),
+        ("isar_clutter_apps", root().join("crates/apps/src")),
+        ("isar_clutter_runner", root().join("crates/runner/src")),
+        ("isar_clutter_report", root().join("crates/report/src")),
         ("isar_clutter", root().join("src")),
         ("_native", root().join("python/src")),
     ]
+}
+
+/// Whether `file` is a facade: the `lib.rs` of a crate above the core, which only re-exports
+/// the lower crates' modules (`pub use`) and declares its own.
+fn is_facade(file: &Path) -> bool {
+    let rel = file.strip_prefix(root()).unwrap();
+    rel.file_name().is_some_and(|n| n == "lib.rs")
+        && !rel.starts_with("crates/core")
+        && !rel.starts_with("python")
 }
 
 /// Every `.rs` file under `dir`, sorted.
@@ -76,21 +89,35 @@ fn file_of(src: &Path, path: &[String]) -> Option<PathBuf> {
     best
 }
 
-/// The file a path names, through the main crate's re-exports of the core's modules: a path
-/// that stops at `src/lib.rs` or at the `src/io/mod.rs` facade goes on in the core crate
-/// (`core`) when the core has the module.
-fn resolve(src: &Path, path: &[String], core: &Path) -> Option<PathBuf> {
+/// The file a path names, through the facades' re-exports: a path that stops short in its own
+/// crate (at a facade, or at the tables crate's `io` over the core's) goes on in the crate
+/// that has the deepest module of it; a path to an item of a facade (`crate::error_text`) goes
+/// to the lib.rs that defines it.
+fn resolve(src: &Path, path: &[String]) -> Option<PathBuf> {
     let f = file_of(src, path)?;
-    let m = module_of(src, &f);
-    let reexported = (m.is_empty() || m == ["io"]) && path.len() > m.len() && src != core;
-    if reexported {
-        if let Some(c) = file_of(core, path) {
-            if module_of(core, &c).len() > m.len() {
-                return Some(c);
+    let depth = module_of(src, &f).len();
+    if depth == path.len() {
+        return Some(f);
+    }
+    let mut best = (depth, f.clone());
+    for (_, other) in crates() {
+        if let Some(g) = file_of(&other, path) {
+            let d = module_of(&other, &g).len();
+            if d > best.0 {
+                best = (d, g);
             }
         }
     }
-    Some(f)
+    if is_facade(&best.1) {
+        let item = &path[best.0];
+        for (_, other) in crates() {
+            let lib = other.join("lib.rs");
+            if !is_facade(&lib) && defines(&fs::read_to_string(&lib).unwrap(), item) {
+                return Some(lib);
+            }
+        }
+    }
+    Some(best.1)
 }
 
 /// The code of a file without comments and string literals (a doc link or a message that
@@ -257,7 +284,7 @@ fn graph() -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
                         (s.as_path(), segs)
                     }
                 };
-                if let Some(f) = resolve(base, &path, &crates[0].1) {
+                if let Some(f) = resolve(base, &path) {
                     if f != file {
                         to.insert(f);
                     }
@@ -331,34 +358,38 @@ fn circles(g: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Vec<Vec<PathBuf>> {
 /// The layer of a file, bottom (0) to top, by its crate and top-level module: the table of
 /// `docs/architecture.md`. `None` for a file the table does not place (a failure).
 fn layer(file: &Path) -> Option<(usize, String)> {
-    let root = root();
     let rel = file
-        .strip_prefix(&root)
+        .strip_prefix(root())
         .unwrap()
         .to_string_lossy()
         .to_string();
-    let (krate, rest) = if let Some(r) = rel.strip_prefix("crates/core/src/") {
-        ("core", r)
-    } else if rel.starts_with("python/src/") {
-        // The Python extension: one module over the core crate, beside the runner.
-        ("python", "extension")
-    } else {
-        ("main", rel.strip_prefix("src/")?)
-    };
+    let (krate, rest) = [
+        ("core", "crates/core/src/"),
+        ("tables", "crates/tables/src/"),
+        ("apps", "crates/apps/src/"),
+        ("runner", "crates/runner/src/"),
+        ("report", "crates/report/src/"),
+        ("main", "src/"),
+        ("python", "python/src/"),
+    ]
+    .into_iter()
+    .find_map(|(k, prefix)| rel.strip_prefix(prefix).map(|r| (k, r)))?;
     let top = rest.split('/').next()?.trim_end_matches(".rs");
     let l = match (krate, top) {
-        ("core", "seeds" | "alloc") => 0,
+        // The core's lib.rs declares the modules and defines the tool's name and error_text:
+        // it imports nothing, and every layer may name it.
+        ("core", "seeds" | "alloc" | "lib") => 0,
         ("core", "stats" | "physics") => 1,
         ("core", "synthesis") => 2,
         ("core", "io") => 3,
         ("core", "workflow") => 4,
-        ("core", "lib") => 5,
-        ("main", "lib") | ("python", _) => 6,
-        ("main", "io") => 7,
-        ("main", "apps") => 8,
-        ("main", "experiment" | "report") => 9,
-        ("main", "data") => 10,
-        ("main", "run") => 11,
+        // The Python extension: one module over the core crate, beside the runner.
+        ("python", _) => return Some((6, "python".into())),
+        ("tables", "io") => 7,
+        ("apps", "apps") => 8,
+        ("runner", "experiment") | ("report", "report") => 9,
+        ("runner", "data") => 10,
+        ("runner", "run") => 11,
         ("main", "reproduction") => 12,
         ("main", "cli" | "main") => 13,
         _ => return None,
@@ -382,6 +413,10 @@ fn no_import_circle_between_files() {
 fn ups(g: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Vec<String> {
     let mut up = Vec::new();
     for (from, tos) in g {
+        // A facade only re-exports the crates below it.
+        if is_facade(from) {
+            continue;
+        }
         let (lf, mf) = layer(from).unwrap_or_else(|| panic!("{} has no layer", from.display()));
         for to in tos {
             let (lt, mt) = layer(to).unwrap_or_else(|| panic!("{} has no layer", to.display()));
@@ -414,7 +449,14 @@ fn the_reader_sees_an_import_the_graph_must_hold() {
     let sim = &g[&core.join("stats/similarity.rs")];
     assert!(sim.contains(&core.join("stats/metrics.rs")), "{sim:?}");
     assert!(sim.contains(&core.join("stats/cmd/mod.rs")), "{sim:?}");
-    assert!(g[&root().join("src/io/mod.rs")].contains(&core.join("io/mod.rs")));
+    let tables = root().join("crates/tables/src");
+    assert!(g[&tables.join("io/mod.rs")].contains(&core.join("io/mod.rs")));
+    // Through the facades: the runner's `crate::error_text` is the core's, its `crate::io::
+    // parquet` the tables crate's, its `crate::stats::analysis` the core's.
+    let store = &g[&root().join("crates/runner/src/run/scheduler.rs")];
+    assert!(store.contains(&core.join("lib.rs")), "{store:?}");
+    let merge = &g[&root().join("crates/runner/src/run/merge.rs")];
+    assert!(merge.contains(&tables.join("io/parquet.rs")), "{merge:?}");
     // And a circle made on purpose is found.
     let mut g2 = g.clone();
     g2.get_mut(&core.join("stats/metrics.rs"))
@@ -423,9 +465,9 @@ fn the_reader_sees_an_import_the_graph_must_hold() {
     assert_eq!(circles(&g2).len(), 1);
     // And an import up the layers: the hypothesis tests (apps) naming the plan (run).
     let mut g3 = g.clone();
-    g3.get_mut(&root().join("src/apps/hypotheses.rs"))
+    g3.get_mut(&root().join("crates/apps/src/apps/hypotheses.rs"))
         .unwrap()
-        .insert(root().join("src/run/plan.rs"));
+        .insert(root().join("crates/runner/src/run/plan.rs"));
     assert_eq!(ups(&g3).len(), 1, "{:?}", ups(&g3));
 }
 
@@ -540,7 +582,7 @@ fn missing_citations(doc: &str) -> (Vec<String>, usize) {
             continue;
         }
         // A Rust path: `a::b::Item` or `Type::item`, after the name of a crate.
-        let token = ["isar_clutter_core::", "isar_clutter::"]
+        let token = ["isar_clutter_core::", "isar_clutter::", "crate::"]
             .iter()
             .find_map(|c| token.strip_prefix(c))
             .unwrap_or(token);
@@ -592,14 +634,14 @@ fn every_path_and_item_the_architecture_document_cites_exists() {
         "docs/architecture.md cites what does not exist: {missing:?}"
     );
     // A citation that was true and no longer is: each kind is found.
-    let stale = "`src/run/plan.rs` `src/run/plans.rs` `run::plan::load` `run::plan::load_all` \
+    let stale = "`crates/runner/src/run/plan.rs` `crates/runner/src/run/plans.rs` `run::plan::load` `run::plan::load_all` \
                  `AllJobs::new` `AllJobs::all` `Rows::tables` `crates/core/src/gone.rs`";
     let (missing, checked) = missing_citations(stale);
     assert_eq!(checked, 8);
     assert_eq!(
         missing,
         [
-            "src/run/plans.rs",
+            "crates/runner/src/run/plans.rs",
             "run::plan::load_all",
             "AllJobs::all",
             "crates/core/src/gone.rs"

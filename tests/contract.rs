@@ -104,6 +104,11 @@ fn a_run_writes_only_declared_columns() {
     let m = Manifest::read(&out).unwrap();
     assert_eq!(m.format, manifest::FORMAT);
     assert_eq!(m.tool.name, "isar-clutter");
+    // The folder's marker names the tool as every version has (a folder of an earlier run is
+    // the tool's own).
+    let owner = std::fs::read_to_string(out.join(".isar-clutter/owner.json")).unwrap();
+    let owner: serde_json::Value = serde_json::from_str(&owner).unwrap();
+    assert_eq!(owner["tool"], "isar-clutter");
     assert_eq!(m.master_seed, Some(3));
     assert!(m.timings.is_some_and(|t| t.total_s > 0.0));
     assert!(m.finished_unix_s.is_some());

@@ -1,7 +1,6 @@
 //! Build script of the core crate: with the mat73 feature and a static libhdf5 (HDF5_DIR laid
-//! out by the workspace's `make hdf5`), the libraries that libhdf5.a needs, after it on the link
-//! line of this crate's tests (the `isar-clutter` crate's own build script does the same for
-//! its binaries and tests).
+//! out by the workspace's `make hdf5`), the libraries that libhdf5.a needs (szip, zlib, libm,
+//! libdl), linked into every binary and test of every crate that depends on the core.
 
 fn main() {
     println!("cargo:rerun-if-env-changed=HDF5_DIR");
@@ -12,7 +11,7 @@ fn main() {
         });
     if static_hdf5 {
         for lib in ["sz", "z", "m", "dl"] {
-            println!("cargo:rustc-link-arg=-l{lib}");
+            println!("cargo:rustc-link-lib={lib}");
         }
     }
 }

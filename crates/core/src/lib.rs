@@ -18,6 +18,10 @@
 
 #![warn(missing_docs)]
 
+/// The tool's name, as its output folders' markers and manifests record it (the name of the
+/// binary and of the top crate, whichever crate writes it).
+pub const TOOL: &str = "isar-clutter";
+
 pub mod alloc;
 pub mod io;
 pub mod physics;
@@ -25,3 +29,22 @@ pub mod seeds;
 pub mod stats;
 pub mod synthesis;
 pub mod workflow;
+
+/// An error and its causes as one line, `context: cause: root` as anyhow's `{:#}` prints them,
+/// except that a cause whose text the line already ends with is left out: some libraries put
+/// their cause in their own message and give it as `source()` too (ndarray-npy's
+/// `I/O error: {e}`), which `{:#}` printed twice (`... (os error 28): No space left on device
+/// (os error 28)`). The messages of `main` and of failed jobs are written with it.
+pub fn error_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let part = cause.to_string();
+        if text.is_empty() {
+            text = part;
+        } else if !text.ends_with(&part) {
+            text.push_str(": ");
+            text.push_str(&part);
+        }
+    }
+    text
+}

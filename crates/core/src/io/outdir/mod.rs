@@ -155,7 +155,7 @@ impl OutDir {
             );
         }
         if let Some(name) = name {
-            let owner = serde_json::json!({"tool": env!("CARGO_PKG_NAME"), "name": name});
+            let owner = serde_json::json!({"tool": crate::TOOL, "name": name});
             let marker = state.join("owner.json");
             // A re-run finds its marker as it would write it.
             let same = fs::read(&marker)
@@ -484,7 +484,7 @@ pub fn mark(root: &Path, name: &str) -> Result<()> {
     }
     let state = root.join(STATE);
     fs::create_dir_all(&state).with_context(|| format!("cannot create {}", state.display()))?;
-    let owner = serde_json::json!({"tool": env!("CARGO_PKG_NAME"), "name": name});
+    let owner = serde_json::json!({"tool": crate::TOOL, "name": name});
     write_json(&state.join("owner.json"), &owner)
 }
 
@@ -499,8 +499,8 @@ fn check_owner(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<()> 
         };
         let v: serde_json::Value = serde_json::from_str(&text)
             .with_context(|| format!("{} is not the tool's marker (not JSON)", path.display()))?;
-        if v["tool"].as_str() != Some(env!("CARGO_PKG_NAME"))
-            && v.pointer("/tool/name").and_then(|t| t.as_str()) != Some(env!("CARGO_PKG_NAME"))
+        if v["tool"].as_str() != Some(crate::TOOL)
+            && v.pointer("/tool/name").and_then(|t| t.as_str()) != Some(crate::TOOL)
         {
             return Ok(None);
         }

@@ -29,7 +29,7 @@ pub mod heatmap;
 mod tests;
 
 /// DejaVu Sans (Bitstream Vera licence, see `assets/fonts/DejaVuSans-LICENSE.txt`).
-const FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+const FONT_BYTES: &[u8] = include_bytes!("../../../../../assets/fonts/DejaVuSans.ttf");
 /// Family name used for all text; SVG viewers get DejaVu Sans or fall back to their sans-serif.
 const FAMILY: &str = "DejaVu Sans, sans-serif";
 

@@ -80,7 +80,7 @@ pub struct RunSummary {
     pub merged: bool,
     /// The output folder, still claimed, of a merged run whose report follows
     /// ([`RunOptions::report_follows`]): the report is built under the run's claim
-    /// ([`crate::report::build_claimed`]); dropping it releases the folder.
+    /// (the report's `build_claimed`); dropping it releases the folder.
     pub claim: Option<crate::io::outdir::OutDir>,
 }
 

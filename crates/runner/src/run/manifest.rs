@@ -61,7 +61,7 @@ impl Manifest {
         let head = format::Manifest {
             format: format::FORMAT.into(),
             tool: format::Tool {
-                name: env!("CARGO_PKG_NAME").into(),
+                name: crate::TOOL.into(),
                 version: env!("CARGO_PKG_VERSION").into(),
             },
             git: git_state(),
