@@ -435,6 +435,41 @@ impl Dataset {
         }
     }
 
+    /// Whether the jobs of one group share one materialised copy of the dataset: simulated or
+    /// decoded data (`.mat` and NetCDF stacks are decoded into memory); a mapped `.npy` is free
+    /// and synthetic filtered noise cheap next to its jobs.
+    pub fn worth_sharing(&self) -> bool {
+        match self {
+            Dataset::Vegetation(_) | Dataset::Kspace(_) | Dataset::Netcdf(_) | Dataset::Mat(_) => {
+                true
+            }
+            Dataset::FilteredNoise(_) | Dataset::Npy(_) => false,
+        }
+    }
+
+    /// Whether a noise floor can draw the dataset again: `Some(true)` cheaply (filtered noise:
+    /// the default), `Some(false)` at the dataset's own cost (simulated plants: only when
+    /// `draws` is asked for), `None` never (data read from files).
+    pub fn redrawable(&self) -> Option<bool> {
+        match self {
+            Dataset::FilteredNoise(_) => Some(true),
+            Dataset::Vegetation(_) => Some(false),
+            Dataset::Npy(_) | Dataset::Mat(_) | Dataset::Netcdf(_) | Dataset::Kspace(_) => None,
+        }
+    }
+
+    /// The k-space grid `(frequencies, azimuths)` of data imaged from k-space (simulated
+    /// plants, measured k-space), whose analysis jobs write the mean k-space image.
+    pub fn kspace_grid(&self) -> Option<(usize, usize)> {
+        match self {
+            Dataset::Vegetation(v) => Some((v.measurement.frequencies, v.measurement.azimuths)),
+            Dataset::Kspace(k) => Some((k.measurement.freqs.len(), k.measurement.azimuths.len())),
+            Dataset::FilteredNoise(_) | Dataset::Npy(_) | Dataset::Mat(_) | Dataset::Netcdf(_) => {
+                None
+            }
+        }
+    }
+
     /// The kind name used in tables.
     pub fn kind(&self) -> &'static str {
         match self {

@@ -120,7 +120,10 @@ impl DatasetSpec {
             let field = match self.kind {
                 DatasetKind::Npy => "path",
                 DatasetKind::Mat => "variable",
-                _ => "samples",
+                DatasetKind::FilteredNoise
+                | DatasetKind::Netcdf
+                | DatasetKind::Kspace
+                | DatasetKind::VegetationIsar => "samples",
             };
             return Err(ctx.err(
                 format!("{at}.{field}"),

@@ -356,11 +356,7 @@ fn check_job_metrics(
     };
     // Datasets that can be drawn again: filtered noise (cheap: the default), simulated plants
     // (as costly as the dataset itself: only when `draws` is asked for).
-    let drawable = match job.dataset {
-        Dataset::FilteredNoise(_) => Some(true),
-        Dataset::Vegetation(_) => Some(false),
-        _ => None,
-    };
+    let drawable = job.dataset.redrawable();
     let draws = NoiseFloorPlan::Draws {
         samples: syn.samples,
         seed: derive_seed(spec.seed, "noise_floor", &job.identity()),

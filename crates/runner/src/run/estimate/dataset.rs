@@ -84,11 +84,17 @@ pub fn dataset_job(plan: &Plan, job: &Job) -> Estimate {
             let (floor, floor_flops) = noise_floor(plan, job, n, h, w, &mut sizes);
             let (lags, lags_flops) = filter_lags(plan, job, &mut sizes);
             let (corr, corr_flops) = correlating(plan, n, h, w, &mut sizes);
+            // The k-space copy a job keeps to save it (simulated plants with `save_kspace`).
             let kspace_copy = match &job.dataset {
                 Dataset::Vegetation(v) if v.save_kspace => {
                     C64 * n * v.measurement.frequencies as f64 * v.measurement.azimuths as f64
                 }
-                _ => 0.0,
+                Dataset::Vegetation(_)
+                | Dataset::FilteredNoise(_)
+                | Dataset::Npy(_)
+                | Dataset::Mat(_)
+                | Dataset::Netcdf(_)
+                | Dataset::Kspace(_) => 0.0,
             };
             let bytes = data.kept
                 + maps

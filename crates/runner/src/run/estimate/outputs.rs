@@ -16,7 +16,6 @@
 //! each table, 65,536 rows, and the jobs being read: counted as 160 MB, see BENCHMARKS.md) and
 //! the largest job on each thread.
 
-use crate::experiment::Dataset;
 use crate::run::plan::Plan;
 use std::fmt;
 
@@ -88,11 +87,7 @@ pub fn footprint(plan: &Plan, jobs: usize) -> Footprint {
             f.maps += maps.iter().sum::<f64>();
         }
         // The mean k-space image of an analysis job on k-space data (complex128 `[n_f, n_phi]`).
-        let kspace = match &job.dataset {
-            Dataset::Vegetation(v) => Some((v.measurement.frequencies, v.measurement.azimuths)),
-            Dataset::Kspace(k) => Some((k.measurement.freqs.len(), k.measurement.azimuths.len())),
-            _ => None,
-        };
+        let kspace = job.dataset.kspace_grid();
         if let (Some((nf, nphi)), true, None) = (kspace, plan.spec.outputs.npy_maps, job.method) {
             f.files += 2.0;
             f.maps += npy((nf * nphi) as f64, 16.0);

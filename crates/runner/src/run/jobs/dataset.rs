@@ -47,7 +47,7 @@ impl JobKind for Job {
     fn inputs(&self) -> Inputs {
         Inputs::Dataset {
             data_seed: self.data_seed,
-            shared: expensive(&self.dataset),
+            shared: self.dataset.worth_sharing(),
         }
     }
 
@@ -140,16 +140,6 @@ fn timing(r: &JobResult) -> serde_json::Value {
 /// Largest image (pixels) for which exact expected maps of spatially varying filters are
 /// computed; above it `expected_correlation` is null (the pair sums grow as `4^L` per pixel).
 pub const MAX_EXACT_PIXELS: usize = 256 * 256;
-
-/// Datasets worth sharing between jobs: simulated or decoded ones (`.mat` and NetCDF stacks are
-/// decoded into memory; a mapped `.npy` is free and synthetic filtered noise cheap next to its
-/// jobs).
-fn expensive(d: &Dataset) -> bool {
-    matches!(
-        d,
-        Dataset::Vegetation(_) | Dataset::Kspace(_) | Dataset::Netcdf(_) | Dataset::Mat(_)
-    )
-}
 
 /// The job's data: the group's shared copy, or its own.
 fn data_of<'a>(
