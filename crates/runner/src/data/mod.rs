@@ -12,7 +12,7 @@
 //! hold is a [`DataError::Alloc`] that fails its job, not an abort of the process.
 
 use crate::alloc::{try_zeros, AllocError};
-use crate::experiment::{Dataset, FilterParams, FilteredNoise, Layout, Map};
+use crate::experiment::{Dataset, FilterParams, FilteredNoise, Layout, Map, RawDataset};
 use crate::io::npy::{NpyError, Stack};
 use crate::seeds::{texture, white_seed_into};
 use crate::stats::filters::{dyadic_taps, exponential_taps, filter_seed, FilterBank};
@@ -221,6 +221,13 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Da
             kspace: None,
             mean_kspace: None,
         },
+        Dataset::Raw(r) => Materialised {
+            stack: Stack::Generated(read_raw(r)?),
+            hwn: r.layout == Layout::Hwn,
+            truth: None,
+            kspace: None,
+            mean_kspace: None,
+        },
         Dataset::Npy(n) => Materialised {
             stack: Stack::load(&n.path)?,
             hwn: n.layout == Layout::Hwn,
@@ -229,6 +236,38 @@ pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, Da
             mean_kspace: None,
         },
     })
+}
+
+/// The values of a raw dataset's file as complex128, in their stored order (`[N, H, W]`, or
+/// `[H, W, N]` with `layout: hwn`), read a block at a time.
+fn read_raw(r: &RawDataset) -> Result<Array3<Complex64>, DataError> {
+    use std::io::Read;
+    let (n, h, w) = r.shape;
+    let dims = match r.layout {
+        Layout::Nhw => (n, h, w),
+        Layout::Hwn => (h, w, n),
+    };
+    let data_err = |e: std::io::Error| NpyError::Data {
+        path: r.path.clone(),
+        reason: e.to_string(),
+    };
+    let mut out: Array3<Complex64> = try_zeros(dims, "the raw stack")?;
+    let mut file = std::io::BufReader::new(std::fs::File::open(&r.path).map_err(data_err)?);
+    let mut block = vec![0u8; 8 << 13];
+    for chunk in out
+        .as_slice_mut()
+        .expect("standard layout")
+        .chunks_mut(1 << 13)
+    {
+        let bytes = &mut block[..8 * chunk.len()];
+        file.read_exact(bytes).map_err(data_err)?;
+        for (z, b) in chunk.iter_mut().zip(bytes.chunks_exact(8)) {
+            let re = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            let im = f32::from_le_bytes([b[4], b[5], b[6], b[7]]);
+            *z = Complex64::new(re.into(), im.into());
+        }
+    }
+    Ok(out)
 }
 
 /// Measures simulated k-space data through the calibration chain and calibrates them (one

@@ -21,6 +21,8 @@ pub enum DatasetKind {
     VegetationIsar,
     /// Measured k-space data `E(f, phi)` imaged by the ISAR chain.
     Kspace,
+    /// A headerless file of little-endian complex64 values, `samples x size` of them.
+    Raw,
 }
 
 /// Filter families of `filtered_noise`.
@@ -223,6 +225,17 @@ pub struct NpyDataset {
     pub header: NpyHeader,
 }
 
+/// A validated `raw` dataset: little-endian complex64 values (real, imaginary), C order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawDataset {
+    /// Resolved path.
+    pub path: PathBuf,
+    /// Axis order of the stored values.
+    pub layout: Layout,
+    /// `(N, H, W)`: `samples` and `size`.
+    pub shape: (usize, usize, usize),
+}
+
 /// A validated `mat` dataset.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MatDataset {
@@ -260,6 +273,8 @@ pub enum Dataset {
     Npy(NpyDataset),
     /// A variable of a MATLAB `.mat` file.
     Mat(MatDataset),
+    /// A headerless complex64 file.
+    Raw(RawDataset),
     /// Two variables of a NetCDF-3 file.
     Netcdf(NetcdfDataset),
     /// Simulated ISAR images of a plant.
@@ -417,6 +432,7 @@ impl Dataset {
         match self {
             Dataset::Npy(d) => vec![d.path.clone()],
             Dataset::Mat(d) => vec![d.path.clone()],
+            Dataset::Raw(d) => vec![d.path.clone()],
             Dataset::Netcdf(d) => vec![d.path.clone()],
             Dataset::Kspace(d) => vec![d.path.clone()],
             Dataset::FilteredNoise(_) | Dataset::Vegetation(_) => vec![],
@@ -429,6 +445,7 @@ impl Dataset {
             Dataset::FilteredNoise(f) => (f.samples, f.height, f.width),
             Dataset::Npy(n) => n.stack_shape(),
             Dataset::Mat(m) => m.stack_shape(),
+            Dataset::Raw(r) => r.shape,
             Dataset::Netcdf(n) => n.shape,
             Dataset::Vegetation(v) => (v.samples, v.image_size, v.image_size),
             Dataset::Kspace(k) => (k.samples, k.image_size, k.image_size),
@@ -440,9 +457,11 @@ impl Dataset {
     /// and synthetic filtered noise cheap next to its jobs.
     pub fn worth_sharing(&self) -> bool {
         match self {
-            Dataset::Vegetation(_) | Dataset::Kspace(_) | Dataset::Netcdf(_) | Dataset::Mat(_) => {
-                true
-            }
+            Dataset::Vegetation(_)
+            | Dataset::Kspace(_)
+            | Dataset::Netcdf(_)
+            | Dataset::Mat(_)
+            | Dataset::Raw(_) => true,
             Dataset::FilteredNoise(_) | Dataset::Npy(_) => false,
         }
     }
@@ -454,7 +473,11 @@ impl Dataset {
         match self {
             Dataset::FilteredNoise(_) => Some(true),
             Dataset::Vegetation(_) => Some(false),
-            Dataset::Npy(_) | Dataset::Mat(_) | Dataset::Netcdf(_) | Dataset::Kspace(_) => None,
+            Dataset::Npy(_)
+            | Dataset::Mat(_)
+            | Dataset::Netcdf(_)
+            | Dataset::Kspace(_)
+            | Dataset::Raw(_) => None,
         }
     }
 
@@ -464,9 +487,11 @@ impl Dataset {
         match self {
             Dataset::Vegetation(v) => Some((v.measurement.frequencies, v.measurement.azimuths)),
             Dataset::Kspace(k) => Some((k.measurement.freqs.len(), k.measurement.azimuths.len())),
-            Dataset::FilteredNoise(_) | Dataset::Npy(_) | Dataset::Mat(_) | Dataset::Netcdf(_) => {
-                None
-            }
+            Dataset::FilteredNoise(_)
+            | Dataset::Npy(_)
+            | Dataset::Mat(_)
+            | Dataset::Netcdf(_)
+            | Dataset::Raw(_) => None,
         }
     }
 
@@ -476,6 +501,7 @@ impl Dataset {
             Dataset::FilteredNoise(_) => "filtered_noise",
             Dataset::Npy(_) => "npy",
             Dataset::Mat(_) => "mat",
+            Dataset::Raw(_) => "raw",
             Dataset::Netcdf(_) => "netcdf",
             Dataset::Vegetation(_) => "vegetation_isar",
             Dataset::Kspace(_) => "kspace",

@@ -27,6 +27,7 @@ impl DatasetSpec {
         match (self.kind, self.family) {
             (DatasetKind::Npy, _) => &["path", "layout"],
             (DatasetKind::Mat, _) => &["path", "variable", "layout"],
+            (DatasetKind::Raw, _) => &["path", "samples", "size", "layout"],
             (DatasetKind::Netcdf, _) => &["path", "u", "v", "remove_monthly_mean"],
             (DatasetKind::Kspace, _) => &["path", "freqs", "azimuths_deg", "image_size"],
             (DatasetKind::VegetationIsar, _) => &[
@@ -106,6 +107,7 @@ impl DatasetSpec {
         let dataset = match self.kind {
             DatasetKind::Npy => Dataset::Npy(self.check_npy(ctx, at)?),
             DatasetKind::Mat => Dataset::Mat(self.check_mat(ctx, at)?),
+            DatasetKind::Raw => Dataset::Raw(self.check_raw(ctx, at)?),
             DatasetKind::Netcdf => Dataset::Netcdf(self.check_netcdf(ctx, at)?),
             DatasetKind::Kspace => Dataset::Kspace(Box::new(self.check_kspace(ctx, at)?)),
             DatasetKind::VegetationIsar => {
@@ -121,6 +123,7 @@ impl DatasetSpec {
                 DatasetKind::Npy => "path",
                 DatasetKind::Mat => "variable",
                 DatasetKind::FilteredNoise
+                | DatasetKind::Raw
                 | DatasetKind::Netcdf
                 | DatasetKind::Kspace
                 | DatasetKind::VegetationIsar => "samples",
@@ -365,6 +368,38 @@ impl DatasetSpec {
             path,
             layout: self.layout.unwrap_or_default(),
             header,
+        })
+    }
+
+    /// Checks a raw complex64 file: its size is `samples x size` values of 8 bytes.
+    fn check_raw(&self, ctx: &Ctx, at: &str) -> Result<RawDataset, SpecError> {
+        let need = |key: &str| ctx.err(format!("{at}.{key}"), format!("kind raw needs `{key}`"));
+        let rel = self.path.as_ref().ok_or_else(|| need("path"))?;
+        let n = self.samples.ok_or_else(|| need("samples"))?;
+        let [h, w] = self.size.ok_or_else(|| need("size"))?;
+        let path = ctx.resolve(rel);
+        let bytes = std::fs::metadata(&path)
+            .map_err(|e| ctx.err(format!("{at}.path"), format!("{}: {e}", path.display())))?
+            .len();
+        let want = [n, h, w, 8]
+            .iter()
+            .try_fold(1u64, |a, &b| a.checked_mul(b as u64));
+        if want != Some(bytes) {
+            return Err(ctx.err(
+                format!("{at}.path"),
+                format!(
+                    "{} holds {bytes} bytes; {n} samples of {h} x {w} complex64 values are {} \
+                     bytes (check samples and size)",
+                    path.display(),
+                    want.map_or("more than 2^64".into(), |b| b.to_string())
+                ),
+            ));
+        }
+        let layout = self.layout.unwrap_or_default();
+        Ok(RawDataset {
+            path,
+            layout,
+            shape: (n, h, w),
         })
     }
 

@@ -94,6 +94,7 @@ pub fn dataset_job(plan: &Plan, job: &Job) -> Estimate {
                 | Dataset::Npy(_)
                 | Dataset::Mat(_)
                 | Dataset::Netcdf(_)
+                | Dataset::Raw(_)
                 | Dataset::Kspace(_) => 0.0,
             };
             let bytes = data.kept
@@ -135,7 +136,7 @@ pub(super) fn dataset_sizes(at: &str, d: &Dataset, s: &mut Sizes) {
             let k = f.half_width;
             s.add(format!("{at}.half_width"), k, k as f64 / USUAL_HALF_WIDTH);
         }
-        Dataset::Npy(_) | Dataset::Mat(_) | Dataset::Netcdf(_) => {
+        Dataset::Npy(_) | Dataset::Mat(_) | Dataset::Netcdf(_) | Dataset::Raw(_) => {
             s.add(
                 format!("{at}.path"),
                 format!("a {n} x {h} x {w} stack"),
@@ -331,6 +332,13 @@ pub(super) fn data(d: &Dataset) -> Data {
                 flops: 0.0,
             }
         }
+        Dataset::Raw(_) => Data {
+            // The complex128 stack, filled a block of the file at a time.
+            peak: C128 * n * p,
+            kept: C128 * n * p,
+            widen: 0.0,
+            flops: 2.0 * n * p,
+        },
         Dataset::Mat(_) => Data {
             // The complex128 stack, filled in place (v5 inflates in small blocks, libhdf5
             // converts through its own small buffer).
