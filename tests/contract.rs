@@ -1,4 +1,4 @@
-//! The results contract (`src/io/results.rs`) between the runner that writes a results folder
+//! The results contract (`crates/tables/src/io/results.rs`) between the runner that writes a results folder
 //! and the report and reproduction that read it: a writer's undeclared column is refused, the
 //! comparison tables read only declared columns, a run's tables hold only declared columns
 //! (and its swept parameters), and its manifest reads back through the contract's struct.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent high-precision reference for src/mie.rs (PEC sphere backscatter).
+"""Independent high-precision reference for crates/core/src/physics/mie.rs (PEC sphere backscatter).
 
 Evaluates the Mie series for a perfectly conducting sphere with mpmath
 (40 significant digits, spherical Bessel functions from mpmath's Bessel
@@ -10,7 +10,7 @@ Ruck et al. (1970) / Balanis (1989, eq. 11-245):
     S(x) = sum_n (-1)^n (n + 1/2) (b_n - a_n)
     sigma / (pi a^2) = 4 |S|^2 / x^2
 
-and the complex backscatter of src/mie.rs, which uses the e^{+j omega t}
+and the complex backscatter of crates/core/src/physics/mie.rs, which uses the e^{+j omega t}
 convention with phase referenced to the centre:
 
     s(x) = conj(-2 i S(x) / x)          (|s|^2 = sigma / (pi a^2), s -> 3 x^2 as x -> 0)

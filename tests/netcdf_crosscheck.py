@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent cross-check of src/netcdf.rs against scipy's NetCDF-3 reader.
+"""Independent cross-check of crates/core/src/io/netcdf/ against scipy's NetCDF-3 reader.
 
 Reads NOAA's ``monthly_navy_winds.cdf`` (Debian package ``ferret-datasets``,
 public domain) with ``scipy.io.netcdf_file`` and writes

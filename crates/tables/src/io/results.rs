@@ -582,7 +582,9 @@ pub fn check_columns<'a>(
         return Ok(());
     }
     let Some(t) = table(name) else {
-        bail!("the table {name:?} is not in the results contract (src/io/results.rs)");
+        bail!(
+            "the table {name:?} is not in the results contract (crates/tables/src/io/results.rs)"
+        );
     };
     for c in columns {
         let param = swept
@@ -591,7 +593,7 @@ pub fn check_columns<'a>(
         if !param && !t.columns.contains(&c) {
             bail!(
                 "the table {name:?} would get the column {c:?}, which the results contract \
-                 (src/io/results.rs) does not declare"
+                 (crates/tables/src/io/results.rs) does not declare"
             );
         }
     }
