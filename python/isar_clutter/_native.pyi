@@ -53,3 +53,5 @@ class Model:
         """Samples ``start .. start + n`` of the generation seeded by ``seed`` as complex64
         [n, H, W], byte for byte those of ``isar-clutter generate --seed``; the GIL is released
         while they are computed on ``threads`` threads (default: all cores)."""
+    def __reduce__(self) -> tuple:
+        """Pickles the model as its model folder's files (DataLoader workers under ``spawn``)."""

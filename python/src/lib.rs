@@ -204,6 +204,56 @@ impl Model {
         Ok(out.into_pyarray(py))
     }
 
+    /// Pickling (a DataLoader's workers under the `spawn` start method, `torch.multiprocessing`):
+    /// the model's folder files, written by `save` into a temporary folder and read back.
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Files,))> {
+        let this = slf.get();
+        let files = py
+            .detach(|| -> anyhow::Result<Files> {
+                let dir = scratch("pickle")?;
+                let saved = isar_clutter_core::io::model::save(&this.model, &this.info, &dir)
+                    .and_then(|()| {
+                        let mut files = Vec::new();
+                        for e in std::fs::read_dir(&dir)? {
+                            let e = e?;
+                            let name = e.file_name().to_string_lossy().into_owned();
+                            files.push((name, std::fs::read(e.path())?));
+                        }
+                        files.sort();
+                        Ok(files)
+                    });
+                let _ = std::fs::remove_dir_all(&dir);
+                saved
+            })
+            .map_err(|e| os_error(&e))?;
+        Ok((slf.get_type().getattr("_from_files")?, (files,)))
+    }
+
+    /// The model of a pickled model's folder files (see `__reduce__`).
+    #[staticmethod]
+    fn _from_files(py: Python<'_>, files: Files) -> PyResult<Model> {
+        let (model, info) = py
+            .detach(|| -> anyhow::Result<(CoreModel, ModelInfo)> {
+                let dir = scratch("unpickle")?;
+                let loaded = (|| {
+                    for (name, bytes) in &files {
+                        if !isar_clutter_core::io::model::FILES.contains(&name.as_str()) {
+                            anyhow::bail!("{name:?} is not a file of a model folder");
+                        }
+                        std::fs::write(dir.join(name), bytes)?;
+                    }
+                    isar_clutter_core::io::model::load(&dir)
+                })();
+                let _ = std::fs::remove_dir_all(&dir);
+                loaded
+            })
+            .map_err(|e| os_error(&e))?;
+        Ok(Model { model, info })
+    }
+
     fn __repr__(&self) -> String {
         let (h, w) = self.model.shape();
         format!(
@@ -212,6 +262,23 @@ impl Model {
             self.model.sample_format
         )
     }
+}
+
+/// A model folder's files: name and bytes.
+type Files = Vec<(String, Vec<u8>)>;
+
+/// A new empty folder of this process under the system's temporary folder.
+fn scratch(what: &str) -> anyhow::Result<PathBuf> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    let dir = std::env::temp_dir().join(format!(
+        "isar-clutter-{what}-{}-{}",
+        std::process::id(),
+        NEXT.fetch_add(1, Ordering::Relaxed)
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir)?;
+    Ok(dir)
 }
 
 /// epoch_seed(seed, epoch): the seed of epoch `epoch` of a stream seeded by `seed` (`seed`

@@ -73,3 +73,17 @@ def test_a_model_folder_and_bad_arguments(model, tmp_path):
         ClutterDataset(model, seed=1, rank=2, world_size=2)
     with pytest.raises(TypeError, match="no length"):
         len(ClutterDataset(model, seed=1))
+
+
+def test_a_model_pickles_and_a_spawned_loader_gives_the_same_stream(model):
+    import pickle
+
+    again = pickle.loads(pickle.dumps(model))
+    assert again.method == model.method and again.info_json == model.info_json
+    assert again.generate(5, 9, start=3).tobytes() == model.generate(5, 9, start=3).tobytes()
+    # Workers started with `spawn` receive the dataset pickled (model included).
+    data = ClutterDataset(model, seed=11, samples=24, block=BLOCK)
+    loader = DataLoader(data, batch_size=BLOCK, num_workers=2, multiprocessing_context="spawn")
+    assert drawn(loader).tobytes() == model.generate(24, 11).tobytes()
+    with pytest.raises(OSError, match="is not a file of a model folder"):
+        ic.Model._from_files([("../escape.json", b"{}")])
