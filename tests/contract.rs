@@ -72,15 +72,7 @@ fn a_run_writes_only_declared_columns() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    let run = common::bin(&[
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-        "--no-report",
-    ]);
-    assert!(run.status.success(), "{}", common::text(&run));
+    common::run_spec(&spec, &out, &["--no-report"]);
     let swept = isar_clutter::run::plan::load(&spec).unwrap().param_keys;
     assert!(!swept.is_empty());
     let mut seen = 0;

@@ -8,7 +8,6 @@ mod common;
 use ndarray::Array3;
 use num_complex::Complex32;
 use polars::prelude::ChunkCompareEq;
-use std::path::Path;
 
 /// A seeded complex64 stack `[n, h, w]`.
 fn stack(n: usize, h: usize, w: usize) -> Array3<Complex32> {
@@ -38,12 +37,6 @@ fn raw_bytes(a: &Array3<Complex32>) -> Vec<u8> {
         .collect()
 }
 
-fn table(out: &Path, name: &str) -> polars::prelude::DataFrame {
-    isar_clutter::io::parquet::read_parquet(&out.join(format!("{name}.parquet")))
-        .unwrap()
-        .unwrap()
-}
-
 #[test]
 fn a_raw_file_gives_the_analysis_of_the_same_npy_in_either_layout() {
     let dir = tempfile::tempdir().unwrap();
@@ -66,17 +59,9 @@ fn a_raw_file_gives_the_analysis_of_the_same_npy_in_either_layout() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    let run = common::bin(&[
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-        "--no-report",
-    ]);
-    assert!(run.status.success(), "{}", common::text(&run));
+    common::run_spec(&spec, &out, &["--no-report"]);
     for name in ["analysis_summary", "pixel_stats"] {
-        let df = table(&out, name);
+        let df = common::read_table(&out, &format!("{name}.parquet"));
         let of = |id: &str| {
             let mask = df.column("dataset").unwrap().str().unwrap().equal(id);
             let mut part = df.filter(&mask).unwrap().drop("job").unwrap();
@@ -93,7 +78,7 @@ fn a_raw_file_gives_the_analysis_of_the_same_npy_in_either_layout() {
             "{name}: raw hwn differs from npy"
         );
     }
-    let jobs = table(&out, "jobs");
+    let jobs = common::read_table(&out, "jobs.parquet");
     let kinds = jobs.column("kind").unwrap().str().unwrap();
     assert_eq!(kinds.get(1), Some("raw"));
 }

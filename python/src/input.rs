@@ -3,11 +3,12 @@
 //! copy and checked (finite values, at least two samples) before the core sees it; every
 //! refusal is a Python exception naming the argument.
 
+use isar_clutter_core::io::npy::{nhw_view, widen};
 use isar_clutter_core::stats::analysis::{analyse, Analysis, Sample};
 use ndarray::{ArrayView3, Axis};
 use num_complex::{Complex32, Complex64};
 use numpy::{PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 /// A borrowed stack of one of the element types the analysis reads.
@@ -57,18 +58,6 @@ pub fn stack<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Stack<'py>> {
         "{name} must be complex64, complex128, float32 or float64, not {}",
         arr.dtype().str()?
     )))
-}
-
-/// The view in `[N, H, W]` order (`hwn`: stored as `[H, W, N]`).
-fn ordered<T>(a: ArrayView3<'_, T>, hwn: bool) -> ArrayView3<'_, T> {
-    if hwn {
-        let mut a = a;
-        a.swap_axes(0, 2);
-        a.swap_axes(1, 2);
-        a
-    } else {
-        a
-    }
 }
 
 /// Whether `layout` is `[H, W, N]`.
@@ -144,18 +133,15 @@ impl Stack<'_> {
     /// The stack as complex128 `[N, H, W]` (a copy; the full-covariance fit needs it).
     ///
     /// # Errors
-    /// As [`Stack::analyse`]'s checks.
+    /// As [`Stack::analyse`]'s checks; `MemoryError` naming `name` if the copy does not fit.
     pub fn to_complex128(&self, hwn: bool, name: &str) -> PyResult<ndarray::Array3<Complex64>> {
-        struct Widen;
-        impl WithView<ndarray::Array3<Complex64>> for Widen {
+        struct Widen<'a>(&'a str);
+        impl WithView<ndarray::Array3<Complex64>> for Widen<'_> {
             fn call<T: Sample>(self, a: ArrayView3<'_, T>) -> PyResult<ndarray::Array3<Complex64>> {
-                Ok(a.mapv(|v| {
-                    let [re, im] = T::components(v);
-                    Complex64::new(re, im)
-                }))
+                widen(a).map_err(|e| PyMemoryError::new_err(format!("{}: {e}", self.0)))
             }
         }
-        self.with(hwn, name, Widen)
+        self.with(hwn, name, Widen(name))
     }
 }
 
@@ -165,7 +151,7 @@ fn checked<'a, T: Sample>(
     hwn: bool,
     name: &str,
 ) -> PyResult<ArrayView3<'a, T>> {
-    let a = ordered(a, hwn);
+    let a = nhw_view(a, hwn);
     check(a, name)?;
     Ok(a)
 }

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import isar_clutter as ic
+from conftest import clutter
 
 SEEDS = [0, 7, 2**63 + 5]
 
@@ -43,7 +44,7 @@ def test_fit_here_is_the_command_lines_fit_and_folders_go_both_ways(tmp_path, cl
 
 
 def test_analyse_gives_the_maps_of_a_run(tmp_path, cli):
-    stack = __import__("conftest").clutter(n=40, h=16, w=16, seed=4, dtype=np.complex128)
+    stack = clutter(n=40, h=16, w=16, seed=4, dtype=np.complex128)
     np.save(tmp_path / "stack.npy", stack)
     spec = tmp_path / "s.yaml"
     spec.write_text(

@@ -334,13 +334,29 @@ fn take_map(file: &File) -> Option<Arc<memmap2::Mmap>> {
     Some(offered.swap_remove(at).1)
 }
 
-/// Whether axes are `[N, H, W]` or `[H, W, N]`.
-fn view<T>(a: ArrayView3<'_, T>, hwn: bool) -> ArrayView3<'_, T> {
+/// The stack in `[N, H, W]` order, from its stored axes (`hwn`: `[H, W, N]`), without a copy.
+pub fn nhw_view<T>(a: ArrayView3<'_, T>, hwn: bool) -> ArrayView3<'_, T> {
     if hwn {
         a.permuted_axes([2, 0, 1])
     } else {
         a
     }
+}
+
+/// A stack of any element type the analysis reads as complex128 (a copy, allocated fallibly;
+/// the imaginary part of real values is 0).
+///
+/// # Errors
+/// [`crate::alloc::AllocError`] if the copy does not fit in memory.
+pub fn widen<T: Sample>(
+    a: ArrayView3<'_, T>,
+) -> Result<Array3<Complex<f64>>, crate::alloc::AllocError> {
+    let mut out = crate::alloc::try_zeros(a.raw_dim(), "the stack as complex128")?;
+    ndarray::Zip::from(&mut out).and(a).for_each(|o, &v| {
+        let [re, im] = T::components(v);
+        *o = Complex::new(re, im);
+    });
+    Ok(out)
 }
 
 impl Stack {
@@ -397,7 +413,7 @@ impl Stack {
     /// [`AnalysisError`] as for [`analyse`].
     pub fn analyse(&self, hwn: bool, levels: usize) -> Result<Analysis, AnalysisError> {
         match self {
-            Stack::Generated(a) => analyse(view(a.view(), hwn), levels),
+            Stack::Generated(a) => analyse(nhw_view(a.view(), hwn), levels),
             Stack::Mapped(m) => match m.header.dtype {
                 Dtype::Complex64 => m.analyse::<Complex<f32>>(hwn, levels),
                 Dtype::Complex128 => m.analyse::<Complex<f64>>(hwn, levels),
@@ -425,7 +441,7 @@ impl Stack {
         &self,
         hwn: bool,
     ) -> Result<Array3<Complex<f64>>, crate::alloc::AllocError> {
-        fn widen<T: Element + Sample>(
+        fn widen_mapped<T: Element + Sample>(
             m: &MappedNpy,
             hwn: bool,
         ) -> Result<Array3<Complex<f64>>, crate::alloc::AllocError> {
@@ -445,26 +461,20 @@ impl Stack {
                 data.as_slice().expect("standard layout"),
             )
             .expect("size checked at load");
-            let a = view(a, hwn);
-            let mut out = crate::alloc::try_zeros(a.raw_dim(), "the stack as complex128")?;
-            ndarray::Zip::from(&mut out).and(a).for_each(|o, &v| {
-                let [re, im] = T::components(v);
-                *o = Complex::new(re, im);
-            });
-            Ok(out)
+            widen(nhw_view(a, hwn))
         }
         match self {
             Stack::Generated(a) => {
-                let a = view(a.view(), hwn);
+                let a = nhw_view(a.view(), hwn);
                 let mut out = crate::alloc::try_zeros(a.raw_dim(), "the stack as complex128")?;
                 out.assign(&a);
                 Ok(out)
             }
             Stack::Mapped(m) => match m.header.dtype {
-                Dtype::Complex64 => widen::<Complex<f32>>(m, hwn),
-                Dtype::Complex128 => widen::<Complex<f64>>(m, hwn),
-                Dtype::Float32 => widen::<f32>(m, hwn),
-                Dtype::Float64 => widen::<f64>(m, hwn),
+                Dtype::Complex64 => widen_mapped::<Complex<f32>>(m, hwn),
+                Dtype::Complex128 => widen_mapped::<Complex<f64>>(m, hwn),
+                Dtype::Float32 => widen_mapped::<f32>(m, hwn),
+                Dtype::Float64 => widen_mapped::<f64>(m, hwn),
             },
         }
     }
@@ -492,7 +502,7 @@ impl MappedNpy {
         let shape = (s[0], s[1], s[2]).set_f(self.header.fortran_order);
         match bytemuck::try_cast_slice::<u8, T>(bytes) {
             Ok(data) => analyse(
-                view(
+                nhw_view(
                     ArrayView3::from_shape(shape, data).expect("size checked at load"),
                     hwn,
                 ),
@@ -504,7 +514,7 @@ impl MappedNpy {
                     .map(bytemuck::pod_read_unaligned)
                     .collect();
                 analyse(
-                    view(
+                    nhw_view(
                         ArrayView3::from_shape(shape, &data).expect("size checked at load"),
                         hwn,
                     ),

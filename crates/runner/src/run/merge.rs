@@ -10,7 +10,7 @@
 
 use crate::io::outdir::{OutDir, Purpose, STATE};
 use crate::io::parquet::write_parquet;
-use crate::io::results::check_columns;
+use crate::io::results::{self, check_columns};
 use crate::run::jobs::all::AllJobs;
 use crate::run::jobs::{Inputs, JobKind, Outcome, Status};
 use crate::run::plan::{self, Plan};
@@ -257,7 +257,7 @@ pub fn merge_claimed(
                 }
             }
             if let Some(row) = row {
-                layout.made("jobs", &row);
+                layout.made(results::JOBS.name, &row);
             }
         }
     }
@@ -468,7 +468,9 @@ fn load(
             );
             return Ok(Loaded {
                 tables,
-                status: row.transpose()?.map(|df| ("jobs".to_string(), df)),
+                status: row
+                    .transpose()?
+                    .map(|df| (results::JOBS.name.to_string(), df)),
                 error: None,
                 timing: done.timing,
                 elapsed_s: done.elapsed_s,
@@ -490,7 +492,7 @@ fn load(
     };
     Ok(Loaded {
         tables: vec![],
-        status: row.map(|df| ("jobs".to_string(), df)),
+        status: row.map(|df| (results::JOBS.name.to_string(), df)),
         error: Some(error),
         timing: None,
         elapsed_s,

@@ -8,6 +8,7 @@
 //! `similarity`, `model_order`, and with their sections `correlating_function`, `hypotheses`,
 //! `calibration`, `calibration_summary`.
 
+use crate::io::results;
 use crate::run::plan::{Job, Plan};
 pub use crate::run::result::{FilterRow, JobResult, SimilarityOutcome, SynthesisOutcome};
 use crate::stats::analysis::Direction;
@@ -644,14 +645,14 @@ pub type Builder = for<'a> fn(&'a Plan, &[(&'a Job, &'a JobResult)]) -> Result<D
 /// The tables every run writes (empty when no job contributes), with the builder of a dataset
 /// job's fragment; `jobs` comes from [`status_rows`].
 pub const STANDARD: [(&str, Option<Builder>); 8] = [
-    ("analysis_maps", Some(analysis_maps)),
-    ("analysis_summary", Some(analysis_summary)),
-    ("pixel_stats", Some(pixel_stats)),
-    ("filter_correlation", Some(filter_correlation)),
-    ("jobs", None),
-    ("synthesis_params", Some(synthesis_params)),
-    ("similarity", Some(similarity)),
-    ("model_order", Some(model_order)),
+    (results::ANALYSIS_MAPS.name, Some(analysis_maps)),
+    (results::ANALYSIS_SUMMARY.name, Some(analysis_summary)),
+    (results::PIXEL_STATS.name, Some(pixel_stats)),
+    (results::FILTER_CORRELATION.name, Some(filter_correlation)),
+    (results::JOBS.name, None),
+    (results::SYNTHESIS_PARAMS.name, Some(synthesis_params)),
+    (results::SIMILARITY.name, Some(similarity)),
+    (results::MODEL_ORDER.name, Some(model_order)),
 ];
 
 /// The tables a dataset job contributes to in this plan, with their builders.
@@ -661,7 +662,7 @@ fn dataset_tables(plan: &Plan) -> Vec<(&'static str, Builder)> {
         .filter_map(|&(name, b)| b.map(|b| (name, b)))
         .collect();
     if plan.spec.hypotheses.is_some() {
-        tables.push(("correlating_function", correlating_function));
+        tables.push((results::CORRELATING_FUNCTION.name, correlating_function));
     }
     tables
 }

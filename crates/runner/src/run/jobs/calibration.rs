@@ -4,6 +4,7 @@
 //! `calibration_summary` (`band, statistic, value`).
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
+use crate::io::results;
 use crate::physics::calibration::{calibrate, simulate, summary, CalibrationRow, ChainParams};
 use crate::run::estimate::Estimate;
 use crate::run::plan::Plan;
@@ -71,7 +72,10 @@ impl JobKind for CalibrationJob {
             Column::new("value".into(), s.iter().map(|x| x.2).collect::<Vec<_>>()),
         ])?;
         Ok(Rows {
-            tables: vec![("calibration", table), ("calibration_summary", summary)],
+            tables: vec![
+                (results::CALIBRATION.name, table),
+                (results::CALIBRATION_SUMMARY.name, summary),
+            ],
             ..Rows::default()
         })
     }

@@ -6,6 +6,7 @@
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::apps::hypotheses::{analysis_numbers, parse_id, test, PlantStats};
+use crate::io::results;
 use crate::run::plan::{Job, Plan};
 use crate::run::tables::JobResult;
 use anyhow::{Context, Result};
@@ -63,8 +64,10 @@ pub fn plant_stats(job: &Job, r: &JobResult) -> Result<Option<DataFrame>> {
 
 /// A plant's statistics back from its rows.
 fn read_stats(rows: &Rows) -> Result<Option<PlantStats>> {
-    let (Some(stats), Some(corr)) = (rows.table(PLANT_STATS), rows.table("correlating_function"))
-    else {
+    let (Some(stats), Some(corr)) = (
+        rows.table(PLANT_STATS),
+        rows.table(results::CORRELATING_FUNCTION.name),
+    ) else {
         return Ok(None);
     };
     let f = |df: &DataFrame, name: &str| -> Result<Vec<Option<f64>>> {
@@ -181,7 +184,7 @@ impl JobKind for HypothesesJob {
             ),
         ])?;
         Ok(Rows {
-            tables: vec![("hypotheses", table)],
+            tables: vec![(results::HYPOTHESES.name, table)],
             ..Rows::default()
         })
     }

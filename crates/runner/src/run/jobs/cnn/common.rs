@@ -7,6 +7,7 @@ use crate::apps::cnn::train::Trained;
 use crate::data::{materialise, Materialised};
 use crate::experiment::DataRef;
 use crate::io::npy::Stack;
+use crate::io::results;
 use crate::run::jobs::Status;
 use crate::seeds::derive_seed;
 use anyhow::{Context, Result};
@@ -15,15 +16,15 @@ use num_complex::Complex64;
 use polars::prelude::*;
 
 /// Table of classification trainings.
-pub const CLASSIFICATION: &str = "classification";
+pub const CLASSIFICATION: &str = results::CLASSIFICATION.name;
 /// Table of location trainings.
-pub const LOCATION: &str = "location";
+pub const LOCATION: &str = results::LOCATION.name;
 /// Table of the location summary.
-pub const LOCATION_SUMMARY: &str = "location_summary";
+pub const LOCATION_SUMMARY: &str = results::LOCATION_SUMMARY.name;
 /// Per-epoch records of every training.
-pub const HISTORY: &str = "training_history";
+pub const HISTORY: &str = results::TRAINING_HISTORY.name;
 /// Confusion matrices of every training (test set).
-pub const CONFUSION: &str = "confusion";
+pub const CONFUSION: &str = results::CONFUSION.name;
 
 /// The stacks of several datasets concatenated along the sample axis (as complex128), with
 /// their sample counts.
