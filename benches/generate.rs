@@ -79,8 +79,8 @@ fn main() {
         200,
         8,
     );
-    let bank = isar_clutter::data::filter_bank(&d);
-    let stack = isar_clutter::data::generate(&d, &bank, 2).unwrap();
+    let bank = isar_clutter::experiment::filter_bank(&d);
+    let stack = isar_clutter::experiment::generate(&d, &bank, 2).unwrap();
     let a = isar_clutter::stats::analysis::analyse(stack.view(), 3).unwrap();
     let n = 80 * 80;
     let mut words = Vec::new();

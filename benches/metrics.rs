@@ -7,7 +7,7 @@
 #[global_allocator]
 static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
 
-use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
 use isar_clutter::stats::metrics::{kl_maps, KlOptions};
 use isar_clutter::stats::similarity::{normalised, usable_pixels};

@@ -7,7 +7,7 @@
 #[global_allocator]
 static GLOBAL: isar_clutter::alloc::LargeMapAlloc = isar_clutter::alloc::LargeMapAlloc;
 
-use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map, RampAxis};
 use isar_clutter::seeds::white_seed;
 use isar_clutter::stats::analysis::analyse;

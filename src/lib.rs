@@ -7,7 +7,7 @@
 //! re-exports every crate's modules under one name and adds the reproduction of the
 //! dissertation ([`reproduction`]) and the binary.
 //!
-//! - [`experiment`], [`data`], [`run`]: the runner (`isar-clutter-runner`);
+//! - [`experiment`] (with the dataset kinds), [`run`]: the runner (`isar-clutter-runner`);
 //! - [`report`]: figures, the HTML report and the comparison tables (`isar-clutter-report`);
 //! - [`apps`]: the hypothesis tests and the CNN applications (`isar-clutter-apps`);
 //! - [`io`]: file formats, Parquet tables and the results contract (`isar-clutter-tables` over
@@ -20,7 +20,7 @@
 pub use isar_clutter_apps::apps;
 pub use isar_clutter_core::{alloc, error_text, physics, seeds, stats, synthesis, workflow};
 pub use isar_clutter_report::report;
-pub use isar_clutter_runner::{data, experiment, run};
+pub use isar_clutter_runner::{experiment, run};
 pub use isar_clutter_tables::io;
 
 pub mod reproduction;

@@ -388,7 +388,6 @@ fn layer(file: &Path) -> Option<(usize, String)> {
         ("tables", "io") => 7,
         ("apps", "apps") => 8,
         ("runner", "experiment") | ("report", "report") => 9,
-        ("runner", "data") => 10,
         ("runner", "run") => 11,
         ("main", "reproduction") => 12,
         ("main", "cli" | "main") => 13,

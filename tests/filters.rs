@@ -5,7 +5,7 @@
 mod common;
 
 use common::max_diff;
-use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map, RampAxis};
 use isar_clutter::seeds::white_seed;
 use isar_clutter::stats::analysis::analyse;

@@ -2,7 +2,7 @@
 //! simulator. k-space data simulated for a plant, written as `.npy` with their frequency and
 //! azimuth vectors, must image to exactly the simulator's own images; bad axes are refused.
 
-use isar_clutter::data::materialise;
+use isar_clutter::experiment::materialise;
 use isar_clutter::physics::isar::{ImagingOptions, Measurement};
 use isar_clutter::physics::vegetation::{try_simulate, SceneParams};
 use isar_clutter::run::plan;

@@ -5,7 +5,7 @@
 //! negatively correlated stack that signs its filters as asked and keeps the scheme through a
 //! model folder.
 
-use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
 use isar_clutter::stats::analysis::analyse;
 use isar_clutter::stats::filters::{

@@ -4,7 +4,7 @@
 //! decodes it, calendar months come from the time units, and bad variables are refused with
 //! the YAML path.
 
-use isar_clutter::data::materialise;
+use isar_clutter::experiment::materialise;
 use isar_clutter::io::netcdf::time::months;
 use isar_clutter::io::netcdf::NcFile;
 use isar_clutter::run::plan;

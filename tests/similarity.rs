@@ -3,7 +3,7 @@
 //! Gram identity against the literal P x P formula, eq. 25 on hand-made maps, and K-distributed
 //! texture moments.
 
-use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
 use isar_clutter::stats::cmd::{cmd_oracle, cmd_terms};
 use isar_clutter::stats::metrics::*;

@@ -4,7 +4,7 @@
 
 mod common;
 
-use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map, RampAxis};
 use isar_clutter::stats::analysis::{analyse, Direction};
 #[allow(unused_imports)]

@@ -2,7 +2,7 @@
 //! Table 4 (multiscale correlations of exponentially filtered noise) with the exact values of
 //! docs/definitions.md §4.
 
-use isar_clutter::data::{filter_bank, generate};
+use isar_clutter::experiment::{filter_bank, generate};
 use isar_clutter::experiment::{FilterParams, FilteredNoise, Map};
 use isar_clutter::stats::analysis::{analyse, Direction};
 use isar_clutter::stats::filters::{

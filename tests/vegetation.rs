@@ -169,7 +169,7 @@ fn the_mean_kspace_image_is_the_mean_of_the_kspace_samples() {
 /// ideal simulation, while the raw measurement does not.
 #[test]
 fn calibrated_plant_measurements_match_the_ideal_simulation() {
-    use isar_clutter::data::materialise;
+    use isar_clutter::experiment::materialise;
     use isar_clutter::experiment::Dataset;
     let tmp = tempfile::tempdir().unwrap();
     let spec = tmp.path().join("c.yaml");

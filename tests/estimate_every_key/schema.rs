@@ -1,6 +1,7 @@
 //! Every numeric key of the spec schema, found through the spec's own errors rather than a
 //! list kept by hand: a struct's fields from the error for an unknown field (serde lists them
-//! all: "unknown field `zzz_probe`, expected one of `a`, `b`, ..."), a field's type from the
+//! all: "unknown field `zzz_probe`, expected one of `a`, `b`, ..."; a dataset entry those of its
+//! kind, so the bases' lists are joined), a field's type from the
 //! error for a string in its place ("expected usize", "expected struct PlantParams", "expected
 //! a sequence", ...), recursively through nested structs, lists and tuples, and through the
 //! sections the spec parses late (a plant's `scene`, a metric's parameters). A key that is
@@ -228,12 +229,25 @@ fn walk_struct(bases: &[Base], path: &str, keys: &mut BTreeSet<String>, depth: u
         "the schema nests deeper than expected at {path}"
     );
     let unknown = join(path, "zzz_probe");
-    let Some(message) = probe(bases, &unknown, Value::from(1), |p, m| {
-        related(p, &unknown) && m.contains("unknown field `zzz_probe`")
-    }) else {
-        panic!("no base refuses an unknown field at {path:?}");
-    };
-    for field in expected_names(&message) {
+    // Every base's refusal: a dataset entry lists the fields of its own kind only.
+    let mut fields: Vec<String> = vec![];
+    for b in bases {
+        let Some((p, m)) = b.error_with(&unknown, &Value::from(1)) else {
+            continue;
+        };
+        if related(&p, &unknown) && m.contains("unknown field `zzz_probe`") {
+            for f in expected_names(&m) {
+                if !fields.contains(&f) {
+                    fields.push(f);
+                }
+            }
+        }
+    }
+    assert!(
+        !fields.is_empty(),
+        "no base refuses an unknown field at {path:?}"
+    );
+    for field in fields {
         walk_value(bases, &join(path, &field), keys, depth + 1);
     }
 }

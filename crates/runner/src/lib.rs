@@ -1,6 +1,6 @@
-//! isar-clutter-runner: the experiment runner. The spec ([`experiment`]), datasets materialised
-//! into stacks ([`data`]), and the run ([`run`]): plan, job kinds, scheduler, job store, table
-//! assembly and manifest. The lower crates' modules are re-exported under their own names
+//! isar-clutter-runner: the experiment runner. The spec and the dataset kinds
+//! ([`experiment`], each kind one file of [`experiment::datasets`]), and the run ([`run`]):
+//! plan, job kinds, scheduler, job store, table assembly and manifest. The lower crates' modules are re-exported under their own names
 //! (`crate::stats`, `crate::io`, `crate::apps`, ...), so that this crate's files name them as
 //! the one-crate layout did.
 
@@ -10,6 +10,5 @@ pub use isar_clutter_apps::apps;
 pub use isar_clutter_core::{alloc, error_text, physics, seeds, stats, synthesis, workflow, TOOL};
 pub use isar_clutter_tables::io;
 
-pub mod data;
 pub mod experiment;
 pub mod run;

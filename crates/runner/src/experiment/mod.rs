@@ -4,7 +4,7 @@
 //!
 //! The format is documented with a complete example in `docs/spec.md`.
 
-use crate::io::npy::{self, NpyHeader};
+use crate::io::npy;
 use crate::stats::analysis::check_levels;
 use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
@@ -13,14 +13,13 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 mod cnn;
-mod dataset;
-mod dataset_check;
+pub mod datasets;
 mod maps;
 mod metrics;
 mod synthesis;
 
 pub use cnn::*;
-pub use dataset::*;
+pub use datasets::*;
 pub use maps::*;
 pub use metrics::*;
 pub use synthesis::*;
@@ -287,7 +286,7 @@ impl Ctx<'_> {
 }
 
 /// Merges `over` into `base` key by key (mappings recursively; other values replace).
-fn merge(base: &mut serde_yaml_ng::Value, over: &serde_yaml_ng::Value) {
+pub(crate) fn merge(base: &mut serde_yaml_ng::Value, over: &serde_yaml_ng::Value) {
     use serde_yaml_ng::Value;
     match (base, over) {
         (Value::Mapping(b), Value::Mapping(o)) => {

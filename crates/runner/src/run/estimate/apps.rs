@@ -3,14 +3,12 @@
 //! and the CNN trainings (their datasets as materialised, the models fitted to them, the
 //! training, validation and test sets, a mini-batch's activations, and the epochs).
 
-use super::dataset::{
-    chain_sizes, data, dataset_at, dataset_sizes, generate_flops, mie, model, C128, C64,
-    USUAL_SAMPLES,
-};
+use super::dataset::{dataset_at, generate_flops, model};
 use super::{Estimate, Sizes};
 use crate::apps::cnn::classification::{held_out, Source};
 use crate::apps::cnn::net::NetConfig;
 use crate::apps::cnn::train::{Device, TrainingOptions};
+use crate::experiment::datasets::{chain_sizes, mie, C128, C64, USUAL_SAMPLES};
 use crate::experiment::DataRef;
 use crate::physics::calibration::ChainParams;
 use crate::run::jobs::cnn::{ClassificationJob, LocationJob};
@@ -103,9 +101,9 @@ fn stacks(plan: &Plan, data_refs: &[DataRef], s: &mut Sizes) -> Stacks {
     let (mut peak, mut flops, mut all) = (0.0f64, 0.0, 0.0);
     let mut samples = vec![];
     for d in data_refs {
-        dataset_sizes(&dataset_at(plan, &d.id), &d.dataset, s);
+        d.dataset.sizes(&dataset_at(plan, &d.id), s);
         let (n, h, w) = d.dataset.shape();
-        let m = data(&d.dataset);
+        let m = d.dataset.cost();
         peak = peak.max(m.peak);
         flops += m.flops;
         all += n as f64 * h as f64 * w as f64;

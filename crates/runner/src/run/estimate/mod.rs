@@ -17,7 +17,7 @@
 //! `k = n_f x n_phi` k-space points and `S` the image side of an imaged dataset, the peak
 //! bytes of a job are the sum of what is alive at its largest moment (complex128 is 16 bytes):
 //!
-//! - the dataset as materialised ([`crate::data::materialise`]): filtered noise `16 N P` plus its filter
+//! - the dataset as materialised ([`crate::experiment::materialise`]): filtered noise `16 N P` plus its filter
 //!   bank (`2 P (8 (2K+1) + 48)`, twice that when the bank varies over the image); an `.npy`
 //!   stack nothing (it is mapped from the file; the page cache holds it); NetCDF `32 N P` while
 //!   the two variables are combined, `16 N P` kept; `kspace` the file as complex128 `16 N k`
@@ -63,6 +63,8 @@ pub use outputs::{footprint, Footprint};
 
 use std::fmt;
 
+pub use crate::experiment::{Blame, Sizes};
+
 /// Most work one job may take, in operations of the reference core (30 Gflop/s): about 40
 /// days of that core, a few days of a whole large machine, far beyond any study the tool is
 /// meant for (the shipped experiments' largest job takes under 10^13); a job past it comes
@@ -81,48 +83,9 @@ pub struct Estimate {
     pub blame: Option<Blame>,
 }
 
-/// A size of the spec that an estimate reads, located in the spec.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Blame {
-    /// YAML path of the key (`datasets[0].samples`, `calibration.points`).
-    pub path: String,
-    /// Its value as written (`1000000000000`, `[4096, 4096]`).
-    pub value: String,
-    /// How many times its usual value it is (the default, or a typical study's value).
-    pub ratio: f64,
-}
-
-/// The sizes an estimate reads, each with how far it is above its usual value.
-#[derive(Debug, Clone, Default)]
-pub struct Sizes(Vec<Blame>);
-
-impl Sizes {
-    /// Records the size at `path` with value `value` (as written) and `ratio` = value / usual
-    /// value (for a spacing or another size whose smaller values cost more: usual / value).
-    pub fn add(&mut self, path: impl Into<String>, value: impl fmt::Display, ratio: f64) {
-        self.0.push(Blame {
-            path: path.into(),
-            value: value.to_string(),
-            ratio: if ratio.is_nan() { 0.0 } else { ratio },
-        });
-    }
-
-    /// The size furthest above its usual value, if any is above it.
-    pub fn furthest(&self) -> Option<&Blame> {
-        self.0
-            .iter()
-            .filter(|b| b.ratio > 1.0)
-            .fold(None, |best: Option<&Blame>, b| match best {
-                Some(a) if a.ratio >= b.ratio => Some(a),
-                _ => Some(b),
-            })
-    }
-}
-
 impl Estimate {
     /// What a job without a dataset needs at most (the hypothesis tests with the usual
-    /// `max_offset`, the location summary, the default of
-    /// [`crate::run::jobs::JobKind::estimate`]): 8 MiB and 10^8 operations.
+    /// `max_offset`, the location summary): 8 MiB and 10^8 operations.
     pub const SMALL: Estimate = Estimate {
         bytes: 8 << 20,
         flops: 1e8,

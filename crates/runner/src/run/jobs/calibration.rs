@@ -49,6 +49,18 @@ impl JobKind for CalibrationJob {
         Inputs::Nothing
     }
 
+    fn input_files(&self) -> Vec<std::path::PathBuf> {
+        vec![]
+    }
+
+    fn materialise(&self) -> Result<crate::experiment::Materialised> {
+        super::no_dataset(self)
+    }
+
+    fn manifest(&self) -> serde_json::Value {
+        serde_json::json!({})
+    }
+
     fn run(&self, _cx: &JobContext) -> Result<Rows> {
         let rows = calibrate(&self.chain, &simulate(&self.chain, self.seed));
         let col = |name: &str, f: &dyn Fn(&CalibrationRow) -> f64| {

@@ -5,8 +5,8 @@
 //! them apart.
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
-use crate::data::{materialise, Materialised};
-use crate::experiment::{Dataset, SynthesisSpec};
+use crate::experiment::SynthesisSpec;
+use crate::experiment::{materialise, Materialised};
 use crate::io::atomic::write_npy;
 use crate::run::plan::{Job, NoiseFloorPlan, Plan};
 use crate::run::tables::{self, FilterRow, JobResult, SimilarityOutcome, SynthesisOutcome};
@@ -205,16 +205,16 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
         _ => None,
     };
     let mut files = vec![];
-    if let (Some(k), Dataset::Vegetation(v)) = (&data.kspace, &job.dataset) {
+    if let Some(k) = &data.kspace {
         let dir = out.join("kspace");
-        let k64 = k.mapv(|z| num_complex::Complex::new(z.re as f32, z.im as f32));
-        let grid = v.measurement.grid()?;
-        let deg: Vec<f64> = grid.azimuths.iter().map(|a| a.to_degrees()).collect();
+        let k64 = k
+            .data
+            .mapv(|z| num_complex::Complex::new(z.re as f32, z.im as f32));
         let path = |suffix: &str| dir.join(format!("{}{suffix}.npy", job.id));
         files = vec![path(""), path(".freqs"), path(".azimuths_deg")];
         write_npy(&files[0], &k64)?;
-        write_npy(&files[1], &ndarray::Array1::from(grid.freqs.clone()))?;
-        write_npy(&files[2], &ndarray::Array1::from(deg))?;
+        write_npy(&files[1], &ndarray::Array1::from(k.freqs.clone()))?;
+        write_npy(&files[2], &ndarray::Array1::from(k.azimuths_deg.clone()))?;
     }
     if let (Some(m), true) = (&data.mean_kspace, plan.spec.outputs.npy_maps) {
         // The mean k-space image (Fig. 48): rows frequency, columns azimuth.
@@ -272,23 +272,10 @@ fn noise_floor(
     };
     let comparison = match nf {
         NoiseFloorPlan::Draws { samples, seed } => {
-            let draw = match (&job.dataset, &data.truth) {
-                (Dataset::FilteredNoise(f), Some((bank, _))) => {
-                    let mut spec = (**f).clone();
-                    spec.samples = samples;
-                    crate::data::generate(&spec, bank, seed)?
-                }
-                (Dataset::Vegetation(v), _) => {
-                    // An independent simulation of the same scene: new seed, no k-space kept.
-                    let mut spec = (**v).clone();
-                    spec.samples = samples;
-                    spec.save_kspace = false;
-                    crate::data::materialise(&Dataset::Vegetation(Box::new(spec)), seed)?
-                        .stack
-                        .try_to_complex128(false)?
-                }
-                _ => anyhow::bail!("draws need a synthetic or simulated dataset"),
-            };
+            let draw = job
+                .dataset
+                .redraw(samples, seed, data)
+                .ok_or_else(|| anyhow::anyhow!("draws need a synthetic or simulated dataset"))??;
             let draw_analysis = analyse(draw.view())?;
             let a = Side {
                 stack: original.view(),

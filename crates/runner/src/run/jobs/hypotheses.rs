@@ -151,6 +151,18 @@ impl JobKind for HypothesesJob {
         Inputs::Rows(self.inputs.clone())
     }
 
+    fn input_files(&self) -> Vec<std::path::PathBuf> {
+        vec![]
+    }
+
+    fn materialise(&self) -> Result<crate::experiment::Materialised> {
+        super::no_dataset(self)
+    }
+
+    fn manifest(&self) -> serde_json::Value {
+        serde_json::json!({})
+    }
+
     fn run(&self, cx: &JobContext) -> Result<Rows> {
         let mut stats: Vec<PlantStats> = vec![];
         for (job, rows) in &cx.inputs {

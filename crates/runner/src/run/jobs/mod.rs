@@ -15,7 +15,7 @@ pub mod cnn;
 pub mod dataset;
 pub mod hypotheses;
 
-use crate::data::Materialised;
+use crate::experiment::Materialised;
 use crate::run::estimate::Estimate;
 use crate::run::plan::Plan;
 use anyhow::Result;
@@ -105,31 +105,21 @@ pub trait JobKind: Send + Sync {
     fn inputs(&self) -> Inputs;
     /// Peak memory and work of the job, from its validated parameters alone (nothing is
     /// allocated); the scheduler fails a job whose estimate exceeds the memory limit
-    /// ([`crate::run::estimate::Estimate::exceeds`]) instead of running it. Default: a small
-    /// job ([`Estimate::SMALL`]).
-    fn estimate(&self, plan: &Plan) -> Estimate {
-        let _ = plan;
-        Estimate::SMALL
-    }
+    /// ([`crate::run::estimate::Estimate::exceeds`]) instead of running it ([`Estimate::SMALL`]
+    /// for a small job).
+    fn estimate(&self, plan: &Plan) -> Estimate;
     /// Everything besides kind, identity and seed that the job's result depends on, as text
     /// for its key in the job store ([`crate::run::store::key`]): its validated parameters and
-    /// the plan-wide settings its rows read. Default: nothing more.
-    fn key_material(&self, plan: &Plan) -> String {
-        let _ = plan;
-        String::new()
-    }
-    /// Files the job reads, whose content hashes go into its key. Default: none.
-    fn input_files(&self) -> Vec<PathBuf> {
-        vec![]
-    }
+    /// the plan-wide settings its rows read.
+    fn key_material(&self, plan: &Plan) -> String;
+    /// Files the job reads, whose content hashes go into its key.
+    fn input_files(&self) -> Vec<PathBuf>;
     /// Materialises the dataset a group of jobs shares (called once per group with
-    /// [`Inputs::Dataset`] `shared`).
+    /// [`Inputs::Dataset`] `shared`; a job that reads none answers [`no_dataset`]).
     ///
     /// # Errors
     /// If the data cannot be made.
-    fn materialise(&self) -> Result<Materialised> {
-        anyhow::bail!("job {} reads no dataset", self.id())
-    }
+    fn materialise(&self) -> Result<Materialised>;
     /// Runs the job.
     ///
     /// # Errors
@@ -140,7 +130,13 @@ pub trait JobKind: Send + Sync {
     fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>>;
     /// The fields of the job's entry in `manifest.json` beside its id, kind, identity, seed,
     /// status and timings (which the manifest takes from the trait and the outcome).
-    fn manifest(&self) -> serde_json::Value {
-        serde_json::json!({})
-    }
+    fn manifest(&self) -> serde_json::Value;
+}
+
+/// [`JobKind::materialise`] of a job that reads no dataset: an error naming it.
+///
+/// # Errors
+/// Always.
+pub fn no_dataset(job: &dyn JobKind) -> Result<Materialised> {
+    anyhow::bail!("job {} reads no dataset", job.id())
 }

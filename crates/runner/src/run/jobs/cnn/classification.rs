@@ -9,8 +9,8 @@ use crate::apps::cnn::classification::{
     compose, fit_model, labelled, split_class, Normalise, Source,
 };
 use crate::apps::cnn::train::{train_on_device, Labelled};
-use crate::data::Materialised;
 use crate::experiment::DataRef;
+use crate::experiment::Materialised;
 use crate::run::estimate::Estimate;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::run::plan::Plan;

@@ -4,8 +4,8 @@
 
 use crate::apps::cnn::net::NetConfig;
 use crate::apps::cnn::train::Trained;
-use crate::data::{materialise, Materialised};
 use crate::experiment::DataRef;
+use crate::experiment::{materialise, Materialised};
 use crate::io::npy::Stack;
 use crate::io::results;
 use crate::run::jobs::Status;

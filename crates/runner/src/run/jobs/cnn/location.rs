@@ -8,8 +8,8 @@ use super::common::{
 use crate::apps::cnn::classification::{fit_model, permutation, Source};
 use crate::apps::cnn::location::{self, TargetKind};
 use crate::apps::cnn::train::train_on_device;
-use crate::data::Materialised;
 use crate::experiment::DataRef;
+use crate::experiment::Materialised;
 use crate::run::estimate::Estimate;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::run::plan::Plan;
@@ -365,6 +365,22 @@ impl JobKind for LocationSummaryJob {
 
     fn inputs(&self) -> Inputs {
         Inputs::Rows(self.inputs.clone())
+    }
+
+    fn estimate(&self, _plan: &Plan) -> Estimate {
+        Estimate::SMALL
+    }
+
+    fn input_files(&self) -> Vec<std::path::PathBuf> {
+        vec![]
+    }
+
+    fn materialise(&self) -> Result<crate::experiment::Materialised> {
+        crate::run::jobs::no_dataset(self)
+    }
+
+    fn manifest(&self) -> serde_json::Value {
+        serde_json::json!({})
     }
 
     fn run(&self, cx: &JobContext) -> Result<Rows> {
