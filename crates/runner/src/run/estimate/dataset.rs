@@ -74,7 +74,7 @@ pub fn dataset_job(plan: &Plan, job: &Job) -> Estimate {
 }
 
 /// YAML path of the dataset `id` (`datasets[i]`; `datasets` when the spec lacks it).
-pub(super) fn dataset_at(plan: &Plan, id: &str) -> String {
+pub fn dataset_at(plan: &Plan, id: &str) -> String {
     match plan.spec.datasets.iter().position(|d| d.id == id) {
         Some(i) => format!("datasets[{i}]"),
         None => "datasets".into(),
@@ -135,7 +135,7 @@ fn correlating(plan: &Plan, n: f64, h: usize, w: usize, s: &mut Sizes) -> (f64, 
 }
 
 /// Bytes and fitting work of a model of `method` fitted to `n` samples of `p` pixels.
-pub(super) fn model(method: Method, n: f64, p: f64, k: f64) -> (f64, f64) {
+pub fn model(method: Method, n: f64, p: f64, k: f64) -> (f64, f64) {
     let base = 24.0 * p;
     match method {
         Method::Uncorrelated => (base, 4.0 * n * p),
@@ -152,7 +152,7 @@ pub(super) fn model(method: Method, n: f64, p: f64, k: f64) -> (f64, f64) {
 }
 
 /// Work of generating `m` samples of `p` pixels.
-pub(super) fn generate_flops(method: Method, n: f64, m: f64, p: f64, k: f64) -> f64 {
+pub fn generate_flops(method: Method, n: f64, m: f64, p: f64, k: f64) -> f64 {
     match method {
         Method::Method1 | Method::Method2 => m * p * filter_flops(k, true),
         Method::FullCovariance => 4.0 * n * m * p,

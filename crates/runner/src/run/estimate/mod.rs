@@ -45,6 +45,10 @@
 //!   its model, the training, validation and test sets (`8 P` plus the prepared input each) and a
 //!   mini-batch's activations (`8 P f_1` a sample, `min(batch_size, training set)` samples).
 //!
+//! The model of a dataset job is [`dataset_job`] (its datasets' own terms come from their
+//! kinds, [`crate::experiment::DatasetKind::cost`]); each job of the run as a whole states its
+//! own beside its kind (`run/jobs/calibration.rs`, `hypotheses.rs`, `cnn/`).
+//!
 //! Work is counted in floating-point operations of the dominant kernels (filtering, imaging,
 //! analysis, sampling, the CMD by the forms of [`crate::stats::cmd::choose_forms`], the plants'
 //! scatterers and wind sub-steps, the Mie series, the correlating function, a training's
@@ -53,12 +57,10 @@
 //! core of 30 Gflop/s. It is a guide to run time, good to a factor of a few. All arithmetic is in `f64` and converted to `u64` with saturation, so
 //! absurd sizes give huge estimates, never an overflow.
 
-mod apps;
 mod dataset;
 mod outputs;
 
-pub use apps::{calibration, classification, hypotheses, location};
-pub use dataset::dataset_job;
+pub use dataset::{dataset_at, dataset_job, generate_flops, model};
 pub use outputs::{footprint, Footprint};
 
 use std::fmt;

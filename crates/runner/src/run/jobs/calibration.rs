@@ -1,12 +1,14 @@
 //! The calibration job of a spec's `calibration` section: the simulated sphere measured
 //! through the chain and calibrated (Figs. 11-14), giving `calibration` (one row per
 //! frequency: `freq_ghz, mie_dbsm, raw_db, calibrated_dbsm, error_db, phase_error_deg`) and
-//! `calibration_summary` (`band, statistic, value`).
+//! `calibration_summary` (`band, statistic, value`); its estimate of memory and work.
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
+use crate::experiment::datasets::{chain_sizes, mie};
 use crate::io::results;
 use crate::physics::calibration::{calibrate, simulate, summary, CalibrationRow, ChainParams};
 use crate::run::estimate::Estimate;
+use crate::run::estimate::Sizes;
 use crate::run::plan::Plan;
 use anyhow::Result;
 use polars::prelude::*;
@@ -38,7 +40,7 @@ impl JobKind for CalibrationJob {
     }
 
     fn estimate(&self, _plan: &Plan) -> Estimate {
-        crate::run::estimate::calibration(&self.chain)
+        estimate(&self.chain)
     }
 
     fn key_material(&self, plan: &Plan) -> String {
@@ -95,4 +97,24 @@ impl JobKind for CalibrationJob {
     fn status_row(&self, _plan: &Plan, _status: &Status) -> Option<Result<DataFrame>> {
         None
     }
+}
+
+/// The estimate of the `calibration` section's job: about 256 bytes a frequency point (the
+/// grid, the four measurements, the gated differences, the rows and the FFTs' buffers), three
+/// Mie series of the sphere, the chamber clutter of four measurements and the time gates'
+/// FFTs.
+fn estimate(chain: &ChainParams) -> Estimate {
+    let n = chain.points as f64;
+    let (mie_bytes, mie_flops) = mie(chain, 3.0);
+    let clutter = chain.clutter.len() as f64;
+    let mut sizes = Sizes::default();
+    chain_sizes("calibration", chain, &mut sizes);
+    Estimate::new(
+        Estimate::SMALL.bytes as f64 + 256.0 * n + mie_bytes,
+        Estimate::SMALL.flops
+            + mie_flops
+            + 4.0 * n * (30.0 * clutter + 60.0)
+            + 40.0 * n * n.max(2.0).log2(),
+    )
+    .blaming(&sizes)
 }

@@ -2,7 +2,7 @@
 //! that the analysis jobs of datasets named `plant_<letter>_<wind>` leave for it (their
 //! statistics in the intermediate table `_plant_stats` and their `correlating_function`
 //! fragment), takes the first sweep point of each dataset, and runs the tests of
-//! [`crate::apps::hypotheses`] into `hypotheses`.
+//! [`crate::apps::hypotheses`] into `hypotheses`; its estimate of memory and work.
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::apps::hypotheses::{analysis_numbers, parse_id, test, PlantStats};
@@ -140,7 +140,7 @@ impl JobKind for HypothesesJob {
     }
 
     fn estimate(&self, plan: &Plan) -> crate::run::estimate::Estimate {
-        crate::run::estimate::hypotheses(plan, self.inputs.len())
+        estimate(plan, self.inputs.len())
     }
 
     fn key_material(&self, plan: &Plan) -> String {
@@ -204,4 +204,21 @@ impl JobKind for HypothesesJob {
     fn status_row(&self, _plan: &Plan, _status: &Status) -> Option<Result<DataFrame>> {
         None
     }
+}
+
+/// The estimate of the hypotheses job over `inputs` plant datasets: each one's correlating
+/// function (`(2 max_offset + 1)^2` cells) read back from its rows.
+fn estimate(plan: &Plan, inputs: usize) -> crate::run::estimate::Estimate {
+    let Some(hs) = &plan.spec.hypotheses else {
+        return crate::run::estimate::Estimate::SMALL;
+    };
+    let r = hs.max_offset as f64;
+    let mut sizes = crate::run::estimate::Sizes::default();
+    sizes.add("hypotheses.max_offset", hs.max_offset, r / 4.0);
+    let cells = inputs as f64 * (2.0 * r + 1.0).powi(2);
+    crate::run::estimate::Estimate::new(
+        crate::run::estimate::Estimate::SMALL.bytes as f64 + 48.0 * cells,
+        crate::run::estimate::Estimate::SMALL.flops + 10.0 * cells,
+    )
+    .blaming(&sizes)
 }

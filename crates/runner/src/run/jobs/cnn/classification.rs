@@ -1,6 +1,8 @@
 //! One classification training (ch. 5.3.1) as a job: its datasets' stacks, its method's fit,
-//! its training, validation and test sets, the training, and its rows.
+//! its training, validation and test sets, the training, its rows, and its estimate of memory
+//! and work.
 
+use super::common::{fit_sizes, stacks, training, training_sizes};
 use super::common::{
     group_seed, materialise_all, nan_none, record_tables, stacks_of, training_status, TrainingRow,
     CLASSIFICATION,
@@ -9,9 +11,11 @@ use crate::apps::cnn::classification::{
     compose, fit_model, labelled, split_class, Normalise, Source,
 };
 use crate::apps::cnn::train::{train_on_device, Labelled};
+use crate::experiment::datasets::{C128, C64, USUAL_SAMPLES};
 use crate::experiment::DataRef;
 use crate::experiment::Materialised;
 use crate::run::estimate::Estimate;
+use crate::run::estimate::{generate_flops, model, Sizes};
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::run::plan::Plan;
 use crate::seeds::derive_seed;
@@ -118,7 +122,7 @@ impl JobKind for ClassificationJob {
     }
 
     fn estimate(&self, plan: &Plan) -> Estimate {
-        crate::run::estimate::classification(plan, self)
+        estimate(plan, self)
     }
 
     fn key_material(&self, plan: &Plan) -> String {
@@ -285,4 +289,58 @@ impl JobKind for ClassificationJob {
             "samples_seed": self.data_seed,
         })
     }
+}
+
+/// The estimate of one classification training of `plan`.
+fn estimate(plan: &Plan, job: &ClassificationJob) -> Estimate {
+    let Some(cp) = &plan.classification else {
+        return Estimate::SMALL;
+    };
+    let spec = &cp.spec;
+    let mut sizes = Sizes::default();
+    let stacks = stacks(plan, &job.classes, &mut sizes);
+    let pixels = cp.net.height as f64 * cp.net.width as f64;
+    let originals: f64 = stacks.samples.iter().sum();
+    let size = job.train_size as f64;
+    if let Some(i) = spec.train_sizes.iter().position(|&n| n == job.train_size) {
+        let at = format!("classification.train_sizes[{i}]");
+        sizes.add(at, job.train_size, size / USUAL_SAMPLES);
+    }
+    // Per class, one after the other: its normalised split, its model and its generated part.
+    let k = cp.classes.len().max(1) as f64;
+    let (mut per_class, mut fit_flops) = (0.0f64, 0.0);
+    for &n in &stacks.samples {
+        let fit = n - crate::apps::cnn::classification::held_out(n as usize, spec.holdout) as f64;
+        let (model_bytes, flops) = match job.source {
+            Source::Original => (0.0, 0.0),
+            Source::Generated(m) => {
+                let (b, f) = model(m, fit, pixels, spec.half_width as f64);
+                let generated = (size / k).ceil();
+                let g = generate_flops(m, fit, generated, pixels, spec.half_width as f64);
+                (b + C64 * generated * pixels, f + g)
+            }
+        };
+        per_class = per_class.max(C128 * n * pixels + model_bytes);
+        fit_flops += flops;
+    }
+    if let Source::Generated(m) = job.source {
+        fit_sizes("classification", m, spec.half_width, &mut sizes);
+    }
+    // `original` trains on the fit originals at most.
+    let train_n = match job.source {
+        Source::Original => size.min(originals),
+        Source::Generated(_) => size,
+    };
+    training_sizes(
+        "classification.training",
+        &spec.training,
+        train_n,
+        &mut sizes,
+    );
+    let (bytes, flops) = training(&cp.net, &spec.training, train_n, originals);
+    Estimate::new(
+        stacks.bytes + per_class + bytes,
+        stacks.flops + fit_flops + flops,
+    )
+    .blaming(&sizes)
 }

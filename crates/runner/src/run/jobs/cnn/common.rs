@@ -4,12 +4,17 @@
 
 use crate::apps::cnn::net::NetConfig;
 use crate::apps::cnn::train::Trained;
+use crate::apps::cnn::train::{Device, TrainingOptions};
+use crate::experiment::datasets::{C128, C64};
 use crate::experiment::DataRef;
 use crate::experiment::{materialise, Materialised};
 use crate::io::npy::Stack;
 use crate::io::results;
+use crate::run::estimate::{dataset_at, Sizes};
 use crate::run::jobs::Status;
+use crate::run::plan::Plan;
 use crate::seeds::derive_seed;
+use crate::synthesis::Method;
 use anyhow::{Context, Result};
 use ndarray::{Array3, Axis};
 use num_complex::Complex64;
@@ -167,4 +172,84 @@ pub(super) fn training_status(
         Column::new("width".into(), [net.width as i64]),
         Column::new("elapsed_s".into(), [status.elapsed_s]),
     ])?)
+}
+
+/// Bytes and work of one training on `train_n` samples with `other_n` more kept (validation
+/// and test): the sets as complex64 and prepared float32 (the training set twice, as composed
+/// and as shuffled batches), a mini-batch's activations with their gradients, and `6 x` the
+/// forward multiply-adds per trained sample and epoch.
+pub(super) fn training(
+    net: &NetConfig,
+    t: &TrainingOptions,
+    train_n: f64,
+    other_n: f64,
+) -> (f64, f64) {
+    let pixels = net.height as f64 * net.width as f64;
+    let prepared = net.prepared_len() as f64 * 4.0;
+    let sets = (2.0 * train_n + other_n) * (pixels * C64 + prepared);
+    let f = net.arch.filters().map(|x| x as f64);
+    let batch = (t.batch_size as f64).min(train_n).max(1.0);
+    let activations = batch * pixels * f[0] * 8.0;
+    let macs = pixels / 4.0 * f[0] * 2.0 * 64.0
+        + pixels / 64.0 * f[1] * f[0] * 16.0
+        + pixels / 1024.0 * f[2] * f[1] * 4.0;
+    // A GPU trains about 30 times faster than the reference core.
+    let device = match t.device {
+        Device::Cpu => 1.0,
+        Device::Cuda => 1.0 / 30.0,
+    };
+    (
+        sets + activations + (64u64 << 20) as f64,
+        6.0 * macs * train_n * t.epochs as f64 * device,
+    )
+}
+
+/// Records a training block's sizes at `at` (`classification.training`).
+pub(super) fn training_sizes(at: &str, t: &TrainingOptions, train_n: f64, s: &mut Sizes) {
+    s.add(format!("{at}.epochs"), t.epochs, t.epochs as f64 / 30.0);
+    let batch = t.batch_size as f64;
+    s.add(
+        format!("{at}.batch_size"),
+        t.batch_size,
+        batch.min(train_n) / 128.0,
+    );
+}
+
+/// What a training's datasets cost: the largest materialisation's peak, every stack as
+/// complex128 twice (the stacks, then their concatenation), the work, and the samples of each.
+pub(super) struct Stacks {
+    pub(super) bytes: f64,
+    pub(super) flops: f64,
+    pub(super) samples: Vec<f64>,
+}
+
+/// Materialising and concatenating `data`, recording their sizes.
+pub(super) fn stacks(plan: &Plan, data_refs: &[DataRef], s: &mut Sizes) -> Stacks {
+    let (mut peak, mut flops, mut all) = (0.0f64, 0.0, 0.0);
+    let mut samples = vec![];
+    for d in data_refs {
+        d.dataset.sizes(&dataset_at(plan, &d.id), s);
+        let (n, h, w) = d.dataset.shape();
+        let m = d.dataset.cost();
+        peak = peak.max(m.peak);
+        flops += m.flops;
+        all += n as f64 * h as f64 * w as f64;
+        samples.push(n as f64);
+    }
+    Stacks {
+        bytes: peak + 2.0 * C128 * all,
+        flops,
+        samples,
+    }
+}
+
+/// Records the fit settings of a section at `at` when `method` reads them.
+pub(super) fn fit_sizes(at: &str, method: Method, half_width: usize, s: &mut Sizes) {
+    if matches!(method, Method::Method1 | Method::Method2) {
+        s.add(
+            format!("{at}.half_width"),
+            half_width,
+            half_width as f64 / 8.0,
+        );
+    }
 }

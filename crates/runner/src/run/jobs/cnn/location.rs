@@ -1,6 +1,8 @@
 //! One location training (ch. 5.3.2) as a job, and the location summary over the trainings of
-//! a target and method (the detection gain the dissertation reads off Figs. 73-74).
+//! a target and method (the detection gain the dissertation reads off Figs. 73-74), each with
+//! its estimate of memory and work.
 
+use super::common::{fit_sizes, stacks, training, training_sizes};
 use super::common::{
     group_seed, materialise_all, nan_none, record_tables, stacks_of, training_status, TrainingRow,
     LOCATION, LOCATION_SUMMARY,
@@ -8,9 +10,11 @@ use super::common::{
 use crate::apps::cnn::classification::{fit_model, permutation, Source};
 use crate::apps::cnn::location::{self, TargetKind};
 use crate::apps::cnn::train::train_on_device;
+use crate::experiment::datasets::{C128, C64};
 use crate::experiment::DataRef;
 use crate::experiment::Materialised;
 use crate::run::estimate::Estimate;
+use crate::run::estimate::{generate_flops, model, Sizes};
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::run::plan::Plan;
 use crate::seeds::derive_seed;
@@ -128,7 +132,7 @@ impl JobKind for LocationJob {
     }
 
     fn estimate(&self, plan: &Plan) -> Estimate {
-        crate::run::estimate::location(plan, self)
+        estimate(plan, self)
     }
 
     fn key_material(&self, plan: &Plan) -> String {
@@ -494,4 +498,41 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
             rows.iter().map(|r| r.5 as i64).collect::<Vec<_>>(),
         ),
     ])?)
+}
+
+/// The estimate of one location training of `plan`.
+fn estimate(plan: &Plan, job: &LocationJob) -> Estimate {
+    let Some(lp) = &plan.location else {
+        return Estimate::SMALL;
+    };
+    let spec = &lp.spec;
+    let mut sizes = Sizes::default();
+    let stacks = stacks(plan, &job.clutter, &mut sizes);
+    let pixels = lp.net.height as f64 * lp.net.width as f64;
+    let n: f64 = stacks.samples.iter().sum();
+    let fit = spec.fit_samples as f64;
+    sizes.add("location.fit_samples", spec.fit_samples, fit / 100.0);
+    let (train_n, model_bytes, fit_flops) = match job.source {
+        Source::Original => (fit / 2.0, 0.0, 0.0),
+        Source::Generated(m) => {
+            let g = spec.generated_samples as f64;
+            sizes.add(
+                "location.generated_samples",
+                spec.generated_samples,
+                g / 5000.0,
+            );
+            fit_sizes("location", m, spec.half_width, &mut sizes);
+            let (b, f) = model(m, fit, pixels, spec.half_width as f64);
+            let generate = generate_flops(m, fit, g, pixels, spec.half_width as f64);
+            (g / 2.0, b + C64 * g * pixels, f + generate)
+        }
+    };
+    training_sizes("location.training", &spec.training, train_n, &mut sizes);
+    // The fit and test clutter as complex128 selections, the training sets with targets.
+    let (bytes, flops) = training(&lp.net, &spec.training, train_n, n);
+    Estimate::new(
+        stacks.bytes + C128 * n * pixels + model_bytes + bytes,
+        stacks.flops + fit_flops + flops,
+    )
+    .blaming(&sizes)
 }

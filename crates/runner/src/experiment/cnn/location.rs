@@ -1,0 +1,162 @@
+//! The `location` section: target location with CNNs trained on generated clutter
+//! (ch. 5.3.8-5.3.9, Table 23, Figs. 73-74), its fields and their check against the clutter
+//! dataset.
+
+use super::*;
+
+/// `location:` section (5.3.8-5.3.9, Figs. 68-74).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LocationSpec {
+    /// Dataset id of the clutter stack.
+    pub clutter: String,
+    /// Clutter samples the models are fitted on (default 100); the rest are the test set.
+    #[serde(default = "fit_samples")]
+    pub fit_samples: usize,
+    /// `original` and synthesis methods.
+    pub methods: Vec<String>,
+    /// Samples each method generates, half for training and half for validation (default 5000).
+    #[serde(default = "generated_samples")]
+    pub generated_samples: usize,
+    /// `constant` and/or `stochastic`.
+    pub targets: Vec<TargetKind>,
+    /// Signal-to-clutter ratios in dB.
+    pub scr_db: Vec<f64>,
+    /// Trainings per target, method and SCR (default 3).
+    #[serde(default = "location_repeats")]
+    pub repeats: usize,
+    /// Filter half-width of Methods 1 and 2 (default 8).
+    #[serde(default = "half_width")]
+    pub half_width: usize,
+    /// How Method 1 signs the filter of a negative correlation (default `multiscale`; see
+    /// `synthesis.negative_signs`).
+    #[serde(default)]
+    pub negative_signs: crate::synthesis::NegativeSigns,
+    /// Dyadic levels of Method 2 (default 3).
+    #[serde(default = "levels")]
+    pub levels: usize,
+    /// Training settings (MATLAB's `sgdm` defaults).
+    #[serde(default)]
+    pub training: TrainingOptions,
+    /// Keep every trained network in `networks/<job>/` (default false).
+    #[serde(default)]
+    pub save_networks: bool,
+}
+
+/// The validated `location` section.
+#[derive(Debug, Clone)]
+pub struct LocationPlan {
+    /// The section as written.
+    pub spec: LocationSpec,
+    /// The clutter dataset.
+    pub clutter: DataRef,
+    /// Methods.
+    pub sources: Vec<Source>,
+    /// The network's geometry.
+    pub net: NetConfig,
+}
+
+impl LocationSpec {
+    /// Validates the section against the stacks of the plan's analysis jobs (`stacks`: one per
+    /// dataset and sweep point).
+    ///
+    /// # Errors
+    /// A [`SpecError`] with the YAML path of the first problem.
+    pub fn validate(&self, ctx: &Ctx, stacks: &[DataRef]) -> Result<LocationPlan, SpecError> {
+        let at = "location";
+        let clutter = data_ref(ctx, format!("{at}.clutter"), &self.clutter, stacks)?;
+        let (n, h, w) = clutter.dataset.shape();
+        if h < MIN_SIDE || w < MIN_SIDE {
+            return Err(ctx.err(
+                format!("{at}.clutter"),
+                format!(
+                    "dataset {} has {h}x{w} images; the 5x5 target grid needs at least {MIN_SIDE}x{MIN_SIDE}",
+                    clutter.id
+                ),
+            ));
+        }
+        let net = NetConfig {
+            arch: Arch::Table23,
+            height: h,
+            width: w,
+            classes: crate::apps::cnn::location::LOCATIONS,
+        };
+        net.check()
+            .map_err(|e| ctx.err(format!("{at}.clutter"), e.to_string()))?;
+        if self.fit_samples < 4 {
+            return Err(ctx.err(format!("{at}.fit_samples"), "must be at least 4"));
+        }
+        if n <= self.fit_samples {
+            return Err(ctx.err(
+                format!("{at}.fit_samples"),
+                format!(
+                    "dataset {} has {n} samples; fitting on {} leaves none to test on (it needs at least {})",
+                    clutter.id,
+                    self.fit_samples,
+                    self.fit_samples.saturating_add(1)
+                ),
+            ));
+        }
+        let sources = check_methods(ctx, at, &self.methods)?;
+        check_common(
+            ctx,
+            at,
+            &self.training,
+            self.repeats,
+            self.half_width,
+            self.levels,
+            &sources,
+        )?;
+        if self.generated_samples < 2 || self.generated_samples > 1_000_000 {
+            return Err(ctx.err(
+                format!("{at}.generated_samples"),
+                "must be in 2..=1000000 (half train, half validate)",
+            ));
+        }
+        if self.targets.is_empty() {
+            return Err(ctx.err(
+                format!("{at}.targets"),
+                "name at least one of constant, stochastic",
+            ));
+        }
+        for (i, t) in self.targets.iter().enumerate() {
+            if self.targets[..i].contains(t) {
+                return Err(ctx.err(
+                    format!("{at}.targets[{i}]"),
+                    format!("{} is listed twice", t.as_str()),
+                ));
+            }
+        }
+        if self.scr_db.is_empty() {
+            return Err(ctx.err(
+                format!("{at}.scr_db"),
+                "name at least one signal-to-clutter ratio",
+            ));
+        }
+        for (i, s) in self.scr_db.iter().enumerate() {
+            if !(-100.0..=100.0).contains(s) {
+                return Err(ctx.err(
+                    format!("{at}.scr_db[{i}]"),
+                    format!("{s} dB is outside -100..=100"),
+                ));
+            }
+            if self.scr_db[..i].contains(s) {
+                return Err(ctx.err(
+                    format!("{at}.scr_db[{i}]"),
+                    format!("{s} dB is listed twice"),
+                ));
+            }
+        }
+        let trainings =
+            (self.targets.len() * sources.len() * self.scr_db.len()).saturating_mul(self.repeats);
+        if trainings > MAX_TRAININGS {
+            return Err(too_many_trainings(ctx, at, trainings, self.repeats));
+        }
+        Ok(LocationPlan {
+            spec: self.clone(),
+            clutter,
+            sources,
+            net,
+        })
+    }
+}
