@@ -10,20 +10,11 @@ fn main() {
     if target == "x86_64-unknown-linux-gnu" {
         println!("cargo:rustc-link-arg-bins=-no-pie");
     }
-    // mat73 with a static libhdf5 (HDF5_DIR laid out by `make hdf5`); the libraries that
-    // libhdf5.a needs come from the core crate's build script (linked into every dependent).
-    println!("cargo:rerun-if-env-changed=HDF5_DIR");
-    // Static where HDF5_DIR's lib/ holds the archive and no shared library (the linker would
-    // take the shared one).
-    let static_hdf5 = std::env::var_os("CARGO_FEATURE_MAT73").is_some()
-        && std::env::var_os("HDF5_DIR").is_some_and(|dir| {
-            let lib = std::path::Path::new(&dir).join("lib");
-            lib.join("libhdf5.a").exists() && !lib.join("libhdf5.so").exists()
-        });
+    // How libhdf5 is linked, as the core crate's build script decided (static with mat73 and
+    // an HDF5_DIR holding only the archive; the libraries libhdf5.a needs come from there too).
+    let link =
+        std::env::var("DEP_ISAR_CLUTTER_CORE_HDF5_LINK").unwrap_or_else(|_| "dynamic".into());
     // For the test that the binary does not load libhdf5 at start (tests/mat.rs).
-    println!(
-        "cargo:rustc-env=ISAR_CLUTTER_HDF5_LINK={}",
-        if static_hdf5 { "static" } else { "dynamic" }
-    );
+    println!("cargo:rustc-env=ISAR_CLUTTER_HDF5_LINK={link}");
     println!("cargo:rerun-if-changed=build.rs");
 }
