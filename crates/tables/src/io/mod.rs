@@ -1,11 +1,12 @@
 //! File formats: everything of the core crate's [`isar_clutter_core::io`] (`.npy`, `.mat`,
 //! NetCDF, model folders, atomic writes, output folders and their journal), re-exported under
 //! the same paths, the runner's Parquet tables ([`parquet`]), which the core crate leaves
-//! out so that it compiles without polars, and the results folder's contract: its tables ([`results`]) and its
-//! manifest ([`manifest`]).
+//! out so that it compiles without polars, the job store's fragments ([`frame`]), and the results
+//! folder's contract: its tables ([`results`]) and its manifest ([`manifest`]).
 
 pub use isar_clutter_core::io::*;
 
+pub mod frame;
 pub mod manifest;
 pub mod parquet;
 pub mod results;
