@@ -273,6 +273,23 @@ pub fn decode(bytes: &[u8]) -> Result<DataFrame> {
     Ok(DataFrame::new(rows, out)?)
 }
 
+/// A column of `name` from the values of every row and the validity, if any: without nulls
+/// straight from a vector of values (no per-row builder).
+macro_rules! nullable {
+    ($name:expr, $values:expr, $valid:expr, $t:ty) => {
+        match &$valid {
+            None => Column::new($name, $values.collect::<Vec<$t>>()),
+            Some(ok) => Column::new(
+                $name,
+                $values
+                    .zip(ok)
+                    .map(|(x, &k)| k.then_some(x))
+                    .collect::<Vec<Option<$t>>>(),
+            ),
+        }
+    };
+}
+
 /// One column of a fragment, after the columns before it.
 fn read_column(r: &mut Reader, rows: usize) -> Result<Column> {
     let n = r.u32()? as usize;
@@ -291,40 +308,26 @@ fn read_column(r: &mut Reader, rows: usize) -> Result<Column> {
         Kind::Str => read_strings(r, rows, name, &present)?,
         Kind::I64 => {
             let base = i64::from_le_bytes(r.take(8)?.try_into().expect("8 bytes"));
-            let v: Vec<Option<i64>> = r
-                .unpacked(rows)?
-                .into_iter()
-                .enumerate()
-                .map(|(i, d)| present(i).then(|| base.wrapping_add(d as i64)))
-                .collect();
-            Column::new(name, v)
+            let v = r.unpacked(rows)?.into_iter();
+            nullable!(name, v.map(|d| base.wrapping_add(d as i64)), valid, i64)
         }
         Kind::U64 => {
             let base = r.u64()?;
-            let v: Vec<Option<u64>> = r
-                .unpacked(rows)?
-                .into_iter()
-                .enumerate()
-                .map(|(i, d)| present(i).then(|| base.wrapping_add(d)))
-                .collect();
-            Column::new(name, v)
+            let v = r.unpacked(rows)?.into_iter();
+            nullable!(name, v.map(|d| base.wrapping_add(d)), valid, u64)
         }
         Kind::F64 => {
-            let v: Vec<Option<f64>> = r
-                .words(rows)?
-                .enumerate()
-                .map(|(i, b)| present(i).then(|| f64::from_bits(u64::from_le_bytes(b))))
-                .collect();
-            Column::new(name, v)
+            let v = r.words(rows)?;
+            nullable!(
+                name,
+                v.map(|b| f64::from_bits(u64::from_le_bytes(b))),
+                valid,
+                f64
+            )
         }
         Kind::Bool => {
-            let v: Vec<Option<bool>> = r
-                .take(rows)?
-                .iter()
-                .enumerate()
-                .map(|(i, &b)| present(i).then_some(b != 0))
-                .collect();
-            Column::new(name, v)
+            let v = r.take(rows)?.iter();
+            nullable!(name, v.map(|&b| b != 0), valid, bool)
         }
     };
     Ok(column)
@@ -359,20 +362,27 @@ fn read_strings(
         );
         start = end;
     }
+    // Each row's value gathered from the distinct values: the rows' views point at one copy of
+    // each value (a job id in every row of its fragment is not copied row by row).
     let index = r.unpacked(rows)?;
-    let values = index
+    let index: IdxCa = index
         .iter()
         .enumerate()
         .map(|(i, &k)| {
             if !present(i) {
                 return Ok(None);
             }
-            let v = distinct.get(k as usize).copied();
-            v.map(Some)
-                .with_context(|| format!("column {name:?}: bad index {k}"))
+            ensure!((k as usize) < count, "column {name:?}: bad index {k}");
+            Ok(Some(k as IdxSize))
         })
-        .collect::<Result<Vec<Option<&str>>>>()?;
-    Ok(Column::new(name, values))
+        .collect::<Result<Vec<Option<IdxSize>>>>()?
+        .into_iter()
+        .collect();
+    let distinct = StringChunked::from_iter_values(name.clone(), distinct.into_iter());
+    let values = anyhow::Context::with_context(distinct.take(&index), || {
+        format!("column {name:?}: gathering its values")
+    })?;
+    Ok(values.into_column())
 }
 
 #[cfg(test)]
