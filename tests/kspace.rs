@@ -2,7 +2,6 @@
 //! simulator. k-space data simulated for a plant, written as `.npy` with their frequency and
 //! azimuth vectors, must image to exactly the simulator's own images; bad axes are refused.
 
-use isar_clutter::experiment::materialise;
 use isar_clutter::physics::isar::{ImagingOptions, Measurement};
 use isar_clutter::physics::vegetation::{try_simulate, SceneParams};
 use isar_clutter::run::plan;
@@ -43,7 +42,9 @@ fn measured_kspace_images_like_the_simulator() {
     let p = plan::load(&spec).unwrap();
     let job = &p.jobs[0];
     assert_eq!(job.dataset.shape(), (5, 16, 16));
-    let got = materialise(&job.dataset, job.data_seed)
+    let got = job
+        .dataset
+        .materialise(job.data_seed)
         .unwrap()
         .stack
         .to_complex128(false);

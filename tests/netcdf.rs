@@ -4,7 +4,6 @@
 //! decodes it, calendar months come from the time units, and bad variables are refused with
 //! the YAML path.
 
-use isar_clutter::experiment::materialise;
 use isar_clutter::io::netcdf::time::months;
 use isar_clutter::io::netcdf::NcFile;
 use isar_clutter::run::plan;
@@ -32,7 +31,9 @@ fn the_stack_is_u_plus_i_v() {
     let job = &plan.jobs[0];
     assert_eq!(job.dataset.shape(), (3, 73, 144));
     assert_eq!(job.dataset.kind(), "netcdf");
-    let stack = materialise(&job.dataset, job.data_seed)
+    let stack = job
+        .dataset
+        .materialise(job.data_seed)
         .unwrap()
         .stack
         .to_complex128(false);
@@ -72,7 +73,9 @@ fn calendar_months_come_from_the_time_units() {
     ))
     .unwrap();
     let job = &plan.jobs[0];
-    let stack = materialise(&job.dataset, job.data_seed)
+    let stack = job
+        .dataset
+        .materialise(job.data_seed)
         .unwrap()
         .stack
         .to_complex128(false);

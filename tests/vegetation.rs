@@ -169,7 +169,6 @@ fn the_mean_kspace_image_is_the_mean_of_the_kspace_samples() {
 /// ideal simulation, while the raw measurement does not.
 #[test]
 fn calibrated_plant_measurements_match_the_ideal_simulation() {
-    use isar_clutter::experiment::materialise;
     use isar_clutter::experiment::Dataset;
     let tmp = tempfile::tempdir().unwrap();
     let spec = tmp.path().join("c.yaml");
@@ -184,13 +183,16 @@ fn calibrated_plant_measurements_match_the_ideal_simulation() {
         panic!("vegetation")
     };
     assert_eq!(v.measurement.frequencies, 801, "the chain's frequencies");
-    let calibrated = materialise(&job.dataset, job.data_seed)
+    let calibrated = job
+        .dataset
+        .materialise(job.data_seed)
         .unwrap()
         .stack
         .to_complex128(false);
     let mut ideal = v.clone();
     ideal.calibration = None;
-    let ideal = materialise(&Dataset::Vegetation(ideal), job.data_seed)
+    let ideal = Dataset::Vegetation(ideal)
+        .materialise(job.data_seed)
         .unwrap()
         .stack
         .to_complex128(false);
@@ -216,7 +218,8 @@ fn calibrated_plant_measurements_match_the_ideal_simulation() {
         noise: 0.0,
         ..Default::default()
     });
-    let clean = materialise(&Dataset::Vegetation(clean), job.data_seed)
+    let clean = Dataset::Vegetation(clean)
+        .materialise(job.data_seed)
         .unwrap()
         .stack
         .to_complex128(false);

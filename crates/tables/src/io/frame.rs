@@ -2,10 +2,11 @@
 //! (little-endian values, a validity byte per row where a column has nulls), written and read
 //! without Parquet's encoders. A fragment is written once by its job and read once by the
 //! merge, which writes the tables in Parquet; a Parquet fragment cost a dictionary attempt
-//! (with a cardinality estimate) on every column at write and a page decode at read, about a
-//! sixth of a tiny job's cost to the tool. Columns of other types than these (String, Int64,
-//! UInt64, Float64, Boolean) make [`encode`] answer `None`, and the caller keeps Parquet;
-//! [`is_frame`] tells the two apart by the leading magic bytes.
+//! (with a cardinality estimate) on every column at write and a page decode at read, about an
+//! eighth of the CPU of a sweep of tiny jobs (`perf`: the cardinality estimates and the
+//! dictionary's value map). Columns of other types than these (String, Int64, UInt64,
+//! Float64, Boolean) make [`encode`] answer `None`, and the caller keeps Parquet; [`is_frame`]
+//! tells the two apart by the leading magic bytes.
 //!
 //! Layout: `MAGIC`, the row and column counts (`u64`, `u32`), then per column its name
 //! (`u32` length and UTF-8 bytes), its type (`u8`), whether it has a validity part (`u8`),
@@ -14,7 +15,8 @@
 //! and a row's index into them, integers as the smallest value (8 bytes) and each row's
 //! difference from it; indices and differences in the fewest bytes (1, 2, 4 or 8, a width
 //! byte first; 0 when every row is the same) that hold the largest. Floats are 8 bytes a row,
-//! booleans a byte. A tiny job's fragments take about what their uncompressed Parquet took.
+//! booleans a byte. A tiny job's fragments take a little less than their uncompressed Parquet
+//! took (149 against 165 MB for 2,000 jobs).
 
 use anyhow::{bail, ensure, Context, Result};
 use polars::prelude::*;

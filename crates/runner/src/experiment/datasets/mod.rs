@@ -174,14 +174,6 @@ impl Materialised {
     }
 }
 
-/// Loads or generates the stack of a dataset (see [`DatasetKind::materialise`]).
-///
-/// # Errors
-/// [`DataError`] if a file's stack cannot be read or a stack does not fit in memory.
-pub fn materialise(dataset: &Dataset, data_seed: u64) -> Result<Materialised, DataError> {
-    dataset.materialise(data_seed)
-}
-
 impl DatasetSpec {
     /// Validates one dataset (`at` is its YAML path, e.g. `datasets[0]`): its id, its kind's
     /// fields, at least 2 samples, and `levels` within its image size.

@@ -84,11 +84,23 @@ struct KindName;
 impl<'de> DeserializeSeed<'de> for KindName {
     type Value = String;
     fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<String, D::Error> {
-        let name = String::deserialize(d)?;
-        if KIND_NAMES.contains(&name.as_str()) {
-            Ok(name)
+        // Checked by the visitor, so that the parser locates an unknown name at its line.
+        d.deserialize_str(self)
+    }
+}
+
+impl Visitor<'_> for KindName {
+    type Value = String;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a dataset kind")
+    }
+
+    fn visit_str<E: de::Error>(self, name: &str) -> Result<String, E> {
+        if KIND_NAMES.contains(&name) {
+            Ok(name.to_string())
         } else {
-            Err(de::Error::unknown_variant(&name, KIND_NAMES))
+            Err(E::unknown_variant(name, KIND_NAMES))
         }
     }
 }

@@ -17,7 +17,7 @@
 //! `k = n_f x n_phi` k-space points and `S` the image side of an imaged dataset, the peak
 //! bytes of a job are the sum of what is alive at its largest moment (complex128 is 16 bytes):
 //!
-//! - the dataset as materialised ([`crate::experiment::materialise`]): filtered noise `16 N P` plus its filter
+//! - the dataset as materialised ([`crate::experiment::DatasetKind::materialise`]): filtered noise `16 N P` plus its filter
 //!   bank (`2 P (8 (2K+1) + 48)`, twice that when the bank varies over the image); an `.npy`
 //!   stack nothing (it is mapped from the file; the page cache holds it); NetCDF `32 N P` while
 //!   the two variables are combined, `16 N P` kept; `kspace` the file as complex128 `16 N k`

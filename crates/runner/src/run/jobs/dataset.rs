@@ -5,8 +5,8 @@
 //! them apart.
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
+use crate::experiment::Materialised;
 use crate::experiment::SynthesisSpec;
-use crate::experiment::{materialise, Materialised};
 use crate::io::atomic::write_npy;
 use crate::run::plan::{Job, NoiseFloorPlan, Plan};
 use crate::run::tables::{self, FilterRow, JobResult, SimilarityOutcome, SynthesisOutcome};
@@ -72,7 +72,8 @@ impl JobKind for Job {
     }
 
     fn materialise(&self) -> Result<Materialised> {
-        materialise(&self.dataset, self.data_seed)
+        self.dataset
+            .materialise(self.data_seed)
             .with_context(|| format!("dataset {}", self.dataset_id))
     }
 
@@ -150,7 +151,9 @@ fn data_of<'a>(
     if let Some(d) = shared {
         return Ok(d);
     }
-    let d = materialise(&job.dataset, job.data_seed)
+    let d = job
+        .dataset
+        .materialise(job.data_seed)
         .with_context(|| format!("dataset {}", job.dataset_id))?;
     Ok(owned.insert(d))
 }

@@ -7,7 +7,7 @@ use crate::apps::cnn::train::Trained;
 use crate::apps::cnn::train::{Device, TrainingOptions};
 use crate::experiment::datasets::{C128, C64};
 use crate::experiment::DataRef;
-use crate::experiment::{materialise, Materialised};
+use crate::experiment::Materialised;
 use crate::io::npy::Stack;
 use crate::io::results;
 use crate::run::estimate::{dataset_at, Sizes};
@@ -36,8 +36,10 @@ pub const CONFUSION: &str = results::CONFUSION.name;
 pub(super) fn materialise_all(data: &[DataRef]) -> Result<Materialised> {
     let mut planes: Vec<Array3<Complex64>> = vec![];
     for d in data {
-        let m =
-            materialise(&d.dataset, d.data_seed).with_context(|| format!("dataset {}", d.id))?;
+        let m = d
+            .dataset
+            .materialise(d.data_seed)
+            .with_context(|| format!("dataset {}", d.id))?;
         planes.push(m.stack.try_to_complex128(m.hwn)?);
     }
     let views: Vec<_> = planes.iter().map(|p| p.view()).collect();
