@@ -266,7 +266,7 @@ pub fn merge_claimed(
     }
     // Pass 2, the rows: every table and the manifest's jobs, streamed in plan order.
     let t_tables = Instant::now();
-    let mut sinks = open_tables(plan, out, keys, &layout)?;
+    let mut sinks = assembly::Sinks::new(open_tables(plan, out, keys, &layout)?, opts.threads > 1)?;
     let mut manifest = manifest::Manifest::start(plan, opts.threads, out)?;
     let in_flight = (4 * opts.threads).max(8);
     let chunks: Vec<&[usize]> = order.chunks(in_flight).collect();
@@ -289,10 +289,8 @@ pub fn merge_claimed(
             || chunks.get(c + 1).map(|c| read(c)).transpose(),
             || -> Result<()> {
                 for (&i, l) in chunk.iter().zip(loaded) {
-                    for (table, df) in l.tables.iter().chain(l.status.iter()) {
-                        if let Some(sink) = sinks.get_mut(table.as_str()) {
-                            sink.push(df)?;
-                        }
+                    for (table, df) in l.tables.into_iter().chain(l.status) {
+                        sinks.push(&table, df)?;
                     }
                     let outcome = match &l.error {
                         Some(e) => Err(e.as_str()),
@@ -313,9 +311,7 @@ pub fn merge_claimed(
         next = ahead?;
         release_free_memory(c);
     }
-    for (_, sink) in sinks {
-        sink.finish()?;
-    }
+    sinks.finish()?;
     if let (n, Some(build)) = other_builds {
         merged.notes.push(format!(
             "{n} job(s) were merged from results a different build of the tool computed \

@@ -544,11 +544,7 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
             ("symmetric", Kind::B),
         ],
     );
-    let models = plan
-        .jobs
-        .iter()
-        .any(|j| matches!(j.method, Some(Method::Uncorrelated | Method::FourthOrder)));
-    for &(job, r) in results.iter().filter(|_| models) {
+    for &(job, r) in results.iter().filter(|_| plan.model_orders) {
         let Some(sim) = &r.similarity else { continue };
         let order = match job.method {
             Some(Method::Uncorrelated) => Some(2),

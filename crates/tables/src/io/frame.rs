@@ -92,14 +92,24 @@ pub fn encode(df: &DataFrame) -> Option<Vec<u8>> {
                 let values = series.str().expect("a String column");
                 let mut distinct: Vec<&str> = vec![];
                 let mut index = std::collections::HashMap::new();
+                // A row repeats the row before it more often than not (a job's id on each of
+                // its rows): compared before it is hashed.
+                let mut last: Option<(&str, u64)> = None;
                 let rows: Vec<u64> = values
                     .iter()
                     .map(|v| {
                         let v = v.unwrap_or("");
-                        *index.entry(v).or_insert_with(|| {
+                        if let Some((l, at)) = last {
+                            if l == v {
+                                return at;
+                            }
+                        }
+                        let at = *index.entry(v).or_insert_with(|| {
                             distinct.push(v);
                             distinct.len() as u64 - 1
-                        })
+                        });
+                        last = Some((v, at));
+                        at
                     })
                     .collect();
                 out.extend_from_slice(&(distinct.len() as u32).to_le_bytes());

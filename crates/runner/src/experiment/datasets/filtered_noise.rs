@@ -470,9 +470,23 @@ pub fn filter_bank(d: &FilteredNoise) -> FilterBank {
     let (vertical, horizontal): (Vec<Vec<f64>>, Vec<Vec<f64>>) = match &d.filter {
         FilterParams::Exponential { alpha_h, alpha_v } => {
             let (ah, av) = (grid(alpha_h), grid(alpha_v));
+            // Most maps are uniform or piecewise constant: a pixel's taps are those of the
+            // pixel before it when its parameters are (the same function of the same values).
+            let mut last: Option<((f64, f64), (Vec<f64>, Vec<f64>))> = None;
             ah.iter()
                 .zip(av.iter())
-                .map(|(&a_h, &a_v)| (exponential_taps(a_v, k), exponential_taps(a_h, k)))
+                .map(|(&a_h, &a_v)| match &last {
+                    Some((at, taps))
+                        if at.0.to_bits() == a_h.to_bits() && at.1.to_bits() == a_v.to_bits() =>
+                    {
+                        taps.clone()
+                    }
+                    _ => {
+                        let taps = (exponential_taps(a_v, k), exponential_taps(a_h, k));
+                        last = Some(((a_h, a_v), taps.clone()));
+                        taps
+                    }
+                })
                 .unzip()
         }
         FilterParams::Dyadic { r_h, r_v } => {
