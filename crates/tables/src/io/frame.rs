@@ -54,6 +54,43 @@ impl Kind {
     }
 }
 
+/// A string column: its distinct values (their count, their end offsets, their bytes), then
+/// each row's index into them, packed; a null reads as `""` (its validity is written apart).
+fn strings(values: &StringChunked, out: &mut Vec<u8>) {
+    let mut distinct: Vec<&str> = vec![];
+    let mut index = std::collections::HashMap::new();
+    // A row repeats the row before it more often than not (a job's id on each of its rows):
+    // compared before it is hashed.
+    let mut last: Option<(&str, u64)> = None;
+    let rows: Vec<u64> = values
+        .iter()
+        .map(|v| {
+            let v = v.unwrap_or("");
+            if let Some((l, at)) = last {
+                if l == v {
+                    return at;
+                }
+            }
+            let at = *index.entry(v).or_insert_with(|| {
+                distinct.push(v);
+                distinct.len() as u64 - 1
+            });
+            last = Some((v, at));
+            at
+        })
+        .collect();
+    out.extend_from_slice(&(distinct.len() as u32).to_le_bytes());
+    let mut end = 0u64;
+    for v in &distinct {
+        end += v.len() as u64;
+        out.extend_from_slice(&end.to_le_bytes());
+    }
+    for v in &distinct {
+        out.extend_from_slice(v.as_bytes());
+    }
+    packed(out, &rows);
+}
+
 /// Whether `bytes` are a fragment in this format (rather than Parquet).
 pub fn is_frame(bytes: &[u8]) -> bool {
     bytes.starts_with(MAGIC)
@@ -88,41 +125,7 @@ pub fn encode(df: &DataFrame) -> Option<Vec<u8>> {
             );
         }
         match kind {
-            Kind::Str => {
-                let values = series.str().expect("a String column");
-                let mut distinct: Vec<&str> = vec![];
-                let mut index = std::collections::HashMap::new();
-                // A row repeats the row before it more often than not (a job's id on each of
-                // its rows): compared before it is hashed.
-                let mut last: Option<(&str, u64)> = None;
-                let rows: Vec<u64> = values
-                    .iter()
-                    .map(|v| {
-                        let v = v.unwrap_or("");
-                        if let Some((l, at)) = last {
-                            if l == v {
-                                return at;
-                            }
-                        }
-                        let at = *index.entry(v).or_insert_with(|| {
-                            distinct.push(v);
-                            distinct.len() as u64 - 1
-                        });
-                        last = Some((v, at));
-                        at
-                    })
-                    .collect();
-                out.extend_from_slice(&(distinct.len() as u32).to_le_bytes());
-                let mut end = 0u64;
-                for v in &distinct {
-                    end += v.len() as u64;
-                    out.extend_from_slice(&end.to_le_bytes());
-                }
-                for v in &distinct {
-                    out.extend_from_slice(v.as_bytes());
-                }
-                packed(&mut out, &rows);
-            }
+            Kind::Str => strings(series.str().expect("a String column"), &mut out),
             Kind::I64 => {
                 let values: Vec<i64> = series
                     .i64()
