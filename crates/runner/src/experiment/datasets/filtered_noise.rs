@@ -463,6 +463,8 @@ fn check_fields(spec: &Spec, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecE
     })
 }
 
+/// A pixel's vertical and horizontal taps.
+type Taps = (Vec<f64>, Vec<f64>);
 /// Builds the per-pixel filter bank of a `filtered_noise` dataset.
 pub fn filter_bank(d: &FilteredNoise) -> FilterBank {
     let (h, w, k) = (d.height, d.width, d.half_width);
@@ -472,7 +474,7 @@ pub fn filter_bank(d: &FilteredNoise) -> FilterBank {
             let (ah, av) = (grid(alpha_h), grid(alpha_v));
             // Most maps are uniform or piecewise constant: a pixel's taps are those of the
             // pixel before it when its parameters are (the same function of the same values).
-            let mut last: Option<((f64, f64), (Vec<f64>, Vec<f64>))> = None;
+            let mut last: Option<((f64, f64), Taps)> = None;
             ah.iter()
                 .zip(av.iter())
                 .map(|(&a_h, &a_v)| match &last {
