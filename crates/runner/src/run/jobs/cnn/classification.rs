@@ -7,9 +7,7 @@ use super::common::{
     group_seed, materialise_all, nan_none, record_tables, stacks_of, training_status, TrainingRow,
     CLASSIFICATION,
 };
-use crate::apps::cnn::classification::{
-    compose, fit_model, labelled, split_class, Normalise, Source,
-};
+use crate::apps::cnn::classification::{compose, labelled, split_class, Normalise, Source};
 use crate::apps::cnn::train::{train_on_device, Labelled};
 use crate::experiment::datasets::{C128, C64, USUAL_SAMPLES};
 use crate::experiment::DataRef;
@@ -174,7 +172,7 @@ impl JobKind for ClassificationJob {
             let model = match self.source {
                 Source::Original => None,
                 Source::Generated(m) => Some(
-                    fit_model(
+                    super::fits::fitted(
                         data.fit.view(),
                         m,
                         FitOptions {
@@ -191,7 +189,7 @@ impl JobKind for ClassificationJob {
             let composition = compose(
                 c,
                 data.fit.view(),
-                model.as_ref(),
+                model.as_deref(),
                 per_class,
                 cp.spec.original_fraction,
                 derive_seed(self.data_seed, "originals", &class.id),

@@ -7,7 +7,7 @@ use super::common::{
     group_seed, materialise_all, nan_none, record_tables, stacks_of, training_status, TrainingRow,
     LOCATION, LOCATION_SUMMARY,
 };
-use crate::apps::cnn::classification::{fit_model, permutation, Source};
+use crate::apps::cnn::classification::{permutation, Source};
 use crate::apps::cnn::location::{self, TargetKind};
 use crate::apps::cnn::train::train_on_device;
 use crate::experiment::datasets::{C128, C64};
@@ -199,7 +199,7 @@ impl JobKind for LocationJob {
                 )
             }
             Source::Generated(m) => {
-                let model = fit_model(
+                let model = super::fits::fitted(
                     fit.view(),
                     m,
                     FitOptions {

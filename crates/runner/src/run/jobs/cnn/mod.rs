@@ -14,6 +14,7 @@
 
 mod classification;
 mod common;
+mod fits;
 mod location;
 
 pub use classification::ClassificationJob;
