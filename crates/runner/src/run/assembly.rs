@@ -384,9 +384,11 @@ pub enum Sinks {
     Threaded(std::collections::BTreeMap<String, Worker>),
 }
 
-/// A table written on a thread of its own.
+/// A table written on a thread of its own: fragments in plan order, then `None` to finish
+/// it. A queue closed without `None` (the merge failed and dropped its tables) leaves nothing
+/// in place, as a [`Sink`] dropped without [`Sink::finish`] does.
 pub struct Worker {
-    queue: Option<std::sync::mpsc::SyncSender<DataFrame>>,
+    queue: Option<std::sync::mpsc::SyncSender<Option<DataFrame>>>,
     thread: std::thread::JoinHandle<Result<()>>,
 }
 
@@ -413,14 +415,18 @@ impl Sinks {
         }
         let mut workers = std::collections::BTreeMap::new();
         for (name, mut sink) in sinks {
-            let (queue, parts) = std::sync::mpsc::sync_channel::<DataFrame>(QUEUE);
+            let (queue, parts) = std::sync::mpsc::sync_channel::<Option<DataFrame>>(QUEUE);
             let thread = std::thread::Builder::new()
                 .name(format!("table {name}"))
                 .spawn(move || -> Result<()> {
                     for part in parts {
-                        sink.push(&part)?;
+                        match part {
+                            Some(part) => sink.push(&part)?,
+                            None => return sink.finish(),
+                        }
                     }
-                    sink.finish()
+                    // Abandoned: the staged file goes with the sink, nothing is put in place.
+                    Ok(())
                 })
                 .with_context(|| format!("starting the writer of {name}.parquet"))?;
             workers.insert(
@@ -448,7 +454,7 @@ impl Sinks {
                 let Some(w) = workers.get_mut(table) else {
                     return Ok(());
                 };
-                let sent = w.queue.as_ref().map(|q| q.send(part));
+                let sent = w.queue.as_ref().map(|q| q.send(Some(part)));
                 if let Some(Ok(())) = sent {
                     return Ok(());
                 }
@@ -473,7 +479,10 @@ impl Sinks {
             Sinks::Threaded(workers) => {
                 let mut first = None;
                 for (_, mut w) in workers {
-                    drop(w.queue.take());
+                    if let Some(q) = w.queue.take() {
+                        // A thread that failed has closed its end: its error comes below.
+                        let _ = q.send(None);
+                    }
                     let done = match w.thread.join() {
                         Ok(r) => r,
                         Err(_) => Err(anyhow::anyhow!("a table's writer panicked")),
@@ -679,6 +688,43 @@ mod tests {
             "{err:#}"
         );
         assert!(!dir.path().join("t.parquet").exists());
+    }
+
+    /// Tables dropped without `finish` (a merge that failed half-way) leave no file, on
+    /// threads as inline.
+    #[test]
+    fn abandoned_tables_leave_nothing() {
+        let t = parts(6, 5, 1..50);
+        for threaded in [false, true] {
+            let dir = tempfile::tempdir().unwrap();
+            let mut layout = Layout::new(["t"]);
+            for p in &t {
+                layout.made("t", p);
+            }
+            let l = &layout.tables[0];
+            let Some(Widest::Made(widest)) = &l.widest else {
+                panic!("a widest fragment")
+            };
+            let sink = Sink::new(dir.path(), "t", widest, l.rows).unwrap();
+            let mut sinks = Sinks::new([("t".to_string(), sink)].into(), threaded).unwrap();
+            for p in &t {
+                sinks.push("t", p.clone()).unwrap();
+            }
+            match sinks {
+                Sinks::Inline(sinks) => drop(sinks),
+                // As a drop does: the queues closed, then (here) the threads awaited.
+                Sinks::Threaded(workers) => {
+                    for (_, mut w) in workers {
+                        drop(w.queue.take());
+                        w.thread.join().unwrap().unwrap();
+                    }
+                }
+            }
+            assert!(
+                !dir.path().join("t.parquet").exists(),
+                "threaded {threaded}"
+            );
+        }
     }
 
     /// Row groups of [`ROW_GROUP`] rows, the last one the remainder.
