@@ -393,13 +393,24 @@ pub struct Worker {
 }
 
 impl Worker {
+    /// Closes the queue, after `None` when `finish`, and waits for the thread's result.
+    fn join(mut self, finish: bool) -> Result<()> {
+        if let Some(q) = self.queue.take() {
+            if finish {
+                // A thread that failed has closed its end: its error comes from the join.
+                let _ = q.send(None);
+            }
+        }
+        self.thread
+            .join()
+            .unwrap_or_else(|_| Err(anyhow::anyhow!("a table's writer panicked")))
+    }
+
     /// The thread's error (it stopped taking fragments).
     fn failed(self) -> anyhow::Error {
-        drop(self.queue);
-        match self.thread.join() {
-            Ok(Err(e)) => e,
-            Ok(Ok(())) => anyhow::anyhow!("a table's writer stopped early"),
-            Err(_) => anyhow::anyhow!("a table's writer panicked"),
+        match self.join(false) {
+            Err(e) => e,
+            Ok(()) => anyhow::anyhow!("a table's writer stopped early"),
         }
     }
 }
@@ -478,16 +489,8 @@ impl Sinks {
             }
             Sinks::Threaded(workers) => {
                 let mut first = None;
-                for (_, mut w) in workers {
-                    if let Some(q) = w.queue.take() {
-                        // A thread that failed has closed its end: its error comes below.
-                        let _ = q.send(None);
-                    }
-                    let done = match w.thread.join() {
-                        Ok(r) => r,
-                        Err(_) => Err(anyhow::anyhow!("a table's writer panicked")),
-                    };
-                    if let (Err(e), None) = (done, &first) {
+                for (_, w) in workers {
+                    if let (Err(e), None) = (w.join(true), &first) {
                         first = Some(e);
                     }
                 }
@@ -714,9 +717,8 @@ mod tests {
                 Sinks::Inline(sinks) => drop(sinks),
                 // As a drop does: the queues closed, then (here) the threads awaited.
                 Sinks::Threaded(workers) => {
-                    for (_, mut w) in workers {
-                        drop(w.queue.take());
-                        w.thread.join().unwrap().unwrap();
+                    for (_, w) in workers {
+                        w.join(false).unwrap();
                     }
                 }
             }

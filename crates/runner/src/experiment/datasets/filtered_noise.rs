@@ -465,6 +465,7 @@ fn check_fields(spec: &Spec, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecE
 
 /// A pixel's vertical and horizontal taps.
 type Taps = (Vec<f64>, Vec<f64>);
+
 /// Builds the per-pixel filter bank of a `filtered_noise` dataset.
 pub fn filter_bank(d: &FilteredNoise) -> FilterBank {
     let (h, w, k) = (d.height, d.width, d.half_width);
