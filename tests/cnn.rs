@@ -4,8 +4,11 @@
 //! against its formula, a finite-difference gradient check on a tiny input, a trivially
 //! separable toy set learnt to > 95 %, and the saved network predicting as before.
 
+mod common;
+
 use burn::module::{AutodiffModule, Param};
 use burn::tensor::{Tensor, TensorData};
+use common::half_bright_set;
 use isar_clutter::apps::cnn::net::{same_padding, Arch, NetConfig};
 use isar_clutter::apps::cnn::train::{train, Cpu, CpuTrain, Labelled, TrainingOptions};
 use num_complex::Complex32;
@@ -305,29 +308,6 @@ fn nudged<const D: usize>(
         TensorData::new(v, dims),
         &Default::default(),
     ))
-}
-
-/// `n` 32 x 32 images of two alternating classes: complex white noise (parts `N(0, 1)`) with
-/// 3 added to the real part of the top half (class 0) or the bottom half (class 1), all times
-/// `scale`.
-fn half_bright_set(rng: &mut ChaCha20Rng, n: usize, scale: f64) -> Labelled {
-    let mut set = Labelled::default();
-    for k in 0..n {
-        let label = k % 2;
-        let img: Vec<Complex32> = (0..32 * 32)
-            .map(|p| {
-                let (a, b): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
-                let bright = if (p / 32 < 16) == (label == 0) {
-                    3.0
-                } else {
-                    0.0
-                };
-                Complex32::new(((a + bright) * scale) as f32, (b * scale) as f32)
-            })
-            .collect();
-        set.push(&img, label);
-    }
-    set
 }
 
 /// Two classes that differ in a large mean at different places are learnt to > 95 % in a few

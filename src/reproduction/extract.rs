@@ -40,6 +40,10 @@ pub struct Query {
     /// The value is a conclusion over every selected row (at least one): 1 when each row's
     /// `verdict` is `verified`, else 0 (`column` is then unused).
     pub all_verified: bool,
+    /// Every selected row (at least one) is one repeat of the statistic: the spec repeats it
+    /// inside one run (the CNN trainings' `repeats`), so the spec is run once and the spread
+    /// is that of the rows.
+    pub each_row: bool,
 }
 
 /// How the tool reproduces one dissertation table.
@@ -53,6 +57,17 @@ pub struct Recipe {
     pub cells: Vec<Vec<Option<Query>>>,
     /// Why the tool's values may differ from the printed ones (data, construction, protocol).
     pub differs_because: &'static str,
+    /// Which of several readings of the table this is (the CNN tables under the
+    /// dissertation's protocol and under held-out testing); `None` for a table read one way.
+    pub protocol: Option<&'static str>,
+}
+
+impl Recipe {
+    /// Its specs repeat the statistic inside one run ([`Query::each_row`]): run once, and
+    /// too long for the quick test that reruns every table.
+    pub fn runs_once(&self) -> bool {
+        self.cells.iter().flatten().flatten().any(|q| q.each_row)
+    }
 }
 
 fn q(
@@ -68,6 +83,7 @@ fn q(
         column,
         scale: 1.0,
         all_verified: false,
+        each_row: false,
     }
 }
 
@@ -219,6 +235,7 @@ pub fn recipes() -> Vec<Recipe> {
                 })
                 .collect(),
             differs_because: "",
+            protocol: None,
         },
         Recipe {
             number: 4,
@@ -243,6 +260,7 @@ pub fn recipes() -> Vec<Recipe> {
                 })
                 .collect(),
             differs_because: SIMULATED,
+            protocol: None,
         },
     ];
     // Tables 6-10 combine the exponential (1000 samples) and non-exponential (100 samples)
@@ -271,6 +289,7 @@ pub fn recipes() -> Vec<Recipe> {
         },
     );
     model_order(&mut r);
+    r.extend(super::cnn::recipes());
     r
 }
 
@@ -319,6 +338,7 @@ fn model_order(r: &mut Vec<Recipe>) {
                 })
                 .collect(),
             differs_because: MODEL_ORDER,
+            protocol: None,
         });
     }
     // Table 16: rows no wind, light wind; columns plants A, B, C.
@@ -348,6 +368,7 @@ fn model_order(r: &mut Vec<Recipe>) {
             fitted to them (reproduction/plant_calibration.json, 100 samples from seed 16), so \
             they match by construction at the fit's seed; the repeats here use other seeds, \
             and differ by the statistic's sampling spread",
+        protocol: None,
     });
     // Table 24: the hypotheses' conclusions, each over every plant and wind pair.
     let h = |hypothesis: &'static str, statistic: Key| {
@@ -376,6 +397,7 @@ fn model_order(r: &mut Vec<Recipe>) {
         differs_because: "The stand-in plants are simulated, not the measured ones; the tool's \
             thresholds are its own (docs/hypotheses.md), the dissertation judged by eye from \
             its figures; H4 is judged at every level, as the dissertation's 5.1.5 does",
+        protocol: None,
     });
 }
 
@@ -403,6 +425,7 @@ fn similarity_tables(
         spread: Spread::Random,
         cells,
         differs_because,
+        protocol: None,
     };
     r.push(recipe(summary, summary_rows(datasets), reasons.similarity));
     let cmd_rows = datasets
@@ -449,6 +472,47 @@ impl Tables {
     /// If the table cannot be read (the file is named), or the filters select no row or
     /// several (the query and the folder are named).
     pub fn value(&mut self, dir: &Path, query: &Query) -> Result<f64> {
+        let picked = self.picked(dir, query)?;
+        if query.all_verified && picked.height() > 0 {
+            let verdicts = picked.column(col::VERDICT)?.str()?.clone();
+            let all = verdicts.iter().all(|v| v == Some("verified"));
+            return Ok(f64::from(u8::from(all)));
+        }
+        if picked.height() != 1 {
+            bail!(
+                "{}/{}.parquet: {} row(s) where {:?} (expected one)",
+                dir.display(),
+                query.table.name,
+                picked.height(),
+                query.filters
+            );
+        }
+        Ok(column_values(&picked, query)?[0])
+    }
+
+    /// The values of `query` in the run in `dir`: every selected row's where the rows are
+    /// repeats ([`Query::each_row`]: at least one), else the one [`Tables::value`].
+    ///
+    /// # Errors
+    /// As [`Tables::value`]; for rows that are repeats, if no row is selected.
+    pub fn values(&mut self, dir: &Path, query: &Query) -> Result<Vec<f64>> {
+        if !query.each_row {
+            return Ok(vec![self.value(dir, query)?]);
+        }
+        let picked = self.picked(dir, query)?;
+        if picked.height() == 0 {
+            bail!(
+                "{}/{}.parquet: no row where {:?}",
+                dir.display(),
+                query.table.name,
+                query.filters
+            );
+        }
+        column_values(&picked, query)
+    }
+
+    /// The rows of `query`'s table in `dir` that its filters select, in the table's order.
+    fn picked(&mut self, dir: &Path, query: &Query) -> Result<DataFrame> {
         let key = (dir.to_path_buf(), query.table.name);
         if !self.read.contains_key(&key) {
             let path = query.table.path(dir);
@@ -480,29 +544,19 @@ impl Tables {
             };
             mask = &mask & &hit;
         }
-        let picked = df.filter(&mask)?;
-        if query.all_verified && picked.height() > 0 {
-            let verdicts = picked.column(col::VERDICT)?.str()?.clone();
-            let all = verdicts.iter().all(|v| v == Some("verified"));
-            return Ok(f64::from(u8::from(all)));
-        }
-        if picked.height() != 1 {
-            bail!(
-                "{}/{}.parquet: {} row(s) where {:?} (expected one)",
-                dir.display(),
-                query.table.name,
-                picked.height(),
-                query.filters
-            );
-        }
-        let v = picked
-            .column(query.column)?
-            .cast(&DataType::Float64)?
-            .f64()?
-            .get(0)
-            .unwrap_or(f64::NAN);
-        Ok(v * query.scale)
+        Ok(df.filter(&mask)?)
     }
+}
+
+/// `query.column` of every row of `picked`, times `query.scale` (a null is NaN).
+fn column_values(picked: &DataFrame, query: &Query) -> Result<Vec<f64>> {
+    Ok(picked
+        .column(query.column)?
+        .cast(&DataType::Float64)?
+        .f64()?
+        .iter()
+        .map(|v| v.unwrap_or(f64::NAN) * query.scale)
+        .collect())
 }
 
 /// A number the text states (not a table cell), computed by the tool: per repeat, the mean

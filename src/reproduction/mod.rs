@@ -11,6 +11,7 @@
 //! written only when every folder it reads is a complete run (checked against its manifest),
 //! and atomically.
 
+pub mod cnn;
 pub mod compare;
 pub mod extract;
 pub mod reference;
@@ -104,6 +105,7 @@ pub fn needed(coverage: &Coverage, repeats: usize) -> BTreeMap<&'static str, usi
     for r in &coverage.recipes {
         let n = match r.spread {
             Spread::Exact => 1,
+            _ if r.runs_once() => 1,
             Spread::Random | Spread::Conclusion => repeats.max(1),
         };
         for s in extract::specs_of(r) {
@@ -182,6 +184,8 @@ pub struct Evaluated {
     pub spread: Spread,
     /// Why the values may differ.
     pub differs_because: &'static str,
+    /// The reading of the table ([`Recipe::protocol`]).
+    pub protocol: Option<&'static str>,
 }
 
 /// Evaluates `recipe` against the printed `table` over the runs in `runs`.
@@ -209,11 +213,12 @@ pub fn evaluate(
                 Some(q) => {
                     let values = folders(runs, q.spec)
                         .into_iter()
-                        .map(|d| tables.value(d, q))
-                        .collect::<Result<Vec<f64>>>()
+                        .map(|d| tables.values(d, q))
+                        .collect::<Result<Vec<Vec<f64>>>>()
                         .with_context(|| {
                             format!("Table {}, row {}, column {}", table.number, r + 1, c + 1)
-                        })?;
+                        })?
+                        .concat();
                     first = values.first().copied();
                     (!values.is_empty()).then(|| Summary::of(&values))
                 }
@@ -261,6 +266,7 @@ pub fn evaluate(
         cells,
         differs_because: recipe.differs_because,
         spread: recipe.spread,
+        protocol: recipe.protocol,
     })
 }
 
@@ -338,8 +344,8 @@ pub fn write(
 }
 
 /// The tool's numbers of every evaluated table, for the file beside the document
-/// (`docs/reproduction.json`) that the quick tests compare a fresh run with: per table, rows
-/// of cells, each `null` (not computed) or `{first, mean, sd, n}` (`first`: the repeat of the
+/// (`docs/reproduction.json`) that the quick tests compare a fresh run with: per table (and
+/// reading, `protocol`), rows of cells, each `null` (not computed) or `{first, mean, sd, n}` (`first`: the repeat of the
 /// spec's own seed).
 pub fn tool_values(evaluated: &[Evaluated]) -> serde_json::Value {
     let tables: Vec<serde_json::Value> = evaluated
@@ -362,7 +368,7 @@ pub fn tool_values(evaluated: &[Evaluated]) -> serde_json::Value {
                         .collect()
                 })
                 .collect();
-            serde_json::json!({ "number": e.number, "cells": rows })
+            serde_json::json!({ "number": e.number, "protocol": e.protocol, "cells": rows })
         })
         .collect();
     serde_json::json!({ "format": "isar-clutter-reproduction-values/1", "tables": tables })

@@ -68,18 +68,12 @@ fn num(v: f64) -> String {
 }
 
 /// Why a table that has no recipe is not in the document.
-fn not_covered(kind: &str, number: u32) -> &'static str {
+fn not_covered(kind: &str) -> &'static str {
     if kind == "description" {
-        return "a description of data or settings, not a result: nothing to reproduce \
-                (the settings it lists are those of the specs that use them)";
-    }
-    match number {
-        20 | 22 => {
-            "not yet covered by `reproduce`: the CNN experiments \
-                    (`experiments/cnn_classification*.yaml`) run, but under the dissertation's \
-                    protocol and with repeats they are not part of this command yet"
-        }
-        _ => "not yet covered by `reproduce`",
+        "a description of data or settings, not a result: nothing to reproduce (the settings \
+         it lists are those of the specs that use them)"
+    } else {
+        "not yet covered by `reproduce`"
     }
 }
 
@@ -162,7 +156,8 @@ pub fn document(
         header.repeats
     );
     let _ = writeln!(s, "## Summary\n");
-    let covered: Vec<u32> = evaluated.iter().map(|e| e.number).collect();
+    let mut covered: Vec<u32> = evaluated.iter().map(|e| e.number).collect();
+    covered.dedup();
     let _ = writeln!(
         s,
         "{} of the dissertation's 36 tables are compared cell by cell here: {} cell(s) \
@@ -251,10 +246,23 @@ fn constructions(s: &mut String) {
 fn table_block(s: &mut String, t: &super::reference::Table, evaluated: &[Evaluated]) {
     let _ = writeln!(s, "## Table {}: {}\n", t.number, t.title);
     let _ = writeln!(s, "Dissertation §{}. {}\n", t.section, t.setting.trim());
-    let Some(e) = evaluated.iter().find(|e| e.number == t.number) else {
-        let _ = writeln!(s, "*{}.*\n", not_covered(&t.kind, t.number));
-        return;
-    };
+    let readings: Vec<&Evaluated> = evaluated.iter().filter(|e| e.number == t.number).collect();
+    if readings.is_empty() {
+        let _ = writeln!(s, "*{}.*\n", not_covered(&t.kind));
+    }
+    for e in readings {
+        reading(s, t, e);
+    }
+}
+
+/// One reading of table `t` (its protocol, where it has several): the sources, then each cell
+/// beside the tool's.
+fn reading(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
+    if let Some(p) = e.protocol {
+        let title = p.split(':').next().unwrap_or(p);
+        let _ = writeln!(s, "### {}\n", upper_first(title));
+        let _ = writeln!(s, "{}.\n", upper_first(p));
+    }
     let sources: Vec<String> = e
         .sources
         .iter()
@@ -300,6 +308,14 @@ fn table_block(s: &mut String, t: &super::reference::Table, evaluated: &[Evaluat
         }
     }
     let _ = writeln!(s);
+}
+
+/// `p` with its first letter upper case.
+fn upper_first(p: &str) -> String {
+    let mut c = p.chars();
+    c.next().map_or(String::new(), |f| {
+        f.to_uppercase().collect::<String>() + c.as_str()
+    })
 }
 
 /// The numbers the text states for figures, each with its quote.

@@ -180,3 +180,30 @@ pub fn maps(dir: &std::path::Path) -> std::collections::BTreeMap<std::path::Path
     }
     out
 }
+
+/// `n` 32 x 32 images of two alternating classes: complex white noise (parts `N(0, 1)`) with
+/// 3 added to the real part of the top half (class 0) or the bottom half (class 1), all times
+/// `scale`.
+pub fn half_bright_set(
+    rng: &mut ChaCha20Rng,
+    n: usize,
+    scale: f64,
+) -> isar_clutter::apps::cnn::train::Labelled {
+    let mut set = isar_clutter::apps::cnn::train::Labelled::default();
+    for k in 0..n {
+        let label = k % 2;
+        let img: Vec<num_complex::Complex32> = (0..32 * 32)
+            .map(|p| {
+                let (a, b): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
+                let bright = if (p / 32 < 16) == (label == 0) {
+                    3.0
+                } else {
+                    0.0
+                };
+                num_complex::Complex32::new(((a + bright) * scale) as f32, (b * scale) as f32)
+            })
+            .collect();
+        set.push(&img, label);
+    }
+    set
+}

@@ -1,9 +1,9 @@
 //! Training and prediction (docs/definitions.md §12): MATLAB's `trainingOptions('sgdm')`
 //! defaults unless the spec says otherwise: SGD with momentum 0.9 (no dampening), learning rate
-//! 0.01, L2 1e-4, mini-batch 128 (or the training-set size if smaller), 30 epochs, shuffled
-//! every epoch, the last partial mini-batch of an epoch left out (as MATLAB does), validation
-//! accuracy after every epoch, and the last epoch's network is the result. Prediction uses batch
-//! normalisation's running averages.
+//! 0.01, L2 1e-4, mini-batch 128 (or the training-set size if smaller), 30 epochs, the data
+//! shuffled once before training, the last partial mini-batch of an epoch left out (as MATLAB
+//! does), validation accuracy every 50 iterations and after the last, and the last epoch's
+//! network is the result. Prediction uses batch normalisation's running averages.
 //!
 //! Everything random (initial weights, the shuffles) comes from ChaCha20 streams of the
 //! training's seed, so a training is a function of its seed and data.
@@ -50,6 +50,18 @@ pub enum Device {
     Cuda,
 }
 
+/// When the training set is shuffled (MATLAB's `Shuffle`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Shuffle {
+    /// Once, before the first epoch (MATLAB's default): every epoch sees the mini-batches in the
+    /// same order.
+    #[default]
+    Once,
+    /// Before every epoch, each epoch from its own random stream.
+    EveryEpoch,
+}
+
 /// Training settings (a spec's `training:` block).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -72,9 +84,22 @@ pub struct TrainingOptions {
     /// Epochs (default 30).
     #[serde(default = "epochs")]
     pub epochs: usize,
+    /// `once` (default, MATLAB's) or `every_epoch`.
+    #[serde(default)]
+    pub shuffle: Shuffle,
+    /// Validation accuracy every this many iterations (mini-batches) and after the last one
+    /// (MATLAB's `ValidationFrequency`, default 50). Validation does not change the network
+    /// (the last epoch's is the result): it is a record, and costs a forward pass over the
+    /// validation set each time.
+    #[serde(default = "validation_frequency")]
+    pub validation_frequency: usize,
     /// `cpu` (default) or `cuda`.
     #[serde(default)]
     pub device: Device,
+}
+
+fn validation_frequency() -> usize {
+    50
 }
 
 fn sgdm() -> Optimiser {
@@ -105,6 +130,8 @@ impl Default for TrainingOptions {
             l2: l2(),
             batch_size: batch_size(),
             epochs: epochs(),
+            shuffle: Shuffle::Once,
+            validation_frequency: validation_frequency(),
             device: Device::Cpu,
         }
     }
@@ -141,6 +168,9 @@ impl TrainingOptions {
                 "epochs",
                 format!("must be in 1..=10000, got {}", self.epochs),
             ));
+        }
+        if self.validation_frequency == 0 {
+            return Err(("validation_frequency", "must be at least 1".into()));
         }
         if self.device == Device::Cuda && !cfg!(feature = "cuda") {
             return Err((
@@ -243,8 +273,9 @@ pub struct Epoch {
     pub loss: f64,
     /// Accuracy of the epoch's mini-batches (while training).
     pub batch_accuracy: f64,
-    /// Validation accuracy after the epoch (`NaN` without a validation set).
-    pub validation_accuracy: f64,
+    /// Validation accuracy of the last validation during the epoch (`None` where none fell in
+    /// it; `NaN` without a validation set).
+    pub validation_accuracy: Option<f64>,
 }
 
 /// A trained network with its 'zerocenter' mean and its record.
@@ -401,11 +432,17 @@ pub fn train_on<B: AutodiffBackend>(
     let mut epochs = Vec::with_capacity(opts.epochs);
     let mut step_seconds = 0.0;
     let mut stepped = 0usize;
+    let per_epoch = train.len() / batch;
+    let last_iteration = per_epoch * opts.epochs;
+    let mut iteration = 0usize;
     for epoch in 1..=opts.epochs {
-        let mut rng = ChaCha20Rng::seed_from_u64(seed);
-        rng.set_stream(epoch as u64);
-        order.shuffle(&mut rng);
+        if epoch == 1 || opts.shuffle == Shuffle::EveryEpoch {
+            let mut rng = ChaCha20Rng::seed_from_u64(seed);
+            rng.set_stream(epoch as u64);
+            order.shuffle(&mut rng);
+        }
         let (mut loss_sum, mut right, mut seen, mut batches) = (0.0, 0usize, 0usize, 0usize);
+        let mut validation_accuracy = None;
         for idx in order.chunks_exact(batch) {
             let t = Instant::now();
             let x = prepared.batch::<B>(cfg, idx, device);
@@ -433,9 +470,11 @@ pub fn train_on<B: AutodiffBackend>(
             seen += idx.len();
             loss_sum += batch_loss;
             batches += 1;
+            iteration += 1;
+            if iteration.is_multiple_of(opts.validation_frequency) || iteration == last_iteration {
+                validation_accuracy = Some(accuracy(&net.valid(), cfg, &prepared_val));
+            }
         }
-        let inference = net.valid();
-        let validation_accuracy = accuracy(&inference, cfg, &prepared_val);
         epochs.push(Epoch {
             epoch,
             loss: loss_sum / batches.max(1) as f64,
@@ -445,7 +484,10 @@ pub fn train_on<B: AutodiffBackend>(
     }
     let inference = net.valid();
     let train_accuracy = accuracy(&inference, cfg, &prepared);
-    let validation_accuracy = epochs.last().map_or(f64::NAN, |e| e.validation_accuracy);
+    let validation_accuracy = epochs
+        .last()
+        .and_then(|e| e.validation_accuracy)
+        .unwrap_or(f64::NAN);
     let cpu: Net<Cpu> = inference.to_backend(&Default::default());
     Trained {
         cfg: *cfg,

@@ -104,7 +104,7 @@ pub(super) fn record_tables(
         Column::new(
             "validation_accuracy".into(),
             e.iter()
-                .map(|x| nan_none(x.validation_accuracy))
+                .map(|x| x.validation_accuracy.and_then(nan_none))
                 .collect::<Vec<_>>(),
         ),
     ])?;
