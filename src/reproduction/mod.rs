@@ -52,10 +52,10 @@ pub struct Coverage {
 }
 
 impl Coverage {
-    /// Everything [`extract`] knows.
+    /// Everything [`extract`] and [`cnn`] know.
     pub fn all() -> Coverage {
         Coverage {
-            recipes: extract::recipes(),
+            recipes: all_recipes(),
             statements: extract::statements(),
         }
     }
@@ -63,13 +63,20 @@ impl Coverage {
     /// Only the tables `numbers` (no statements): a quick check.
     pub fn tables(numbers: &[u32]) -> Coverage {
         Coverage {
-            recipes: extract::recipes()
+            recipes: all_recipes()
                 .into_iter()
                 .filter(|r| numbers.contains(&r.number))
                 .collect(),
             statements: Vec::new(),
         }
     }
+}
+
+/// Every table's recipes: [`extract`]'s, then the CNN tables'.
+fn all_recipes() -> Vec<Recipe> {
+    let mut r = extract::recipes();
+    r.extend(cnn::recipes());
+    r
 }
 
 /// The master seed of repeat `k` of a spec whose own seed is `seed`: the spec's for the first,
