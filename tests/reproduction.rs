@@ -286,4 +286,5 @@ fn cnn_tables_read_every_repeat_under_both_protocols() {
     let text = std::fs::read_to_string(&doc).unwrap();
     assert_eq!(text.matches("### The dissertation's protocol").count(), 2);
     assert_eq!(text.matches("### Held-out testing").count(), 2);
+    assert_eq!(text.matches("Headline:").count(), 4);
 }

@@ -18,7 +18,7 @@ pub const HELD_OUT: &str = "cnn_classification_full";
 /// The printed rows' methods (the last row, `original`, has one cell: 100 samples).
 const METHODS: [&str; 4] = ["method1", "method2", "full_covariance", "original"];
 /// The printed columns' training sizes.
-const SIZES: [i64; 4] = [100, 250, 500, 1000];
+pub const SIZES: [i64; 4] = [100, 250, 500, 1000];
 
 const WHY: &str = "The measured plants are not public: the classes are the tool's simulated \
     stand-in plants D and E (docs/definitions.md section 10), which no published variance \

@@ -14,6 +14,7 @@
 pub mod cnn;
 pub mod compare;
 pub mod extract;
+pub mod ranking;
 pub mod reference;
 pub mod render;
 
@@ -334,7 +335,11 @@ pub fn write(
         builds: builds(runs),
         ..header.clone()
     };
-    let (text, counts) = render::document(&dissertation, &evaluated, &stated, &header);
+    let (mut text, counts) = render::document(&dissertation, &evaluated, &stated, &header);
+    if let Some(block) = ranking::block(&mut tables, &|spec| folders(runs, spec))? {
+        text.push('\n');
+        text.push_str(&block);
+    }
     let values = doc.with_extension("json");
     crate::io::atomic::atomic_write(&values, |w| {
         serde_json::to_writer_pretty(&mut *w, &tool_values(&evaluated))?;
@@ -531,11 +536,24 @@ pub fn evaluate_statement(
         .value
         .as_ref()
         .and_then(serde_yaml_ng::Value::as_f64);
+    // A bound (`< 1`): the tool's mean below it matches.
+    let bound = reference
+        .value
+        .as_ref()
+        .and_then(serde_yaml_ng::Value::as_str)
+        .and_then(|t| t.trim().strip_prefix('<'))
+        .and_then(|b| b.trim().parse::<f64>().ok());
     let tool = Summary::of(&values);
-    let verdict = printed.map(|p| {
-        let tol = compare::tolerance(Spread::Random, &tool, compare::decimals_of(&format!("{p}")));
-        compare::verdict(p, tool.mean, tol)
-    });
+    let verdict = match (printed, bound) {
+        (Some(p), _) => {
+            let tol =
+                compare::tolerance(Spread::Random, &tool, compare::decimals_of(&format!("{p}")));
+            Some(compare::verdict(p, tool.mean, tol))
+        }
+        (None, Some(b)) if tool.mean < b => Some(Verdict::Matches),
+        (None, Some(_)) => Some(Verdict::Differs),
+        (None, None) => None,
+    };
     Ok(Stated {
         quantity: reference.quantity.clone(),
         tool,
