@@ -2,7 +2,8 @@
 """PyTorch reference benchmark for the CNNs of Tables 18 and 23 (for BENCHMARKS.md).
 
 Measures CPU training throughput -- samples per second of forward + backward + an
-SGD-with-momentum update -- of the two small networks that isar-clutter trains with burn,
+SGD-with-momentum update -- and prediction throughput (forward only, eval mode, under
+torch.inference_mode) of the two small networks that isar-clutter trains with burn,
 so the Rust numbers can be put side by side with a mainstream framework on the same machine.
 
 The networks (input 2 x 64 x 64 float32, NCHW; MATLAB 'same' padding):
@@ -120,7 +121,16 @@ def bench(name, batch_size, warmup, steps, seed):
     elapsed = time.perf_counter() - t0
     if not torch.isfinite(loss):
         raise RuntimeError(f"{name}: non-finite loss {loss.item()}")
-    return batch_size * steps / elapsed, elapsed
+    # Prediction: forward only, inference mode (BN running statistics), no autodiff graph.
+    net.eval()
+    with torch.inference_mode():
+        for i in range(warmup):
+            net(xs[i % n_distinct])
+        t1 = time.perf_counter()
+        for i in range(steps):
+            net(xs[i % n_distinct])
+        predict = batch_size * steps / (time.perf_counter() - t1)
+    return batch_size * steps / elapsed, elapsed, predict
 
 
 def main():
@@ -139,19 +149,21 @@ def main():
     torch.set_num_threads(a.threads)
     nets = ["table18", "table23"] if a.net == "both" else [a.net]
     for name in nets:
-        sps, elapsed = bench(name, a.batch_size, a.warmup, a.batches, a.seed)
+        sps, elapsed, predict = bench(name, a.batch_size, a.warmup, a.batches, a.seed)
         if a.json:
             print(json.dumps({
                 "net": name,
                 "threads": a.threads,
                 "batch_size": a.batch_size,
                 "samples_per_second": round(sps, 2),
+                "predict_samples_per_second": round(predict, 2),
                 "steps": a.batches,
                 "torch_version": torch.__version__,
             }), flush=True)
         else:
             print(f"{name}: {sps:9.1f} samples/s  ({a.batches} steps of {a.batch_size} in "
                   f"{elapsed:.2f} s, {1000 * elapsed / a.batches:.1f} ms/step; "
+                  f"predicted {predict:.1f} samples/s; "
                   f"threads={a.threads}, torch {torch.__version__}, "
                   f"OMP_WAIT_POLICY={os.environ['OMP_WAIT_POLICY']})", flush=True)
 

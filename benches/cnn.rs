@@ -3,8 +3,10 @@
 //! networks of Table 18 (4 classes) and Table 23 (25 classes) on 64 x 64 inputs, measured
 //! through [`isar_clutter::apps::cnn::train::train`], the function every training job runs, as
 //! each job reports it (`train_samples_per_second`): on a rayon pool of 1 and of 2 threads, and
-//! two trainings side by side on 1 thread each (what a run of many trainings does). Prints one
-//! JSON object per line with `--json`. Figures go to BENCHMARKS.md.
+//! two trainings side by side on 1 thread each (what a run of many trainings does); then the
+//! prediction rate (forward only, inference mode: what validation and testing run) of the
+//! trained network through [`isar_clutter::apps::cnn::train::Trained::evaluate`] on 1 and 2
+//! threads. Prints one JSON object per line with `--json`. Figures go to BENCHMARKS.md.
 
 /// The binary's allocator, so that figures match what `isar-clutter` does.
 #[global_allocator]
@@ -60,6 +62,7 @@ fn main() {
             epochs: 2,
             ..TrainingOptions::default()
         };
+        let mut trained = None;
         for (threads, side_by_side) in [(1, 1), (2, 1), (1, 2)] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
@@ -67,7 +70,10 @@ fn main() {
                 .expect("a pool");
             let t = std::time::Instant::now();
             let rates: Vec<f64> = if side_by_side == 1 {
-                vec![pool.install(|| train(&cfg, &opts, &set, &empty, 7).samples_per_second)]
+                let t = pool.install(|| train(&cfg, &opts, &set, &empty, 7));
+                let rate = t.samples_per_second;
+                trained = Some(t);
+                vec![rate]
             } else {
                 std::thread::scope(|s| {
                     let hs: Vec<_> = (0..side_by_side)
@@ -105,6 +111,30 @@ fn main() {
             } else {
                 println!(
                     "burn flex {name}: {label}: {per_training:.0} samples/s per training (steps only), {total:.0} samples/s for the machine (wall, with data preparation)"
+                );
+            }
+        }
+        let trained = trained.expect("a training on one pool");
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            // One untimed pass (buffers, caches), then the timed ones.
+            pool.install(|| trained.evaluate(&set));
+            let passes = 3;
+            let t = std::time::Instant::now();
+            for _ in 0..passes {
+                std::hint::black_box(pool.install(|| trained.evaluate(&set)));
+            }
+            let rate = (passes * n) as f64 / t.elapsed().as_secs_f64();
+            if json {
+                println!(
+                    "{{\"net\":\"{name}\",\"threads\":{threads},\"mode\":\"predict\",\"batch_size\":128,\"samples_per_second\":{rate:.1}}}"
+                );
+            } else {
+                println!(
+                    "burn flex {name}: {threads} thread(s): {rate:.0} samples/s predicted (forward only, inference mode)"
                 );
             }
         }
