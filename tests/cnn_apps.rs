@@ -155,6 +155,57 @@ location:
         .is_file());
 }
 
+/// `location.original_samples`: `original` trains and validates on that many originals (the
+/// fit part first), and every method is tested on the samples after them.
+#[test]
+fn original_samples_sets_the_originals_pool_and_the_test_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("location.yaml");
+    std::fs::write(
+        &spec,
+        "name: location
+seed: 12
+datasets:
+  - {id: clutter, kind: filtered_noise, family: dyadic, r_h: [0.5, 0.3, 0.1], r_v: [0.4, 0.2, 0.1], size: [64, 64], samples: 150}
+analysis:
+  levels: 3
+location:
+  clutter: clutter
+  fit_samples: 100
+  original_samples: 120
+  methods: [original, method2]
+  generated_samples: 100
+  targets: [constant]
+  scr_db: [0]
+  repeats: 1
+  training: {epochs: 1, batch_size: 64}
+",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    run(&spec, &out, &[]);
+    let t = read_table(&out, "location.parquet");
+    let ints = |c: &str| -> Vec<i64> {
+        t.column(c)
+            .unwrap()
+            .i64()
+            .unwrap()
+            .into_no_null_iter()
+            .collect()
+    };
+    let methods: Vec<String> = t
+        .column("method")
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .map(|m| m.unwrap_or_default().to_string())
+        .collect();
+    assert_eq!(methods, ["original", "method2"]);
+    assert_eq!(ints("test_samples"), [30, 30]);
+    assert_eq!(ints("train_samples"), [60, 50]);
+}
+
 /// The columns of a training table that do not measure time.
 fn without_timings(df: &DataFrame) -> DataFrame {
     df.drop_many(["train_seconds", "train_samples_per_second"])
@@ -314,6 +365,18 @@ analysis:
         clutter,
         "location.fit_samples",
         "at least 101",
+    );
+    refused(
+        &loc("  scr_db: [0]\n  fit_samples: 50\n  original_samples: 30\n"),
+        clutter,
+        "location.original_samples",
+        "at least fit_samples (50)",
+    );
+    refused(
+        &loc("  scr_db: [0]\n  fit_samples: 50\n  original_samples: 100\n"),
+        clutter,
+        "location.original_samples",
+        "leaves none to test on",
     );
     refused(
         "location:\n  clutter: clutter\n  methods: [method1]\n  targets: [moving]\n  scr_db: [0]\n  fit_samples: 50\n",

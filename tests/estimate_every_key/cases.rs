@@ -395,8 +395,10 @@ pub const CASES: &[Case] = &[
     value("classification.training.l2", "class", "classification.training.l2", HUGE, TRAIN),
     value("classification.holdout", "class", "classification.holdout", HUGE, "a fraction"),
     value("classification.original_fraction", "class", "classification.original_fraction", HUGE, "a fraction"),
+    value("classification.training.validation_frequency", "class", "classification.training.validation_frequency", BIG, "validation after the last iteration only"),
     // Location.
     size("location.fit_samples", "loc", "location.fit_samples", BIG),
+    size("location.original_samples", "loc", "location.original_samples", BIG),
     size("location.generated_samples", "loc", "location.generated_samples", BIG),
     size("location.repeats", "loc", "location.repeats", BIG),
     size("location.half_width", "loc", "location.half_width", BIG),
@@ -406,6 +408,7 @@ pub const CASES: &[Case] = &[
     value("location.training.learning_rate", "loc", "location.training.learning_rate", HUGE, TRAIN),
     value("location.training.momentum", "loc", "location.training.momentum", HUGE, TRAIN),
     value("location.training.l2", "loc", "location.training.l2", HUGE, TRAIN),
+    value("location.training.validation_frequency", "loc", "location.training.validation_frequency", BIG, "validation after the last iteration only"),
     value("location.scr_db[]", "loc", "location.scr_db[0]", HUGE, "a ratio in dB"),
 ];
 

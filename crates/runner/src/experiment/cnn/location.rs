@@ -13,6 +13,12 @@ pub struct LocationSpec {
     /// Clutter samples the models are fitted on (default 100); the rest are the test set.
     #[serde(default = "fit_samples")]
     pub fit_samples: usize,
+    /// Originals the `original` network trains (half) and validates (half) on, the fit part
+    /// first (default: `fit_samples`, the originals the methods see). The test set is the
+    /// samples after both, the same for every method: a larger number (the dissertation's
+    /// 5.3.9.1 compares with "500 samples of the original data") shrinks it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub original_samples: Option<usize>,
     /// `original` and synthesis methods.
     pub methods: Vec<String>,
     /// Samples each method generates, half for training and half for validation (default 5000).
@@ -57,6 +63,12 @@ pub struct LocationPlan {
 }
 
 impl LocationSpec {
+    /// The originals `original` trains and validates on ([`LocationSpec::original_samples`],
+    /// else [`LocationSpec::fit_samples`]); the test set starts after them.
+    pub fn originals(&self) -> usize {
+        self.original_samples.unwrap_or(self.fit_samples)
+    }
+
     /// Validates the section against the stacks of the plan's analysis jobs (`stacks`: one per
     /// dataset and sweep point).
     ///
@@ -96,6 +108,26 @@ impl LocationSpec {
                     self.fit_samples.saturating_add(1)
                 ),
             ));
+        }
+        if let Some(o) = self.original_samples {
+            if o < self.fit_samples || o < 4 {
+                return Err(ctx.err(
+                    format!("{at}.original_samples"),
+                    format!(
+                        "must be at least fit_samples ({}) and 4, got {o}",
+                        self.fit_samples
+                    ),
+                ));
+            }
+            if n <= o {
+                return Err(ctx.err(
+                    format!("{at}.original_samples"),
+                    format!(
+                        "dataset {} has {n} samples; training on {o} originals leaves none to test on",
+                        clutter.id
+                    ),
+                ));
+            }
         }
         let sources = check_methods(ctx, at, &self.methods)?;
         check_common(

@@ -165,9 +165,10 @@ impl JobKind for LocationJob {
             n,
             derive_seed(plan.spec.seed, "cnn/location/split", clutter_id),
         );
-        let (fit_idx, test_idx) = perm.split_at(lp.spec.fit_samples);
-        let fit = all.select(Axis(0), fit_idx);
-        let test_clutter = all.select(Axis(0), test_idx);
+        // The fit part first, then the rest of `original`'s pool; the test set after both.
+        let fit = all.select(Axis(0), &perm[..lp.spec.fit_samples]);
+        let pool = lp.spec.originals();
+        let test_clutter = all.select(Axis(0), &perm[pool..]);
         // P_c: the mean over the image of the per-pixel variance of all originals.
         let mean = all.mean_axis(Axis(0)).expect("samples");
         let p_c = all
@@ -191,10 +192,11 @@ impl JobKind for LocationJob {
         };
         let (train_clutter, val_clutter, generated) = match self.source {
             Source::Original => {
-                let half = lp.spec.fit_samples / 2;
+                let originals = all.select(Axis(0), &perm[..pool]);
+                let half = pool / 2;
                 (
-                    c32(fit.slice(s![..half, .., ..])),
-                    c32(fit.slice(s![half.., .., ..])),
+                    c32(originals.slice(s![..half, .., ..])),
+                    c32(originals.slice(s![half.., .., ..])),
                     0,
                 )
             }
@@ -318,7 +320,7 @@ impl JobKind for LocationJob {
                 method: self.source.as_str(),
                 seed: self.seed,
                 samples: match self.source {
-                    Source::Original => lp.spec.fit_samples / 2,
+                    Source::Original => lp.spec.originals() / 2,
                     Source::Generated(_) => lp.spec.generated_samples / 2,
                 },
             },
