@@ -394,18 +394,32 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
                     .to_string()
             });
             let unit = f.unit.as_deref().unwrap_or("");
-            let tool = match stated.iter().find(|st| st.quantity == f.quantity) {
-                None => "not yet computed by `reproduce`.".to_string(),
-                Some(st) => format!(
-                    "the tool: {} ± {} {unit} over {} repeats ({}): {}. {}.",
-                    num(st.tool.mean),
-                    num(st.tool.sd),
-                    st.tool.n,
-                    st.computed,
-                    st.verdict
-                        .map_or("no stated number to compare", Verdict::as_str),
-                    st.differs_because
-                ),
+            let mine: Vec<&super::Stated> = stated
+                .iter()
+                .filter(|st| st.quantity == f.quantity)
+                .collect();
+            let tools: Vec<String> = mine
+                .iter()
+                .map(|st| {
+                    let mut t = format!(
+                        "the tool: {} ± {} {unit} over {} repeats ({}): {}.",
+                        num(st.tool.mean),
+                        num(st.tool.sd),
+                        st.tool.n,
+                        st.computed,
+                        st.verdict
+                            .map_or("no stated number to compare", Verdict::as_str),
+                    );
+                    if !st.differs_because.is_empty() {
+                        t = format!("{t} {}.", st.differs_because);
+                    }
+                    t
+                })
+                .collect();
+            let tool = if tools.is_empty() {
+                "not yet computed by `reproduce`.".to_string()
+            } else {
+                tools.join(" ")
             };
             let _ = writeln!(
                 s,
