@@ -119,9 +119,11 @@ pub fn verdict(reference: f64, tool: f64, tolerance: f64) -> Verdict {
 
 /// Whether the tool's row ranks its cells as the dissertation's does: every pair that the
 /// dissertation orders strictly is ordered the same way by the tool (pairs the dissertation
-/// prints equal, or where either side is missing, are not judged).
+/// prints equal, or where either side is missing, are not judged), and at least one pair is
+/// judged (a row of one printed cell has no order to keep).
 pub fn order_kept(reference: &[Option<f64>], tool: &[Option<f64>]) -> bool {
     let n = reference.len().min(tool.len());
+    let mut compared = false;
     for i in 0..n {
         for j in i + 1..n {
             let (Some(ri), Some(rj), Some(ti), Some(tj)) =
@@ -135,9 +137,10 @@ pub fn order_kept(reference: &[Option<f64>], tool: &[Option<f64>]) -> bool {
             if (ri < rj) != (ti < tj) || ti == tj {
                 return false;
             }
+            compared = true;
         }
     }
-    true
+    compared
 }
 
 #[cfg(test)]
@@ -193,5 +196,6 @@ mod tests {
         assert!(!order_kept(&r, &[Some(30.0), Some(20.0), Some(25.0), None]));
         // A tie where the dissertation orders strictly is not the same order.
         assert!(!order_kept(&r, &[Some(5.0), Some(5.0), Some(6.0), None]));
+        assert!(!order_kept(&[Some(83.3), None], &[Some(99.0), None]));
     }
 }
