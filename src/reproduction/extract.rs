@@ -665,7 +665,8 @@ pub fn statements() -> Vec<Statement> {
         Statement {
             quantity: "Constant target location",
             terms: gain(col::SCR_90_DB),
-            computed: "the same gain at 90 % accuracy",
+            computed: "the same gain at 90 % accuracy (a repeat where the originals' network \
+                stays below 90 % up to +20 dB gives no value)",
             differs_because: "",
         },
         Statement {

@@ -494,6 +494,8 @@ pub struct Stated {
     pub computed: &'static str,
     /// Why it may differ.
     pub differs_because: &'static str,
+    /// Repeats that gave no value (not in `tool`).
+    pub without: usize,
 }
 
 /// Evaluates `st`: per repeat `k`, the mean over its terms of `a - b`, each read from repeat
@@ -527,6 +529,14 @@ pub fn evaluate_statement(
         "no runs for the statement {:?}",
         st.quantity
     );
+    // A repeat without a value (a level never reached in the range swept) is counted, not
+    // averaged.
+    let repeats = values.len();
+    values.retain(|v| v.is_finite());
+    let without = repeats - values.len();
+    if values.is_empty() {
+        values.push(f64::NAN);
+    }
     let reference = dissertation
         .figures
         .iter()
@@ -561,5 +571,6 @@ pub fn evaluate_statement(
         verdict,
         computed: st.computed,
         differs_because: st.differs_because,
+        without,
     })
 }

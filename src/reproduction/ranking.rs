@@ -70,56 +70,53 @@ pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
     1.0 - 6.0 * d2 / (n * (n * n - 1.0))
 }
 
-/// The document's block, or `None` where the runs lack the similarity or the CNN specs.
-/// `folders` gives a spec's run folders (every repeat).
-///
-/// # Errors
-/// If a table cannot be read or a query selects no row.
-pub fn block<'a>(
-    tables: &mut Tables,
-    folders: &dyn Fn(&str) -> Vec<&'a Path>,
-) -> Result<Option<String>> {
-    let similarity = folders("similarity_plants");
-    let readings = [
-        (
-            20,
-            "zero_mean",
-            super::cnn::DISSERTATION,
-            "dissertation's protocol",
-        ),
-        (20, "zero_mean", super::cnn::HELD_OUT, "held-out"),
-        (
-            22,
-            "zero_mean_unit_variance",
-            super::cnn::DISSERTATION,
-            "dissertation's protocol",
-        ),
-        (
-            22,
-            "zero_mean_unit_variance",
-            super::cnn::HELD_OUT,
-            "held-out",
-        ),
-    ];
-    if similarity.is_empty() || readings.iter().any(|r| folders(r.2).is_empty()) {
-        return Ok(None);
-    }
-    // measure x method: the mean over the classes and the repeats.
+/// The CNN tables' readings: table, normalisation, spec, protocol.
+const READINGS: [(u32, &str, &str, &str); 4] = [
+    (
+        20,
+        "zero_mean",
+        super::cnn::DISSERTATION,
+        "dissertation's protocol",
+    ),
+    (20, "zero_mean", super::cnn::HELD_OUT, "held-out"),
+    (
+        22,
+        "zero_mean_unit_variance",
+        super::cnn::DISSERTATION,
+        "dissertation's protocol",
+    ),
+    (
+        22,
+        "zero_mean_unit_variance",
+        super::cnn::HELD_OUT,
+        "held-out",
+    ),
+];
+
+/// Measure x method: each measure's mean over the classes and the repeats in `dirs`.
+fn distances(tables: &mut Tables, dirs: &[&Path]) -> Result<Vec<Vec<f64>>> {
     let mut distance = Vec::new();
     for (_, query) in measures() {
         let mut row = Vec::new();
         for m in METHODS {
             let mut sum = 0.0;
             for c in CLASSES {
-                sum += mean_over(tables, &similarity, &query(c, m))?;
+                sum += mean_over(tables, dirs, &query(c, m))?;
             }
             row.push(sum / CLASSES.len() as f64);
         }
         distance.push(row);
     }
-    // reading x method: the mean test accuracy (%) over sizes and repeats.
+    Ok(distance)
+}
+
+/// Reading x method: the mean test accuracy (%) over the sizes and the repeats.
+fn accuracies<'a>(
+    tables: &mut Tables,
+    folders: &dyn Fn(&str) -> Vec<&'a Path>,
+) -> Result<Vec<Vec<f64>>> {
     let mut accuracy = Vec::new();
-    for &(_, normalise, spec, _) in &readings {
+    for &(_, normalise, spec, _) in &READINGS {
         let dirs = folders(spec);
         let mut row = Vec::new();
         for m in METHODS {
@@ -139,6 +136,24 @@ pub fn block<'a>(
         }
         accuracy.push(row);
     }
+    Ok(accuracy)
+}
+
+/// The document's block, or `None` where the runs lack the similarity or the CNN specs.
+/// `folders` gives a spec's run folders (every repeat).
+///
+/// # Errors
+/// If a table cannot be read or a query selects no row.
+pub fn block<'a>(
+    tables: &mut Tables,
+    folders: &dyn Fn(&str) -> Vec<&'a Path>,
+) -> Result<Option<String>> {
+    let similarity = folders("similarity_plants");
+    if similarity.is_empty() || READINGS.iter().any(|r| folders(r.2).is_empty()) {
+        return Ok(None);
+    }
+    let distance = distances(tables, &similarity)?;
+    let accuracy = accuracies(tables, folders)?;
     let mut s = String::new();
     let _ = writeln!(s, "## Similarity measures against CNN accuracy (5.3.4.2)\n");
     let _ = writeln!(
@@ -157,7 +172,7 @@ pub fn block<'a>(
         let cells: Vec<String> = row.iter().map(|v| format!("{v:.4}")).collect();
         let _ = writeln!(s, "| {name} | {} |", cells.join(" | "));
     }
-    for ((table, _, _, protocol), row) in readings.iter().zip(&accuracy) {
+    for ((table, _, _, protocol), row) in READINGS.iter().zip(&accuracy) {
         let cells: Vec<String> = row.iter().map(|v| format!("{v:.1}")).collect();
         let _ = writeln!(
             s,
@@ -166,16 +181,12 @@ pub fn block<'a>(
         );
     }
     let _ = writeln!(s);
-    let _ = writeln!(
-        s,
-        "| rank correlation | {} |",
-        readings
-            .iter()
-            .map(|(t, _, _, p)| format!("Table {t} ({p})"))
-            .collect::<Vec<_>>()
-            .join(" | ")
-    );
-    let _ = writeln!(s, "|---|{}", "---:|".repeat(readings.len()));
+    let heads: Vec<String> = READINGS
+        .iter()
+        .map(|(t, _, _, p)| format!("Table {t} ({p})"))
+        .collect();
+    let _ = writeln!(s, "| rank correlation | {} |", heads.join(" | "));
+    let _ = writeln!(s, "|---|{}", "---:|".repeat(READINGS.len()));
     for ((name, _), d) in measures().iter().zip(&distance) {
         let closeness: Vec<f64> = d.iter().map(|v| -v).collect();
         let rho: Vec<String> = accuracy

@@ -401,11 +401,19 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
             let tools: Vec<String> = mine
                 .iter()
                 .map(|st| {
+                    let over = if st.without == 0 {
+                        format!("{} repeats", st.tool.n)
+                    } else {
+                        format!(
+                            "the {} of {} repeats that give a value",
+                            st.tool.n - usize::from(st.tool.mean.is_nan()),
+                            st.tool.n + st.without - usize::from(st.tool.mean.is_nan())
+                        )
+                    };
                     let mut t = format!(
-                        "the tool: {} ± {} {unit} over {} repeats ({}): {}.",
+                        "the tool: {} ± {} {unit} over {over} ({}): {}.",
                         num(st.tool.mean),
                         num(st.tool.sd),
-                        st.tool.n,
                         st.computed,
                         st.verdict
                             .map_or("no stated number to compare", Verdict::as_str),

@@ -394,6 +394,9 @@ mod cuda {
 
 /// [`train`] on any autodiff backend `B` whose inner backend is [`Cpu`]-compatible for the
 /// returned network (the weights are moved to the CPU at the end).
+///
+/// Long because the training loop's state (the optimisers, the order, the iteration count and
+/// the record) lives across its epochs and mini-batches.
 pub fn train_on<B: AutodiffBackend>(
     cfg: &NetConfig,
     opts: &TrainingOptions,

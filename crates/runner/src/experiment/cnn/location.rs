@@ -63,6 +63,31 @@ pub struct LocationPlan {
 }
 
 impl LocationSpec {
+    /// `original_samples`, if given: at least `fit_samples` and 4, and fewer than the `n`
+    /// samples of the clutter dataset `id` (the test set is the rest).
+    fn check_original_samples(&self, ctx: &Ctx, n: usize, id: &str) -> Result<(), SpecError> {
+        let Some(o) = self.original_samples else {
+            return Ok(());
+        };
+        let at = "location.original_samples";
+        if o < self.fit_samples || o < 4 {
+            return Err(ctx.err(
+                at,
+                format!(
+                    "must be at least fit_samples ({}) and 4, got {o}",
+                    self.fit_samples
+                ),
+            ));
+        }
+        if n <= o {
+            return Err(ctx.err(
+                at,
+                format!("dataset {id} has {n} samples; training on {o} originals leaves none to test on"),
+            ));
+        }
+        Ok(())
+    }
+
     /// The originals `original` trains and validates on ([`LocationSpec::original_samples`],
     /// else [`LocationSpec::fit_samples`]); the test set starts after them.
     pub fn originals(&self) -> usize {
@@ -109,26 +134,7 @@ impl LocationSpec {
                 ),
             ));
         }
-        if let Some(o) = self.original_samples {
-            if o < self.fit_samples || o < 4 {
-                return Err(ctx.err(
-                    format!("{at}.original_samples"),
-                    format!(
-                        "must be at least fit_samples ({}) and 4, got {o}",
-                        self.fit_samples
-                    ),
-                ));
-            }
-            if n <= o {
-                return Err(ctx.err(
-                    format!("{at}.original_samples"),
-                    format!(
-                        "dataset {} has {n} samples; training on {o} originals leaves none to test on",
-                        clutter.id
-                    ),
-                ));
-            }
-        }
+        self.check_original_samples(ctx, n, &clutter.id)?;
         let sources = check_methods(ctx, at, &self.methods)?;
         check_common(
             ctx,
