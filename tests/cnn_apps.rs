@@ -107,20 +107,34 @@ fn method1_samples_teach_correlation_direction_and_uncorrelated_samples_do_not()
     assert_eq!(originals, [0, 0]);
 }
 
-#[test]
-fn target_location_goes_from_chance_to_certain_with_the_signal_to_clutter_ratio() {
+/// Runs a spec of 150 samples of dyadic clutter (64 x 64) with the `location:` section whose
+/// fields are `section`: the temporary folder and the output folder in it.
+fn location_run(section: &str) -> (tempfile::TempDir, std::path::PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let spec = dir.path().join("location.yaml");
     std::fs::write(
         &spec,
-        "name: location
+        format!(
+            "name: location
 seed: 12
 datasets:
-  - {id: clutter, kind: filtered_noise, family: dyadic, r_h: [0.5, 0.3, 0.1], r_v: [0.4, 0.2, 0.1], size: [64, 64], samples: 150}
+  - {{id: clutter, kind: filtered_noise, family: dyadic, r_h: [0.5, 0.3, 0.1], r_v: [0.4, 0.2, 0.1], size: [64, 64], samples: 150}}
 analysis:
   levels: 3
 location:
-  clutter: clutter
+{section}"
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    run(&spec, &out, &[]);
+    (dir, out)
+}
+
+#[test]
+fn target_location_goes_from_chance_to_certain_with_the_signal_to_clutter_ratio() {
+    let (_dir, out) = location_run(
+        "  clutter: clutter
   fit_samples: 100
   methods: [method2]
   generated_samples: 1000
@@ -129,10 +143,7 @@ location:
   repeats: 1
   training: {epochs: 4, batch_size: 64}
 ",
-    )
-    .unwrap();
-    let out = dir.path().join("out");
-    run(&spec, &out, &[]);
+    );
     let t = read_table(&out, "location.parquet");
     let (scr, test) = (f64s(&t, "scr_db"), f64s(&t, "test_accuracy"));
     let low = test[scr.iter().position(|&s| s == -30.0).unwrap()];
@@ -159,18 +170,8 @@ location:
 /// fit part first), and every method is tested on the samples after them.
 #[test]
 fn original_samples_sets_the_originals_pool_and_the_test_set() {
-    let dir = tempfile::tempdir().unwrap();
-    let spec = dir.path().join("location.yaml");
-    std::fs::write(
-        &spec,
-        "name: location
-seed: 12
-datasets:
-  - {id: clutter, kind: filtered_noise, family: dyadic, r_h: [0.5, 0.3, 0.1], r_v: [0.4, 0.2, 0.1], size: [64, 64], samples: 150}
-analysis:
-  levels: 3
-location:
-  clutter: clutter
+    let (_dir, out) = location_run(
+        "  clutter: clutter
   fit_samples: 100
   original_samples: 120
   methods: [original, method2]
@@ -180,10 +181,7 @@ location:
   repeats: 1
   training: {epochs: 1, batch_size: 64}
 ",
-    )
-    .unwrap();
-    let out = dir.path().join("out");
-    run(&spec, &out, &[]);
+    );
     let t = read_table(&out, "location.parquet");
     let ints = |c: &str| -> Vec<i64> {
         t.column(c)

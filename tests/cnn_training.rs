@@ -33,24 +33,21 @@ fn validation_is_a_record_and_shuffle_once_keeps_the_first_order() {
     };
     let a = train(&c, &base, &tr, &va, 5);
     // Validations at iterations 4 (epoch 1), 8 (epoch 2), 12 and 15 (epoch 3).
-    let validated: Vec<bool> = a
-        .epochs
-        .iter()
-        .map(|e| e.validation_accuracy.is_some())
-        .collect();
-    assert_eq!(validated, [true, true, true]);
+    // Whether each epoch had a validation.
+    let validated = |t: &Trained| -> Vec<bool> {
+        t.epochs
+            .iter()
+            .map(|e| e.validation_accuracy.is_some())
+            .collect()
+    };
+    assert_eq!(validated(&a), [true, true, true]);
     let sparse = TrainingOptions {
         validation_frequency: 7,
         ..base
     };
     let b = train(&c, &sparse, &tr, &va, 5);
     // Iterations 7 (epoch 2), 14 and 15 (epoch 3): none in epoch 1.
-    let validated: Vec<bool> = b
-        .epochs
-        .iter()
-        .map(|e| e.validation_accuracy.is_some())
-        .collect();
-    assert_eq!(validated, [false, true, true]);
+    assert_eq!(validated(&b), [false, true, true]);
     let w = |t: &Trained| -> Vec<f32> { t.net.fc_w.val().into_data().to_vec().unwrap() };
     assert_eq!(w(&a), w(&b), "validation changed the network");
     assert_eq!(

@@ -26,17 +26,23 @@ const WHY: &str = "The measured plants are not public: the classes are the tool'
     (the tool's: MATLAB's sgdm defaults, docs/cnn.md); the originals' row is read at 100 \
     training samples in all (25 a class), the column the dissertation prints it in";
 
-/// The test accuracy (%) of `method` at `size` in `spec`, normalised by `normalise`: every
-/// repeat's row.
-fn accuracy(spec: &'static str, normalise: &'static str, method: &'static str, size: i64) -> Query {
+/// The test accuracy (%) of `method` in `spec`, normalised by `normalise`, at training size
+/// `size` (every size where `None`): every repeat's row.
+pub fn accuracy(
+    spec: &'static str,
+    normalise: &'static str,
+    method: &'static str,
+    size: Option<i64>,
+) -> Query {
+    let mut filters = vec![
+        (col::NORMALISE, Key::S(normalise)),
+        (col::METHOD, Key::S(method)),
+    ];
+    filters.extend(size.map(|n| (col::TRAIN_SIZE, Key::I(n))));
     Query {
         spec,
         table: results::CLASSIFICATION,
-        filters: vec![
-            (col::NORMALISE, Key::S(normalise)),
-            (col::METHOD, Key::S(method)),
-            (col::TRAIN_SIZE, Key::I(size)),
-        ],
+        filters,
         column: col::TEST_ACCURACY,
         scale: 100.0,
         all_verified: false,
@@ -66,7 +72,8 @@ pub fn recipes() -> Vec<Recipe> {
                     SIZES
                         .iter()
                         .map(|&n| {
-                            (m != "original" || n == 100).then(|| accuracy(spec, normalise, m, n))
+                            (m != "original" || n == 100)
+                                .then(|| accuracy(spec, normalise, m, Some(n)))
                         })
                         .collect()
                 })

@@ -324,6 +324,21 @@ const LOCATION: &str = "The clutter is the tool's simulation of the construction
     not 2500, and are tested on the 500 originals they did not see (the dissertation tested on \
     all 1000); the text gives no accuracy level at which it reads its gain";
 
+/// The KL divergence `column` (dB, real part) of the model of `order` on dataset `ds` in a run
+/// of `spec` (Tables 1-2 and the statements on them).
+fn model_kl(spec: &'static str, ds: &'static str, order: i64, column: &'static str) -> Query {
+    q(
+        spec,
+        results::MODEL_ORDER,
+        vec![
+            (col::DATASET, Key::S(ds)),
+            (col::MODEL_ORDER, Key::I(order)),
+            (col::COMPONENT, Key::S("re")),
+        ],
+        column,
+    )
+}
+
 /// Tables 1 and 2 (model order: mean and worst-case KL divergence in dB, 2nd- and 4th-order
 /// models) and Table 16 (mean pixel variance by plant and wind).
 fn model_order(r: &mut Vec<Recipe>) {
@@ -336,18 +351,7 @@ fn model_order(r: &mut Vec<Recipe>) {
                 .map(|&ds| {
                     [2, 4]
                         .iter()
-                        .map(|&order| {
-                            Some(q(
-                                "model_order",
-                                results::MODEL_ORDER,
-                                vec![
-                                    (col::DATASET, Key::S(ds)),
-                                    (col::MODEL_ORDER, Key::I(order)),
-                                    (col::COMPONENT, Key::S("re")),
-                                ],
-                                column,
-                            ))
-                        })
+                        .map(|&order| Some(model_kl("model_order", ds, order, column)))
                         .collect()
                 })
                 .collect(),
@@ -592,25 +596,13 @@ pub fn statements() -> Vec<Statement> {
     // 3.2: half resolution improves the worst-case KL divergence by about 1 dB: the worst
     // pixel's KL (dB, real part) at full minus at half resolution, over plants A-C, no and
     // light wind, both models.
-    let worst = |spec: &'static str, ds: &'static str, order: i64| {
-        q(
-            spec,
-            results::MODEL_ORDER,
-            vec![
-                (col::DATASET, Key::S(ds)),
-                (col::MODEL_ORDER, Key::I(order)),
-                (col::COMPONENT, Key::S("re")),
-            ],
-            col::KL_WORST_DB,
-        )
-    };
     let terms = PLANTS_ABC
         .iter()
         .flat_map(|&ds| {
             [2, 4].map(|order| {
                 (
-                    worst("model_order", ds, order),
-                    worst("model_order_half", ds, order),
+                    model_kl("model_order", ds, order, col::KL_WORST_DB),
+                    model_kl("model_order_half", ds, order, col::KL_WORST_DB),
                 )
             })
         })
@@ -618,21 +610,12 @@ pub fn statements() -> Vec<Statement> {
     // 6.1: the 4th-order model improves on the 2nd-order one by less than 1 dB: the mean
     // image KL divergence (dB, real part, Table 1's column) of the 2nd- minus the 4th-order
     // model, over plants A-C, no and light wind.
-    let mean = |ds: &'static str, order: i64| {
-        q(
-            "model_order",
-            results::MODEL_ORDER,
-            vec![
-                (col::DATASET, Key::S(ds)),
-                (col::MODEL_ORDER, Key::I(order)),
-                (col::COMPONENT, Key::S("re")),
-            ],
-            col::KL_MEAN_DB,
-        )
-    };
     let orders = PLANTS_ABC
         .iter()
-        .map(|&ds| (mean(ds, 2), mean(ds, 4)))
+        .map(|&ds| {
+            let mean = |order| model_kl("model_order", ds, order, col::KL_MEAN_DB);
+            (mean(2), mean(4))
+        })
         .collect();
     // 5.3.9.1: about 3 dB of target sensitivity gained over 500 originals: the SCR at which
     // `original`'s mean accuracy reaches 50 % (90 %) minus Method 1's and Method 2's, averaged.

@@ -494,8 +494,10 @@ pub struct Stated {
     pub computed: &'static str,
     /// Why it may differ.
     pub differs_because: &'static str,
-    /// Repeats that gave no value (not in `tool`).
-    pub without: usize,
+    /// Repeats run.
+    pub repeats: usize,
+    /// Repeats that gave a value (those `tool` summarises).
+    pub given: usize,
 }
 
 /// Evaluates `st`: per repeat `k`, the mean over its terms of `a - b`, each read from repeat
@@ -533,7 +535,7 @@ pub fn evaluate_statement(
     // averaged.
     let repeats = values.len();
     values.retain(|v| v.is_finite());
-    let without = repeats - values.len();
+    let given = values.len();
     if values.is_empty() {
         values.push(f64::NAN);
     }
@@ -571,6 +573,7 @@ pub fn evaluate_statement(
         verdict,
         computed: st.computed,
         differs_because: st.differs_because,
-        without,
+        repeats,
+        given,
     })
 }

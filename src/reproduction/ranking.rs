@@ -8,8 +8,7 @@
 //! smaller distance is closer) and accuracy over the methods: 1 when the measure ranks the
 //! methods as the networks do.
 
-use super::extract::{self, Key, Query, Tables};
-use crate::io::results::{self, col};
+use super::extract::{self, Query, Tables};
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -50,7 +49,7 @@ fn mean_over(tables: &mut Tables, dirs: &[&Path], query: &Query) -> Result<f64> 
     for d in dirs {
         values.extend(tables.values(d, query)?);
     }
-    Ok(values.iter().sum::<f64>() / values.len().max(1) as f64)
+    Ok(super::compare::Summary::of(&values).mean)
 }
 
 /// Spearman's rank correlation of `a` and `b` (no ties expected; ties take their first rank).
@@ -120,18 +119,7 @@ fn accuracies<'a>(
         let dirs = folders(spec);
         let mut row = Vec::new();
         for m in METHODS {
-            let q = Query {
-                spec,
-                table: results::CLASSIFICATION,
-                filters: vec![
-                    (col::NORMALISE, Key::S(normalise)),
-                    (col::METHOD, Key::S(m)),
-                ],
-                column: col::TEST_ACCURACY,
-                scale: 100.0,
-                all_verified: false,
-                each_row: true,
-            };
+            let q = super::cnn::accuracy(spec, normalise, m, None);
             row.push(mean_over(tables, &dirs, &q)?);
         }
         accuracy.push(row);

@@ -401,13 +401,12 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
             let tools: Vec<String> = mine
                 .iter()
                 .map(|st| {
-                    let over = if st.without == 0 {
-                        format!("{} repeats", st.tool.n)
+                    let over = if st.given == st.repeats {
+                        format!("{} repeats", st.repeats)
                     } else {
                         format!(
                             "the {} of {} repeats that give a value",
-                            st.tool.n - usize::from(st.tool.mean.is_nan()),
-                            st.tool.n + st.without - usize::from(st.tool.mean.is_nan())
+                            st.given, st.repeats
                         )
                     };
                     let mut t = format!(
