@@ -128,6 +128,10 @@ pub struct CalibratePlantsArgs {
     /// Seed of the simulations.
     #[arg(long, default_value_t = 16)]
     pub seed: u64,
+    /// Which plants to fit: `variance` (A-C to Table 16), `similarity` (D-E to Tables 29-36)
+    /// or `all`; the other part of the record is kept.
+    #[arg(long, default_value = "all", value_parser = ["variance", "similarity", "all"])]
+    pub part: String,
     /// The record to write.
     #[arg(long, default_value = "reproduction/plant_calibration.json")]
     pub out: PathBuf,

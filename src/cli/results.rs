@@ -33,13 +33,25 @@ pub fn table(a: TableArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `calibrate-plants`: the stand-in plants fitted to Table 16, written as the fit record.
+/// `calibrate-plants`: the stand-in plants fitted to Table 16 (A-C) and Tables 29-36 (D-E),
+/// written as the fit record.
 ///
 /// # Errors
 /// What the command cannot do, naming the file or the job.
 pub fn calibrate_plants(a: CalibratePlantsArgs) -> Result<ExitCode> {
-    let CalibratePlantsArgs { samples, seed, out } = a;
-    isar_clutter::reproduction::calibrate_plants(samples, seed, &out)?;
+    use isar_clutter::reproduction::calibrate::{calibrate_plants, Part};
+    let CalibratePlantsArgs {
+        samples,
+        seed,
+        part,
+        out,
+    } = a;
+    let part = match part.as_str() {
+        "variance" => Part::Variance,
+        "similarity" => Part::Similarity,
+        _ => Part::All,
+    };
+    calibrate_plants(samples, seed, part, &out)?;
     Ok(ExitCode::SUCCESS)
 }
 

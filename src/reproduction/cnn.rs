@@ -21,8 +21,8 @@ const METHODS: [&str; 4] = ["method1", "method2", "full_covariance", "original"]
 pub const SIZES: [i64; 4] = [100, 250, 500, 1000];
 
 const WHY: &str = "The measured plants are not public: the classes are the tool's simulated \
-    stand-in plants D and E (docs/definitions.md section 10), which no published variance \
-    calibrates; the dissertation gives neither its number of repeats nor its training settings \
+    stand-in plants D and E (docs/definitions.md section 10), calibrated to the similarity \
+    Tables 29-36 (never to these tables) and to no published variance; the dissertation gives neither its number of repeats nor its training settings \
     (the tool's: MATLAB's sgdm defaults, docs/cnn.md); the originals' row is read at 100 \
     training samples in all (25 a class), the column the dissertation prints it in";
 

@@ -220,8 +220,10 @@ const KL_PLANTS: &str = "The histogram behind the KL divergence is not stated (t
     bins, 0.5 pseudo-counts, docs/definitions.md section 6; its floor sets the scale), and the \
     measured plants are not public: the tool's values come from its simulated stand-in plants";
 const PLANTS: &str = "The measured plants are not public: the tool's values come from its \
-    simulated stand-in plants D and E (docs/definitions.md section 10), which Table 16 does not \
-    cover and which are therefore not calibrated";
+    simulated stand-in plants D and E (docs/definitions.md section 10), whose wind response and \
+    receiver noise are fitted to Tables 29-36 (`isar-clutter calibrate-plants`, residuals in \
+    reproduction/plant_calibration.json): these cells are the fit's targets, not an independent \
+    check; two free parameters per plant cannot place all 30 cells of a plant and wind";
 
 /// Every table the reproduction covers but the CNN tables ([`super::cnn`]).
 pub fn recipes() -> Vec<Recipe> {

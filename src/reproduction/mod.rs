@@ -11,6 +11,7 @@
 //! written only when every folder it reads is a complete run (checked against its manifest),
 //! and atomically.
 
+pub mod calibrate;
 pub mod cnn;
 pub mod compare;
 pub mod extract;
@@ -384,64 +385,6 @@ pub fn tool_values(evaluated: &[Evaluated]) -> serde_json::Value {
         })
         .collect();
     serde_json::json!({ "format": "isar-clutter-reproduction-values/1", "tables": tables })
-}
-
-/// Fits the stand-in plants to Table 16 ([`crate::physics::vegetation::calibration`]) with
-/// `samples` images per simulation from `seed`, writes the record to `out` (atomically) and
-/// prints each plant's factors, targets and achieved variances.
-///
-/// # Errors
-/// If Table 16 is missing from the reference, a simulation fails or `out` cannot be written.
-pub fn calibrate_plants(samples: usize, seed: u64, out: &Path) -> Result<()> {
-    use crate::physics::vegetation::calibration::{fit_variance, FitRecord};
-    let d = reference::Dissertation::load()?;
-    let t16 = d.table(16).context("Table 16 is not in the reference")?;
-    let targets: Vec<(String, [f64; 2])> = ["A", "B", "C"]
-        .iter()
-        .enumerate()
-        .map(|(c, p)| {
-            let v = |r| t16.number_at(r, c).context("Table 16 has an empty cell");
-            Ok((p.to_string(), [v(0)?, v(1)?]))
-        })
-        .collect::<Result<_>>()?;
-    let image_size = 64;
-    let grid = crate::experiment::MeasurementSpec::default().grid()?;
-    let opts = crate::physics::isar::ImagingOptions {
-        size: image_size,
-        ..Default::default()
-    };
-    let fits = fit_variance(&targets, (&grid, &opts), samples, seed)?;
-    for f in &fits {
-        eprintln!(
-            "plant {}: gain {:.4}, motion {:.4}; variance none {:.4} (target {}), light {:.4} \
-             (target {}); {} simulations",
-            f.plant,
-            f.gain,
-            f.motion,
-            f.achieved[0],
-            f.target[0],
-            f.achieved[1],
-            f.target[1],
-            f.evaluations
-        );
-    }
-    let record = FitRecord {
-        source: "dissertation Table 16 (mean pixel variance, plants A-C, no and light wind); \
-                 simulations as the spec's default vegetation_isar dataset (64 x 64, default \
-                 measurement grid)"
-            .into(),
-        command: format!("isar-clutter calibrate-plants --samples {samples} --seed {seed}"),
-        seed,
-        samples,
-        image_size,
-        fits,
-    };
-    crate::io::atomic::atomic_write(out, |w| {
-        serde_json::to_writer_pretty(&mut *w, &record)?;
-        w.write_all(b"\n")?;
-        Ok(())
-    })
-    .with_context(|| format!("writing {}", out.display()))
 }
 
 /// Records the wall time of the runs that filled `out` (`out/reproduce-run.json`), so that a

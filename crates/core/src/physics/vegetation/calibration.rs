@@ -1,6 +1,6 @@
-//! The stand-in plants calibrated to the dissertation's published statistics: two factors per
-//! plant, fitted by [`fit_variance`] and committed in `reproduction/plant_calibration.json`
-//! (compiled in), which [`super::PlantParams::preset`] applies to the physical presets.
+//! The stand-in plants calibrated to the dissertation's published statistics, committed in
+//! `reproduction/plant_calibration.json` (compiled in), which [`super::PlantParams::preset`]
+//! and [`super::SceneParams::preset`] apply to the physical presets.
 //!
 //! - `gain` multiplies every scatterer's amplitude (stems, branches, leaves; the double bounce,
 //!   the receiver noise and the background follow, being set relative to the clutter power),
@@ -8,12 +8,18 @@
 //! - `motion` multiplies the plant's response to wind (stem and branch flexibility, leaf
 //!   flutter), so the light-wind variance grows with it while the no-wind variance does not
 //!   (without wind only the residual jitter moves the scatterers).
+//! - `noise_db` (plants D and E) is the receiver noise relative to the static clutter power
+//!   (the preset's -40 dB where the record has none).
 //!
-//! Fitted to Table 16 (mean pixel variance, no and light wind, plants A-C): `motion` by
-//! bisection in `ln motion` until the ratio light / none of the simulated variances is the
-//! printed one, then `gain` from the no-wind variance. Plants D and E have no Table 16 row
-//! and keep factors 1. The other tables (1-2, 11-15, 20, 22, 24, 29-36) are not fitted: they
-//! check how far this calibration carries over.
+//! Plants A-C are fitted to Table 16 (mean pixel variance, no and light wind) by
+//! [`fit_variance`]: `motion` by bisection in `ln motion` until the ratio light / none of the
+//! simulated variances is the printed one, then `gain` from the no-wind variance. Plants D and
+//! E, which Table 16 does not cover, are fitted to the similarity tables of their
+//! measurements (Tables 29-36: the correlation matrix distance and the multiscale correlation
+//! RMSE of the three generation methods, light and medium wind) by the reproduction's
+//! `calibrate-plants` ([`SimilarityFit`]: `motion` and `noise_db`, gain 1, every fitted
+//! statistic being scale-free). The CNN tables (20, 22) and Figs. 73-74 are never fitted: they
+//! check how far the calibration carries over.
 
 use super::{PlantParams, SceneParams};
 use crate::physics::isar::{ImagingOptions, Measurement};
@@ -52,20 +58,77 @@ pub struct FitRecord {
     pub samples: usize,
     /// Image size of the simulations.
     pub image_size: usize,
-    /// Per plant.
+    /// Per plant A-C: the fit to Table 16.
     pub fits: Vec<PlantFit>,
+    /// Per plant D-E: the fit to the similarity tables (absent in records written before it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub similarity: Vec<SimilarityFit>,
+}
+
+/// How one table's cells compare with the printed ones: the root mean square of the cells'
+/// log residuals (see [`SimilarityFit`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TableResidual {
+    /// The dissertation's table.
+    pub table: u32,
+    /// Cells compared.
+    pub cells: usize,
+    /// With the physical preset (motion 1, noise -40 dB).
+    pub before: f64,
+    /// With the fitted factors.
+    pub after: f64,
+}
+
+/// One plant's fit to the similarity tables of its measurements (D: Tables 29-32, E: 33-36).
+/// The objective is the mean square over the tables' cells, both winds, of the log residual:
+/// `ln(tool / printed)`, and for a correlation matrix distance printed above 1/2
+/// `ln((1 - tool) / (1 - printed))` (its distance from 1, where it lies), minimised by
+/// Nelder-Mead in `(ln motion, noise_db / 10)` with the same seed at every step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimilarityFit {
+    /// The preset ("D", "E").
+    pub plant: String,
+    /// Wind-response factor.
+    pub motion: f64,
+    /// Receiver noise relative to the static clutter power (dB).
+    pub noise_db: f64,
+    /// The objective with the physical preset and with the fit.
+    pub objective: [f64; 2],
+    /// Per table fitted (and Tables 11-12, which summarise them), the residual.
+    pub tables: Vec<TableResidual>,
+    /// Runs of the similarity experiment the fit made.
+    pub evaluations: usize,
+    /// Samples each generation method drew per run.
+    pub generated_samples: usize,
+}
+
+/// The committed record, parsed.
+pub fn record() -> FitRecord {
+    serde_json::from_str(RECORD).expect("reproduction/plant_calibration.json parses")
 }
 
 /// The factors the presets use: `(gain, motion)` of `plant` from the committed record, `(1,
 /// 1)` where it has none.
 pub fn factors(plant: &str) -> (f64, f64) {
-    let record: FitRecord =
-        serde_json::from_str(RECORD).expect("reproduction/plant_calibration.json parses");
+    let record = record();
+    if let Some(f) = record.fits.iter().find(|f| f.plant == plant) {
+        return (f.gain, f.motion);
+    }
     record
-        .fits
+        .similarity
         .iter()
         .find(|f| f.plant == plant)
-        .map_or((1.0, 1.0), |f| (f.gain, f.motion))
+        .map_or((1.0, 1.0), |f| (1.0, f.motion))
+}
+
+/// The receiver noise (dB relative to the static clutter power) the committed record fits for
+/// `plant`, if any.
+pub fn noise_db(plant: &str) -> Option<f64> {
+    record()
+        .similarity
+        .iter()
+        .find(|f| f.plant == plant)
+        .map(|f| f.noise_db)
 }
 
 /// `p` with its amplitudes times `gain` and its wind response times `motion`.
@@ -162,11 +225,17 @@ mod tests {
 
     #[test]
     fn the_committed_record_parses_and_plants_without_a_fit_keep_factors_one() {
-        let record: FitRecord = serde_json::from_str(RECORD).unwrap();
+        let record = record();
         for f in &record.fits {
             assert!(f.gain > 0.0 && f.motion > 0.0, "{f:?}");
         }
-        assert_eq!(factors("E"), (1.0, 1.0));
+        for f in &record.similarity {
+            assert!(f.motion > 0.0 && f.noise_db.is_finite(), "{f:?}");
+            assert_eq!(factors(&f.plant), (1.0, f.motion));
+            assert_eq!(noise_db(&f.plant), Some(f.noise_db));
+        }
+        assert_eq!(factors("Z"), (1.0, 1.0));
+        assert_eq!(noise_db("A"), None);
     }
 
     #[test]

@@ -471,13 +471,13 @@ impl WindParams {
 
 impl SceneParams {
     /// Scene from a plant preset ("A".."E") and a wind preset
-    /// ("none", "light", "medium"), with -40 dB receiver noise, a -30 dB
-    /// background residual and 2 s between samples.
+    /// ("none", "light", "medium"), with -40 dB receiver noise (or the plant's calibrated
+    /// noise, [`calibration::noise_db`]), a -30 dB background residual and 2 s between samples.
     pub fn preset(plant: &str, wind: &str) -> Option<SceneParams> {
         Some(SceneParams {
             plant: PlantParams::preset(plant)?,
             wind: WindParams::preset(wind)?,
-            noise_db: -40.0,
+            noise_db: calibration::noise_db(plant).unwrap_or(-40.0),
             background_residual: 1e-3,
             sample_interval_s: 2.0,
         })
