@@ -204,6 +204,34 @@ fn original_samples_sets_the_originals_pool_and_the_test_set() {
     assert_eq!(ints("train_samples"), [60, 50]);
 }
 
+/// `location.test_all` (the dissertation's protocol): every network is tested on all the
+/// clutter samples (150 here), those it was fitted or trained on included.
+#[test]
+fn test_all_tests_every_network_on_every_clutter_sample() {
+    let (_dir, out) = location_run(
+        "  clutter: clutter
+  fit_samples: 100
+  original_samples: 120
+  test_all: true
+  methods: [original, method2]
+  generated_samples: 100
+  targets: [constant]
+  scr_db: [0]
+  repeats: 1
+  training: {epochs: 1, batch_size: 64}
+",
+    );
+    let t = read_table(&out, "location.parquet");
+    let tests: Vec<i64> = t
+        .column("test_samples")
+        .unwrap()
+        .i64()
+        .unwrap()
+        .into_no_null_iter()
+        .collect();
+    assert_eq!(tests, [150, 150]);
+}
+
 /// The columns of a training table that do not measure time.
 fn without_timings(df: &DataFrame) -> DataFrame {
     df.drop_many(["train_seconds", "train_samples_per_second"])

@@ -19,6 +19,11 @@ pub struct LocationSpec {
     /// 5.3.9.1 compares with "500 samples of the original data") shrinks it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub original_samples: Option<usize>,
+    /// Test every network on all the clutter samples, those the methods were fitted on and
+    /// `original` trained on included (the dissertation's protocol, 5.3.8: its networks were
+    /// tested on all 1000 originals), instead of on the samples after them (default false).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub test_all: bool,
     /// `original` and synthesis methods.
     pub methods: Vec<String>,
     /// Samples each method generates, half for training and half for validation (default 5000).

@@ -165,10 +165,11 @@ impl JobKind for LocationJob {
             n,
             derive_seed(plan.spec.seed, "cnn/location/split", clutter_id),
         );
-        // The fit part first, then the rest of `original`'s pool; the test set after both.
+        // The fit part first, then the rest of `original`'s pool; the test set after both (or
+        // every sample, with `test_all`).
         let fit = all.select(Axis(0), &perm[..lp.spec.fit_samples]);
         let pool = lp.spec.originals();
-        let test_clutter = all.select(Axis(0), &perm[pool..]);
+        let test_clutter = all.select(Axis(0), &perm[if lp.spec.test_all { 0 } else { pool }..]);
         // P_c: the mean over the image of the per-pixel variance of all originals.
         let mean = all.mean_axis(Axis(0)).expect("samples");
         let p_c = all
