@@ -182,6 +182,7 @@ pub fn document(
         let _ = writeln!(s);
     }
     constructions(&mut s);
+    calibration(&mut s);
     for t in &dissertation.tables {
         table_block(&mut s, t, evaluated);
     }
@@ -251,6 +252,78 @@ fn constructions(s: &mut String) {
     let _ = writeln!(s, "|---|---|---|---|");
     for (section, text, tool, other) in CONSTRUCTIONS {
         let _ = writeln!(s, "| {section} | {text} | {tool} | {other} |");
+    }
+    let _ = writeln!(s);
+}
+
+/// The section on the stand-in plants' calibration, from the committed fit record: the
+/// fitted parameters before and after, and each fitted table's residual.
+fn calibration(s: &mut String) {
+    use crate::physics::vegetation::calibration::record;
+    let r = record();
+    let _ = writeln!(
+        s,
+        "## The stand-in plants' calibration
+"
+    );
+    let _ = writeln!(
+        s,
+        "The measured plants are not public; the simulated stand-in's free parameters are \
+         fitted to published statistics (`{}`, seed {}, {} samples a simulation; record in \
+         reproduction/plant_calibration.json, method in docs/definitions.md section 10). No \
+         fit reads Tables 20 and 22 or Figs. 73-74.\n",
+        r.command, r.seed, r.samples
+    );
+    let _ = writeln!(
+        s,
+        "Plants A-C, to Table 16 (mean pixel variance; physical preset: gain 1, motion 1):\n"
+    );
+    let _ = writeln!(
+        s,
+        "| plant | gain | motion | Table 16 (none, light) | fitted (none, light) |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---|---|");
+    for f in &r.fits {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {}, {} | {}, {} |",
+            f.plant,
+            num(f.gain),
+            num(f.motion),
+            num(f.target[0]),
+            num(f.target[1]),
+            num(f.achieved[0]),
+            num(f.achieved[1])
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nPlants D and E, to Tables 29-36 (correlation matrix distance and multiscale \
+         correlation RMSE of the three generation methods, light and medium wind, {} samples \
+         generated a method; physical preset: motion 1, receiver noise -40 dB). The residual \
+         of a table is the root mean square over its cells of the log ratio tool / printed \
+         (for a distance printed above 1/2, of the distances from 1): 0.1 is about 10 %. \
+         Tables 11-12 repeat the fitted cells:\n",
+        r.similarity.first().map_or(0, |f| f.generated_samples)
+    );
+    let _ = writeln!(s, "| plant | motion | noise (dB) | objective before | after | residual by table (before -> after) |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
+    for f in &r.similarity {
+        let tables: Vec<String> = f
+            .tables
+            .iter()
+            .map(|t| format!("{}: {:.2} -> {:.2}", t.table, t.before, t.after))
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} |",
+            f.plant,
+            num(f.motion),
+            num(f.noise_db),
+            num(f.objective[0]),
+            num(f.objective[1]),
+            tables.join("; ")
+        );
     }
     let _ = writeln!(s);
 }
