@@ -469,6 +469,28 @@ fn upper_first(p: &str) -> String {
     })
 }
 
+/// Where a statement of the figures list is compared as a table's cells: the hypotheses'
+/// verdicts are Table 24's rows, the classification plots are Tables 20 and 22.
+fn elsewhere(quantity: &str) -> Option<&'static str> {
+    const AT: [(&str, &str); 3] = [
+        (
+            "Hypothesis ",
+            "compared as its row of Table 24 above (the same verdicts, 6.4).",
+        ),
+        (
+            "Zero-mean classification",
+            "compared in Table 20 above, with the headline under each protocol.",
+        ),
+        (
+            "Zero-mean, unit-variance classification",
+            "compared in Table 22 above, with the headline under each protocol.",
+        ),
+    ];
+    AT.iter()
+        .find(|(start, _)| quantity.starts_with(start))
+        .map(|(_, at)| *at)
+}
+
 /// The numbers the text states for figures, each with its quote.
 fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]) {
     if !dissertation.figures.is_empty() {
@@ -510,7 +532,9 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
                     t
                 })
                 .collect();
-            let tool = if tools.is_empty() {
+            let tool = if let (true, Some(at)) = (tools.is_empty(), elsewhere(&f.quantity)) {
+                at.to_string()
+            } else if tools.is_empty() {
                 "not yet computed by `reproduce`.".to_string()
             } else {
                 tools.join(" ")
