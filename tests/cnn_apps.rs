@@ -166,31 +166,39 @@ fn target_location_goes_from_chance_to_certain_with_the_signal_to_clutter_ratio(
         .is_file());
 }
 
-/// `location.original_samples`: `original` trains and validates on that many originals (the
-/// fit part first), and every method is tested on the samples after them.
-#[test]
-fn original_samples_sets_the_originals_pool_and_the_test_set() {
-    let (_dir, out) = location_run(
+/// A location run of 150 clutter samples: methods fitted on 100, `original` on 120, one
+/// training each of `original` and Method 2; `extra` adds keys to the section.
+fn originals_pool_run(extra: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    location_run(&format!(
         "  clutter: clutter
   fit_samples: 100
   original_samples: 120
-  methods: [original, method2]
+{extra}  methods: [original, method2]
   generated_samples: 100
   targets: [constant]
   scr_db: [0]
   repeats: 1
-  training: {epochs: 1, batch_size: 64}
-",
-    );
+  training: {{epochs: 1, batch_size: 64}}
+"
+    ))
+}
+
+/// The integer column `c` of `t`.
+fn ints(t: &DataFrame, c: &str) -> Vec<i64> {
+    t.column(c)
+        .unwrap()
+        .i64()
+        .unwrap()
+        .into_no_null_iter()
+        .collect()
+}
+
+/// `location.original_samples`: `original` trains and validates on that many originals (the
+/// fit part first), and every method is tested on the samples after them.
+#[test]
+fn original_samples_sets_the_originals_pool_and_the_test_set() {
+    let (_dir, out) = originals_pool_run("");
     let t = read_table(&out, "location.parquet");
-    let ints = |c: &str| -> Vec<i64> {
-        t.column(c)
-            .unwrap()
-            .i64()
-            .unwrap()
-            .into_no_null_iter()
-            .collect()
-    };
     let methods: Vec<String> = t
         .column("method")
         .unwrap()
@@ -200,36 +208,20 @@ fn original_samples_sets_the_originals_pool_and_the_test_set() {
         .map(|m| m.unwrap_or_default().to_string())
         .collect();
     assert_eq!(methods, ["original", "method2"]);
-    assert_eq!(ints("test_samples"), [30, 30]);
-    assert_eq!(ints("train_samples"), [60, 50]);
+    assert_eq!(ints(&t, "test_samples"), [30, 30]);
+    assert_eq!(ints(&t, "train_samples"), [60, 50]);
 }
 
 /// `location.test_all` (the dissertation's protocol): every network is tested on all the
 /// clutter samples (150 here), those it was fitted or trained on included.
 #[test]
 fn test_all_tests_every_network_on_every_clutter_sample() {
-    let (_dir, out) = location_run(
-        "  clutter: clutter
-  fit_samples: 100
-  original_samples: 120
-  test_all: true
-  methods: [original, method2]
-  generated_samples: 100
-  targets: [constant]
-  scr_db: [0]
-  repeats: 1
-  training: {epochs: 1, batch_size: 64}
+    let (_dir, out) = originals_pool_run(
+        "  test_all: true
 ",
     );
     let t = read_table(&out, "location.parquet");
-    let tests: Vec<i64> = t
-        .column("test_samples")
-        .unwrap()
-        .i64()
-        .unwrap()
-        .into_no_null_iter()
-        .collect();
-    assert_eq!(tests, [150, 150]);
+    assert_eq!(ints(&t, "test_samples"), [150, 150]);
 }
 
 /// The columns of a training table that do not measure time.

@@ -102,9 +102,12 @@ pub struct SimilarityFit {
     pub generated_samples: usize,
 }
 
-/// The committed record, parsed.
-pub fn record() -> FitRecord {
-    serde_json::from_str(RECORD).expect("reproduction/plant_calibration.json parses")
+/// The committed record, parsed once.
+pub fn record() -> &'static FitRecord {
+    static PARSED: std::sync::OnceLock<FitRecord> = std::sync::OnceLock::new();
+    PARSED.get_or_init(|| {
+        serde_json::from_str(RECORD).expect("reproduction/plant_calibration.json parses")
+    })
 }
 
 /// The factors the presets use: `(gain, motion)` of `plant` from the committed record, `(1,
