@@ -1,7 +1,8 @@
 //! The run's tables assembled by streaming: every table's fragments (the job store's packs and
 //! the jobs' status rows) are appended in plan order to a Parquet writer, a row group at a time,
 //! so that a merge holds at most one row group per table and the fragments of the jobs in
-//! flight, however many jobs the plan has.
+//! flight, however many jobs the plan has (and of the rows written, only each column chunk's
+//! footer entry: [`GroupWriter`]).
 //!
 //! The result is, byte for byte, the file that concatenating every fragment in memory and
 //! writing it with polars' writer a row group of [`ROW_GROUP`] rows at a time gives (the oracle
@@ -16,19 +17,20 @@
 //! 100,000 jobs waited whole for its single group.
 
 use crate::io::atomic::Staged;
+use crate::io::groups::{Encoding, GroupWriter};
 use anyhow::{bail, Context, Result};
-use polars::io::parquet::write::BatchedWriter;
 use polars::prelude::{
-    Column, DataFrame, DataType, IntoColumn, ParquetCompression, ParquetWriter, PlSmallStr,
-    StringChunked,
+    Column, DataFrame, DataType, IntoColumn, ParquetCompression, PlSmallStr, StringChunked,
 };
 use std::path::Path;
 
 /// The row-group size the tables are written with (polars' default is `512 * 512`; see the
 /// module's note). 65,536 rows of the largest table, `analysis_maps`, are about 1 MB of
 /// Parquet, a usual size for readers (DuckDB writes 122,880 rows a group). Smaller is not
-/// leaner: the writer keeps every group's metadata (about 1.5 KB a column) for the footer,
-/// and with 32,768 rows a 30,000-job merge peaked at 158 MB instead of 142 MB.
+/// leaner: the writer keeps every group's footer entry (a few hundred bytes a column; polars'
+/// own writer kept about 2.4 KB more, see [`GroupWriter`]) until the end, and larger groups
+/// cost more in flight (with polars' writer, a 30,000-job merge peaked at 158 MB with 32,768
+/// rows, 157 MB with 65,536, 271 MB with 262,144).
 pub const ROW_GROUP: usize = 65_536;
 
 /// What the records say of one table before any fragment is read.
@@ -181,39 +183,7 @@ pub struct Sink {
     /// Fragments pushed since the last [`compact`].
     uncompacted: usize,
     groups: std::collections::VecDeque<usize>,
-    writer: BatchedWriter<Shared>,
-    file: Shared,
-}
-
-/// The staged file a [`BatchedWriter`] writes into, shared so that it can be committed after
-/// the writer's footer (the writer does not hand its file back).
-#[derive(Clone)]
-struct Shared(std::sync::Arc<std::sync::Mutex<Option<Staged>>>);
-
-impl std::io::Write for Shared {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        match self
-            .0
-            .lock()
-            .map_err(|_| std::io::Error::other("poisoned"))?
-            .as_mut()
-        {
-            Some(f) => f.write(buf),
-            None => Err(std::io::Error::other("the table was committed already")),
-        }
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        match self
-            .0
-            .lock()
-            .map_err(|_| std::io::Error::other("poisoned"))?
-            .as_mut()
-        {
-            Some(f) => f.flush(),
-            None => Ok(()),
-        }
-    }
+    writer: GroupWriter<Staged>,
 }
 
 impl Sink {
@@ -223,15 +193,13 @@ impl Sink {
     /// # Errors
     /// If the writer cannot be made for these columns.
     pub fn new(out: &Path, name: &str, widest: &DataFrame, rows: usize) -> Result<Sink> {
-        let file = Shared(std::sync::Arc::new(std::sync::Mutex::new(Some(
+        let writer = GroupWriter::new(
             Staged::new(&out.join(format!("{name}.parquet"))),
-        ))));
-        let writer = ParquetWriter::new(file.clone())
-            .with_row_group_size(Some(ROW_GROUP))
-            .with_compression(ParquetCompression::Snappy)
-            .set_parallel(false)
-            .batched(widest.schema())
-            .with_context(|| format!("starting {name}.parquet"))?;
+            widest.schema().clone(),
+            Encoding {
+                compression: ParquetCompression::Snappy,
+            },
+        );
         Ok(Sink {
             name: name.to_string(),
             columns: widest
@@ -244,7 +212,6 @@ impl Sink {
             uncompacted: 0,
             groups: row_groups(rows).into(),
             writer,
-            file,
         })
     }
 
@@ -325,7 +292,7 @@ impl Sink {
             let mut group = group.expect("a group of at least one row");
             group.rechunk_mut();
             self.writer
-                .write_batch(&group)
+                .write(&group)
                 .with_context(|| format!("writing {}.parquet", self.name))?;
             self.pending_rows -= size;
             self.groups.pop_front();
@@ -350,18 +317,8 @@ impl Sink {
         }
         self.writer
             .finish()
-            .with_context(|| format!("writing {}.parquet", self.name))?;
-        drop(self.writer);
-        let staged = self
-            .file
-            .0
-            .lock()
-            .map_err(|_| anyhow::anyhow!("writing {}.parquet: lock poisoned", self.name))?
-            .take();
-        match staged {
-            Some(f) => f.commit(),
-            None => bail!("writing {}.parquet: committed twice", self.name),
-        }
+            .with_context(|| format!("writing {}.parquet", self.name))?
+            .commit()
     }
 }
 
@@ -503,6 +460,7 @@ impl Sinks {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use polars::prelude::ParquetWriter;
     use rand::{RngExt, SeedableRng};
 
     /// The in-memory assembly the tables had up to store schema 2: fragments stacked in order,

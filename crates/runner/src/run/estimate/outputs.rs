@@ -26,9 +26,10 @@ const PACK_ROW: f64 = 40.0;
 /// Rows of the small tables (summary, filter lags, similarity, model order, jobs) a job adds.
 const SMALL_ROWS: f64 = 100.0;
 /// Bytes of the plan a job takes (with what else grows with the jobs: their store keys, the
-/// allocator's share). Measured: peak RSS of `run` of the tiny sweep of BENCHMARKS.md (issue
-/// 31), 120 MB at 10,000 jobs and 288 MB at 100,000: 1.9 KB a job.
-const PLAN_JOB: f64 = 2e3;
+/// allocator's share, each table's footer entries). Measured: peak RSS of `run` of the tiny
+/// sweep of BENCHMARKS.md ("Scale: the tables' footers without polars' page records"), 112 MB
+/// at 10,000 jobs and 250 MB at 100,000: 1.5 KB a job.
+const PLAN_JOB: f64 = 1.5e3;
 /// What the merge holds at most besides the plan (a row group of every table being written,
 /// the jobs being read, the binary): the same two runs' intercept, about 100 MB.
 const MERGE_HELD: f64 = 100e6;
