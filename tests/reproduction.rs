@@ -288,3 +288,87 @@ fn cnn_tables_read_every_repeat_under_both_protocols() {
     assert_eq!(text.matches("### Held-out testing").count(), 2);
     assert_eq!(text.matches("Headline:").count(), 4);
 }
+
+/// Fig. 74's ordering statements read from small runs of a stochastic-target spec under the
+/// reproduction's name (64 x 64 clutter, 5 methods, 2 SCR points, one epoch, 2 repeats): each
+/// link is the difference of two methods' mean test accuracies over the SCR points, read from
+/// `location.parquet` of the same repeat, and its verdict is `ordering holds` exactly where
+/// that difference is positive.
+#[test]
+fn fig_74_links_are_differences_of_mean_accuracy_over_the_scr_points() {
+    use polars::prelude::*;
+    let dir = tempfile::tempdir().unwrap();
+    let specs = dir.path().join("specs");
+    std::fs::create_dir_all(&specs).unwrap();
+    let name = rep::cnn::STOCHASTIC;
+    std::fs::write(
+        specs.join(format!("{name}.yaml")),
+        format!(
+            "name: {name}\nseed: 5\ndatasets:\n\
+             \x20 - {{id: clutter, kind: filtered_noise, family: exponential, alpha_h: 2.0, alpha_v: 0.5, size: [64, 64], samples: 60}}\n\
+             analysis:\n  levels: 2\nlocation:\n  clutter: clutter\n  fit_samples: 20\n\
+             \x20 methods: [original, uncorrelated, method1, method2, full_covariance]\n\
+             \x20 generated_samples: 40\n  targets: [stochastic]\n  scr_db: [0, 20]\n  repeats: 1\n\
+             \x20 training: {{epochs: 1, batch_size: 16}}\n"
+        ),
+    )
+    .unwrap();
+    let coverage = rep::Coverage {
+        recipes: Vec::new(),
+        statements: rep::cnn::stochastic_location(),
+    };
+    let opts = rep::Options {
+        out: dir.path().join("out"),
+        specs,
+        repeats: 2,
+        threads: 2,
+        write_only: false,
+        quiet: true,
+    };
+    let runs = rep::run_all(&opts, &coverage).unwrap();
+    assert_eq!(runs.len(), 1);
+    assert_eq!(runs[0].runs.len(), 2, "two repeats");
+    // The mean test accuracy (%) of `method` in a run, read here directly.
+    let mean = |folder: &Path, method: &str| -> f64 {
+        let file = std::fs::File::open(folder.join("location.parquet")).unwrap();
+        let df = ParquetReader::new(file).finish().unwrap();
+        let m = df.column("method").unwrap().str().unwrap().clone();
+        let a = df.column("test_accuracy").unwrap().f64().unwrap().clone();
+        let v: Vec<f64> = m
+            .iter()
+            .zip(a.iter())
+            .filter(|(m, _)| *m == Some(method))
+            .map(|(_, a)| a.unwrap() * 100.0)
+            .collect();
+        assert_eq!(v.len(), 2, "two SCR points of {method}");
+        v.iter().sum::<f64>() / 2.0
+    };
+    let dissertation = rep::reference::Dissertation::load().unwrap();
+    let mut tables = rep::extract::Tables::default();
+    for (st, (better, worse)) in coverage.statements.iter().zip([
+        ("uncorrelated", "original"),
+        ("method1", "uncorrelated"),
+        ("method2", "method1"),
+        ("full_covariance", "method2"),
+    ]) {
+        let stated = rep::evaluate_statement(st, &dissertation, &runs, &mut tables).unwrap();
+        let diffs: Vec<f64> = runs[0]
+            .runs
+            .iter()
+            .map(|(_, f)| mean(f, better) - mean(f, worse))
+            .collect();
+        let want = (diffs[0] + diffs[1]) / 2.0;
+        assert!(
+            (stated.tool.mean - want).abs() < 1e-9,
+            "{better} - {worse}: {} against {want}",
+            stated.tool.mean
+        );
+        let verdict = if want > 0.0 {
+            Verdict::OrderingHolds
+        } else {
+            Verdict::Differs
+        };
+        assert_eq!(stated.verdict, Some(verdict), "{better} - {worse}");
+        assert!(stated.quantity.starts_with("Stochastic target location"));
+    }
+}

@@ -507,6 +507,8 @@ pub fn evaluate_statement(
         }
         (None, Some(b)) if tool.mean < b => Some(Verdict::Matches),
         (None, Some(_)) => Some(Verdict::Differs),
+        (None, None) if st.ordering && tool.mean > 0.0 => Some(Verdict::OrderingHolds),
+        (None, None) if st.ordering => Some(Verdict::Differs),
         (None, None) => None,
     };
     Ok(Stated {
