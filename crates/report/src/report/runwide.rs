@@ -6,7 +6,7 @@ use super::figures;
 use super::{rel, Figure, Task};
 use crate::io::results::{self, col, Table};
 use anyhow::{Context, Result};
-use polars::prelude::DataType;
+use polars::prelude::{ArrowDataType, DataType, ParquetReader, SerReader, StringChunked};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -129,8 +129,8 @@ type Series<'a> = BTreeMap<&'a str, Vec<(f64, f64)>>;
 
 /// A row of a table, read as display strings (`-` for null or a column the table lacks).
 struct Row<'a> {
-    /// The columns read, by name.
-    text: &'a [(&'a str, Vec<String>)],
+    /// The columns read, by name, as strings.
+    text: &'a [(&'a str, StringChunked)],
     /// The row.
     i: usize,
 }
@@ -140,8 +140,40 @@ impl Row<'_> {
         self.text
             .iter()
             .find(|(c, _)| *c == column)
-            .map_or("-", |(_, v)| v[self.i].as_str())
+            .and_then(|(_, v)| v.get(self.i))
+            .unwrap_or("-")
     }
+}
+
+/// The columns of `path` that `curve_figures` reads: `y`, those of `columns` the table has,
+/// and the swept parameters (the float columns the contract of `table` does not declare).
+/// Only these are read: a sweep of 100,000 jobs has 3 million rows of `analysis_summary`.
+fn curve_columns(
+    path: &Path,
+    table: Table,
+    y: &str,
+    columns: &[&str],
+) -> Result<Option<(Vec<String>, Vec<String>)>> {
+    let Ok(file) = std::fs::File::open(path) else {
+        return Ok(None);
+    };
+    let schema = ParquetReader::new(file)
+        .schema()
+        .with_context(|| format!("reading the columns of {}", path.display()))?;
+    let axes: Vec<String> = schema
+        .iter()
+        .filter(|(name, field)| {
+            !table.columns.contains(&name.as_str()) && field.dtype() == &ArrowDataType::Float64
+        })
+        .map(|(name, _)| name.to_string())
+        .collect();
+    let read: Vec<String> = std::iter::once(y)
+        .chain(columns.iter().copied())
+        .filter(|c| schema.contains(c))
+        .map(str::to_string)
+        .chain(axes.iter().cloned())
+        .collect();
+    Ok(Some((axes, read)))
 }
 
 /// Draws `y` against every numeric swept column of `file`: `pick` maps a row (of which it reads
@@ -158,32 +190,25 @@ fn curve_figures(
     pick: &dyn Fn(&Row) -> Option<(String, String)>,
 ) -> Result<Vec<Task>> {
     let path = table.path(dir);
-    let Some(df) = crate::io::parquet::read_parquet(&path)? else {
+    let Some((axes, read)) = curve_columns(&path, table, y, columns)? else {
         return Ok(vec![]);
     };
-    let axes: Vec<String> = df
-        .columns()
-        .iter()
-        .filter(|c| {
-            // A column the contract does not declare is a swept parameter.
-            !table.columns.contains(&c.name().as_str()) && c.dtype() == &DataType::Float64
-        })
-        .map(|c| c.name().to_string())
-        .collect();
     if axes.is_empty() {
         return Ok(vec![]);
     }
-    let text: Vec<(&str, Vec<String>)> = columns
+    let file = std::fs::File::open(&path).with_context(|| format!("opening {}", path.display()))?;
+    let df = ParquetReader::new(file)
+        .with_columns(Some(read))
+        .finish()
+        .with_context(|| format!("reading {}", path.display()))?;
+    let text: Vec<(&str, StringChunked)> = columns
         .iter()
         .filter_map(|&name| df.column(name).ok().map(|c| (name, c)))
-        .map(|(name, c)| -> Result<(&str, Vec<String>)> {
-            let s = c.cast(&DataType::String)?;
-            let v = s
-                .str()?
-                .iter()
-                .map(|v| v.unwrap_or("-").to_string())
-                .collect();
-            Ok((name, v))
+        .map(|(name, c)| -> Result<(&str, StringChunked)> {
+            Ok((
+                name,
+                c.cast(&DataType::String)?.str()?.rechunk().into_owned(),
+            ))
         })
         .collect::<Result<_>>()?;
     let yv: Vec<Option<f64>> = df
@@ -192,13 +217,20 @@ fn curve_figures(
         .f64()?
         .iter()
         .collect();
-    // Each row's figure and series, whatever the axis.
-    let picked: Vec<Option<(String, String)>> = (0..df.height())
+    // Each row's (figure, series), whatever the axis: an index into `keys`, the distinct
+    // pairs (a few per dataset), not a pair of strings a row.
+    let mut keys: Vec<(String, String)> = Vec::new();
+    let mut index: BTreeMap<(String, String), u32> = BTreeMap::new();
+    let picked: Vec<Option<u32>> = (0..df.height())
         .map(|i| {
-            yv[i]
+            let key = yv[i]
                 .is_some()
                 .then(|| pick(&Row { text: &text, i }))
-                .flatten()
+                .flatten()?;
+            Some(*index.entry(key).or_insert_with_key(|k| {
+                keys.push(k.clone());
+                keys.len() as u32 - 1
+            }))
         })
         .collect();
     let mut out = vec![];
@@ -206,9 +238,10 @@ fn curve_figures(
         let x: Vec<Option<f64>> = df.column(&axis)?.f64()?.iter().collect();
         let mut groups: BTreeMap<&str, Series> = BTreeMap::new();
         for i in 0..df.height() {
-            let (Some(xv), Some(v), Some((figure, series))) = (x[i], yv[i], &picked[i]) else {
+            let (Some(xv), Some(v), Some(k)) = (x[i], yv[i], picked[i]) else {
                 continue;
             };
+            let (figure, series) = &keys[k as usize];
             groups
                 .entry(figure)
                 .or_default()
