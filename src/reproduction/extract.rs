@@ -653,7 +653,7 @@ pub fn statements() -> Vec<Statement> {
             .map(|m| (at("original"), at(m)))
             .to_vec()
     };
-    let mut v = vec![
+    vec![
         Statement {
             quantity: "Constant target location",
             terms: gain(GAIN, col::SCR_50_DB),
@@ -706,7 +706,5 @@ pub fn statements() -> Vec<Statement> {
             differs_because: MODEL_ORDER,
             ordering: false,
         },
-    ];
-    v.extend(super::cnn::stochastic_location());
-    v
+    ]
 }

@@ -58,7 +58,10 @@ impl Coverage {
     pub fn all() -> Coverage {
         Coverage {
             recipes: all_recipes(),
-            statements: extract::statements(),
+            statements: extract::statements()
+                .into_iter()
+                .chain(cnn::stochastic_location())
+                .collect(),
         }
     }
 

@@ -5,7 +5,7 @@
 
 use crate::io::results::{self, col, Table};
 use anyhow::{bail, Context, Result};
-use polars::prelude::{DataFrame, DataType};
+use polars::prelude::{DataFrame, DataType, StringChunked};
 use std::collections::{BTreeSet, HashMap};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -148,6 +148,81 @@ pub(super) fn strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>>
     Ok(s.str()?.iter().map(|v| v.map(str::to_string)).collect())
 }
 
+/// A column read as display strings in place (`None` for null): a row's value is borrowed
+/// with `get`, not copied (a sweep of 100,000 jobs has 3 million rows of `analysis_summary`).
+pub(super) fn texts(df: &DataFrame, name: &str) -> Result<StringChunked> {
+    let col = df
+        .column(name)
+        .with_context(|| format!("no column {name:?}"))?;
+    Ok(col.cast(&DataType::String)?.str()?.rechunk().into_owned())
+}
+
+/// The rows of a pivoted table, found in one pass over the kept rows of its table without
+/// keeping their keys: a key (the key columns' values, null as `-`) is known by a 128-bit hash
+/// of it, so a table of millions of rows holds a number a row, not strings.
+struct Pivoted {
+    /// The pivoted row of each table row, in order of first appearance (`u32::MAX`: not kept).
+    row_of: Vec<u32>,
+    /// Per pivoted row: whether it holds a value of a job the limit keeps (or of no job).
+    marked: Vec<bool>,
+    /// Per key column: whether any kept row has a value other than `-` in it.
+    set: Vec<bool>,
+    /// The pivot's values (null as `null_label`), in order of first appearance.
+    columns: Vec<String>,
+}
+
+/// The hash identifying a key: two SipHash passes with different prefixes.
+fn key_hash(key_cols: &[StringChunked], i: usize) -> u128 {
+    use std::hash::{Hash, Hasher};
+    let half = |salt: u8| {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        salt.hash(&mut h);
+        for c in key_cols {
+            c.get(i).unwrap_or("-").hash(&mut h);
+        }
+        h.finish()
+    };
+    (u128::from(half(0)) << 64) | u128::from(half(1))
+}
+
+/// [`Pivoted`] of the rows `keep` selects.
+fn pivoted_rows(
+    key_cols: &[StringChunked],
+    pivot_col: &StringChunked,
+    null_label: &str,
+    keep: &[bool],
+    job_col: Option<&StringChunked>,
+    limit: Option<RowLimit>,
+) -> Pivoted {
+    let mut out = Pivoted {
+        row_of: vec![u32::MAX; keep.len()],
+        marked: Vec::new(),
+        set: vec![false; key_cols.len()],
+        columns: Vec::new(),
+    };
+    let mut ids: HashMap<u128, u32> = HashMap::new();
+    let mut seen: std::collections::HashSet<&str> = std::collections::HashSet::new();
+    for i in (0..keep.len()).filter(|&i| keep[i]) {
+        let n = out.marked.len() as u32;
+        let r = *ids.entry(key_hash(key_cols, i)).or_insert_with(|| {
+            out.marked.push(false);
+            n
+        });
+        out.row_of[i] = r;
+        for (k, c) in key_cols.iter().enumerate() {
+            out.set[k] |= c.get(i).unwrap_or("-") != "-";
+        }
+        if let (Some(jobs), Some(limit)) = (job_col, limit) {
+            out.marked[r as usize] |= jobs.get(i).is_none_or(|j| limit.jobs.contains(j));
+        }
+        let p = pivot_col.get(i).unwrap_or(null_label);
+        if seen.insert(p) {
+            out.columns.push(p.to_string());
+        }
+    }
+    out
+}
+
 /// A column read as f64.
 pub(super) fn floats(df: &DataFrame, name: &str) -> Result<Vec<Option<f64>>> {
     let col = df
@@ -216,7 +291,8 @@ pub(super) struct Rendered {
 /// # Errors
 /// As [`render`].
 ///
-/// Long because it pivots, labels and lays out the table in one pass over its rows, each step
+/// Long because it pivots, labels and lays out the table in two passes over its rows (the
+/// pivoted rows and the pivot's columns, then the shown rows' keys and cells), each step
 /// reading the maps of the one before.
 pub(super) fn render_limited(
     dir: &Path,
@@ -271,58 +347,29 @@ pub(super) fn render_limited(
             keys.push(n.clone());
         }
     }
-    let key_cols: Vec<Vec<Option<String>>> = keys
-        .iter()
-        .map(|k| strings(&df, k))
-        .collect::<Result<_>>()?;
-    let pivot_col = strings(&df, pivot)?;
+    let key_cols: Vec<StringChunked> = keys.iter().map(|k| texts(&df, k)).collect::<Result<_>>()?;
+    let pivot_col = texts(&df, pivot)?;
     let value_cols: Vec<Vec<Option<f64>>> = def
         .values
         .iter()
         .map(|v| floats(&df, v))
         .collect::<Result<_>>()?;
-    let label = |v: &Option<String>| v.clone().unwrap_or_else(|| def.null_label.to_string());
-    let mut row_order: Vec<Vec<String>> = vec![];
-    let mut row_index: HashMap<Vec<String>, usize> = HashMap::new();
-    let mut col_order: Vec<String> = vec![];
-    let mut cells: HashMap<(usize, usize, usize), f64> = HashMap::new();
     // With a limit: whether a row of the table holds a value of a job it keeps (or of no job).
     let job_col = match limit {
-        Some(_) if names.iter().any(|n| n == col::JOB) => Some(strings(&df, col::JOB)?),
+        Some(_) if names.iter().any(|n| n == col::JOB) => Some(texts(&df, col::JOB)?),
         _ => None,
     };
-    let mut marked: Vec<bool> = vec![];
-    for i in (0..df.height()).filter(|&i| keep[i]) {
-        let key: Vec<String> = key_cols
-            .iter()
-            .map(|c| c[i].clone().unwrap_or_else(|| "-".into()))
-            .collect();
-        let r = *row_index.entry(key.clone()).or_insert_with(|| {
-            row_order.push(key);
-            marked.push(false);
-            row_order.len() - 1
-        });
-        if let (Some(jobs), Some(limit)) = (&job_col, limit) {
-            marked[r] |= jobs[i].as_deref().is_none_or(|j| limit.jobs.contains(j));
-        }
-        let p = label(&pivot_col[i]);
-        let c = match col_order.iter().position(|x| *x == p) {
-            Some(c) => c,
-            None => {
-                col_order.push(p);
-                col_order.len() - 1
-            }
-        };
-        for (v, vals) in value_cols.iter().enumerate() {
-            if let Some(x) = vals[i] {
-                cells.entry((r, c, v)).or_insert(x);
-            }
-        }
-    }
+    let rows = pivoted_rows(
+        &key_cols,
+        &pivot_col,
+        def.null_label,
+        &keep,
+        job_col.as_ref(),
+        limit,
+    );
+    let col_order = rows.columns;
     // Drop key columns that are constant "-" (e.g. level for CMD rows).
-    let used: Vec<usize> = (0..keys.len())
-        .filter(|&k| row_order.iter().any(|r| r[k] != "-"))
-        .collect();
+    let used: Vec<usize> = (0..keys.len()).filter(|&k| rows.set[k]).collect();
     let mut header: Vec<String> = used.iter().map(|&k| keys[k].clone()).collect();
     for (v, name) in def.values.iter().enumerate() {
         for c in &col_order {
@@ -338,25 +385,57 @@ pub(super) fn render_limited(
             });
         }
     }
-    let total_rows = row_order.len();
+    let total_rows = rows.marked.len();
     let by_job = job_col.is_some() && limit.is_some_and(|l| total_rows > l.max_rows);
     let shown: Vec<usize> = match limit {
         Some(l) if total_rows > l.max_rows => (0..total_rows)
-            .filter(|&r| !by_job || marked[r])
+            .filter(|&r| !by_job || rows.marked[r])
             .take(l.max_rows)
             .collect(),
         _ => (0..total_rows).collect(),
     };
-    let body: Vec<Vec<String>> = shown
+    // The shown rows' keys and cells, from a second pass over the table's rows.
+    let mut at: Vec<Option<usize>> = vec![None; total_rows];
+    for (p, &r) in shown.iter().enumerate() {
+        at[r] = Some(p);
+    }
+    let mut shown_keys: Vec<Option<Vec<String>>> = vec![None; shown.len()];
+    let mut cells: HashMap<(usize, usize, usize), f64> = HashMap::new();
+    let col_index: HashMap<&str, usize> = col_order
         .iter()
-        .map(|&r| (r, &row_order[r]))
-        .map(|(r, key)| {
+        .enumerate()
+        .map(|(c, p)| (p.as_str(), c))
+        .collect();
+    for (i, &r) in rows.row_of.iter().enumerate() {
+        let Some(p) = at.get(r as usize).copied().flatten() else {
+            continue;
+        };
+        if shown_keys[p].is_none() {
+            shown_keys[p] = Some(
+                key_cols
+                    .iter()
+                    .map(|c| c.get(i).unwrap_or("-").to_string())
+                    .collect(),
+            );
+        }
+        let c = col_index[pivot_col.get(i).unwrap_or(def.null_label)];
+        for (v, vals) in value_cols.iter().enumerate() {
+            if let Some(x) = vals[i] {
+                cells.entry((p, c, v)).or_insert(x);
+            }
+        }
+    }
+    let body: Vec<Vec<String>> = shown_keys
+        .iter()
+        .enumerate()
+        .map(|(p, key)| {
+            let key = key.as_ref().expect("a shown row has a table row");
             let mut line: Vec<String> = used.iter().map(|&k| key[k].clone()).collect();
             for v in 0..def.values.len() {
                 for c in 0..col_order.len() {
                     line.push(
                         cells
-                            .get(&(r, c, v))
+                            .get(&(p, c, v))
                             .map_or_else(|| "-".into(), |&x| format_value(x)),
                     );
                 }
@@ -401,8 +480,9 @@ pub(super) fn kept_rows(
                 names.join(", ")
             );
         }
-        for (k, v) in keep.iter_mut().zip(strings(df, col)?) {
-            *k &= v.is_some_and(|v| accepted.contains(&v));
+        let values = texts(df, col)?;
+        for (k, v) in keep.iter_mut().zip(values.iter()) {
+            *k &= v.is_some_and(|v| accepted.iter().any(|a| a == v));
         }
     }
     Ok(keep.contains(&true).then_some(keep))
@@ -610,5 +690,65 @@ mod tests {
             (first.rows, first.total_rows, first.by_job),
             (10, 30, false)
         );
+    }
+
+    /// [`pivoted_rows`] against the obvious pass that keeps every key as strings, on seeded
+    /// random columns with nulls, `-` and repeated keys, some rows filtered out.
+    #[test]
+    fn pivoted_rows_match_the_exact_keys() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let n = 2000;
+        let mut pick = |choices: &[Option<&str>]| -> StringChunked {
+            (0..n)
+                .map(|_| choices[rng.random_range(0..choices.len())])
+                .collect()
+        };
+        let keys = vec![
+            pick(&[Some("a"), Some("b"), None, Some("-")]),
+            pick(&[Some("1"), Some("2"), Some("3")]),
+            pick(&[None, Some("-")]),
+        ];
+        let pivot = pick(&[Some("x"), None, Some("y")]);
+        let jobs = pick(&[Some("j1"), Some("j2"), Some("j3"), None]);
+        let keep: Vec<bool> = (0..n).map(|_| rng.random_bool(0.8)).collect();
+        let chosen: BTreeSet<&str> = ["j2"].into_iter().collect();
+        let limit = RowLimit {
+            jobs: &chosen,
+            max_rows: 5,
+        };
+        let got = pivoted_rows(&keys, &pivot, "null", &keep, Some(&jobs), Some(limit));
+        // The oracle: keys kept whole.
+        let mut order: Vec<Vec<String>> = vec![];
+        let mut marked: Vec<bool> = vec![];
+        let mut columns: Vec<String> = vec![];
+        for i in (0..n).filter(|&i| keep[i]) {
+            let key: Vec<String> = keys
+                .iter()
+                .map(|c| c.get(i).unwrap_or("-").to_string())
+                .collect();
+            let r = match order.iter().position(|k| *k == key) {
+                Some(r) => r,
+                None => {
+                    order.push(key);
+                    marked.push(false);
+                    order.len() - 1
+                }
+            };
+            assert_eq!(got.row_of[i], r as u32, "row {i}");
+            marked[r] |= jobs.get(i).is_none_or(|j| chosen.contains(j));
+            let p = pivot.get(i).unwrap_or("null").to_string();
+            if !columns.contains(&p) {
+                columns.push(p);
+            }
+        }
+        assert!((0..n).all(|i| keep[i] || got.row_of[i] == u32::MAX));
+        assert_eq!(got.marked, marked);
+        assert_eq!(got.columns, columns);
+        let set: Vec<bool> = (0..keys.len())
+            .map(|k| order.iter().any(|key| key[k] != "-"))
+            .collect();
+        assert_eq!(got.set, set);
+        assert_eq!(set, [true, true, false]);
     }
 }
