@@ -469,10 +469,11 @@ fn upper_first(p: &str) -> String {
     })
 }
 
-/// Where a statement of the figures list is compared as a table's cells: the hypotheses'
-/// verdicts are Table 24's rows, the classification plots are Tables 20 and 22.
+/// Where a statement of the figures list is compared as a table's cells (the hypotheses'
+/// verdicts are Table 24's rows, the classification plots are Tables 20 and 22), or why it is
+/// not a result to compare: a construction the tool's specs take as stated, or an example.
 fn elsewhere(quantity: &str) -> Option<&'static str> {
-    const AT: [(&str, &str); 3] = [
+    const AT: [(&str, &str); 9] = [
         (
             "Hypothesis ",
             "compared as its row of Table 24 above (the same verdicts, 6.4).",
@@ -484,6 +485,35 @@ fn elsewhere(quantity: &str) -> Option<&'static str> {
         (
             "Zero-mean, unit-variance classification",
             "compared in Table 22 above, with the headline under each protocol.",
+        ),
+        (
+            "Data behind the estimated directional correlations",
+            "a construction, not a result: experiments/table4_exponential.yaml and \
+             similarity_exponential.yaml analyse 1000 samples of 64 x 64 at 3 levels, as stated.",
+        ),
+        (
+            "Ocean current multiscale analysis",
+            "the ocean-current data are not public: experiments/surface_winds.yaml runs the same \
+             four-level analysis on public NOAA surface winds (132 months of 73 x 144; \
+             docs/definitions.md section 11), a substitute, not a reproduction.",
+        ),
+        (
+            "Target location grid",
+            "a construction, not a result: the tool's location experiments use the same 5 x 5 \
+             grid of 25 classes (docs/spec.md, \"Location per job\").",
+        ),
+        (
+            "Variance of the simulated clutter for the location experiment",
+            "a figure of inputs: the tool's location specs fit on 100 of 1000 simulated samples, \
+             the sample counts of the two panels.",
+        ),
+        (
+            "Example stochastic-target powers",
+            "example images, not a result: the tool's SCRs are the location specs' `scr_db`.",
+        ),
+        (
+            "Deep learning prediction accuracy improvement (location example)",
+            "the conclusion's restatement of Fig. 74: see its links above (5.3.9.3).",
         ),
     ];
     AT.iter()
