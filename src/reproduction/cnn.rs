@@ -128,6 +128,7 @@ pub fn stochastic_location() -> Vec<Statement> {
         computed,
         differs_because: "",
         ordering: true,
+        unit: Some("percentage points"),
     };
     let mut v = vec![
         link(

@@ -602,6 +602,8 @@ pub struct Statement {
     /// The text states only an ordering, `a` above `b` (no number): the verdict is
     /// `ordering holds` where the tool's mean is above zero, else `differs`.
     pub ordering: bool,
+    /// The unit of the tool's number where it is not the reference's (`None`: the same).
+    pub unit: Option<&'static str>,
 }
 
 /// The spec of Fig. 73's gain, networks tested on the originals they did not see.
@@ -663,6 +665,7 @@ pub fn statements() -> Vec<Statement> {
                 (experiments/cnn_location_gain.yaml, constant target)",
             differs_because: LOCATION,
             ordering: false,
+            unit: None,
         },
         Statement {
             quantity: "Constant target location",
@@ -671,6 +674,7 @@ pub fn statements() -> Vec<Statement> {
                 stays below 90 % up to +20 dB gives no value)",
             differs_because: "",
             ordering: false,
+            unit: None,
         },
         Statement {
             quantity: "Constant target location",
@@ -680,6 +684,7 @@ pub fn statements() -> Vec<Statement> {
                 the same gain at 50 % accuracy",
             differs_because: "",
             ordering: false,
+            unit: None,
         },
         Statement {
             quantity: "Constant target location",
@@ -687,6 +692,7 @@ pub fn statements() -> Vec<Statement> {
             computed: "under the dissertation's protocol, the gain at 90 % accuracy",
             differs_because: "",
             ordering: false,
+            unit: None,
         },
         Statement {
             quantity: "Half-resolution",
@@ -696,6 +702,7 @@ pub fn statements() -> Vec<Statement> {
                 over plants A-C, no and light wind, 2nd- and 4th-order models",
             differs_because: MODEL_ORDER,
             ordering: false,
+            unit: None,
         },
         Statement {
             quantity: "KL divergence improvement of the 4th-order",
@@ -705,6 +712,7 @@ pub fn statements() -> Vec<Statement> {
                 positive number: the 4th order is better)",
             differs_because: MODEL_ORDER,
             ordering: false,
+            unit: None,
         },
     ]
 }

@@ -440,6 +440,8 @@ pub struct Stated {
     pub computed: &'static str,
     /// Why it may differ.
     pub differs_because: &'static str,
+    /// The unit of the tool's number where it is not the reference's.
+    pub unit: Option<&'static str>,
     /// Repeats run.
     pub repeats: usize,
     /// Repeats that gave a value (those `tool` summarises).
@@ -521,6 +523,7 @@ pub fn evaluate_statement(
         verdict,
         computed: st.computed,
         differs_because: st.differs_because,
+        unit: st.unit,
         repeats,
         given,
     })

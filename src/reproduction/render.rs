@@ -549,9 +549,10 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
                         )
                     };
                     let mut t = format!(
-                        "the tool: {} ± {} {unit} over {over} ({}): {}.",
+                        "the tool: {} ± {} {} over {over} ({}): {}.",
                         num(st.tool.mean),
                         num(st.tool.sd),
+                        st.unit.unwrap_or(unit),
                         st.computed,
                         st.verdict
                             .map_or("no stated number to compare", Verdict::as_str),
