@@ -611,6 +611,23 @@ const GAIN: &str = "cnn_location_gain";
 /// The same under the dissertation's protocol (tested on all originals).
 const GAIN_DISSERTATION: &str = "cnn_location_gain_dissertation";
 
+/// A statement the text gives a number for (not an ordering), in the reference's unit.
+fn number(
+    quantity: &'static str,
+    terms: Vec<(Query, Query)>,
+    computed: &'static str,
+    differs_because: &'static str,
+) -> Statement {
+    Statement {
+        quantity,
+        terms,
+        computed,
+        differs_because,
+        ordering: false,
+        unit: None,
+    }
+}
+
 /// The statements the reproduction computes.
 pub fn statements() -> Vec<Statement> {
     // 3.2: half resolution improves the worst-case KL divergence by about 1 dB: the worst
@@ -656,63 +673,51 @@ pub fn statements() -> Vec<Statement> {
             .to_vec()
     };
     vec![
-        Statement {
-            quantity: "Constant target location",
-            terms: gain(GAIN, col::SCR_50_DB),
-            computed: "the SCR (dB) at which the mean test accuracy first reaches 50 % when \
+        number(
+            "Constant target location",
+            gain(GAIN, col::SCR_50_DB),
+            "the SCR (dB) at which the mean test accuracy first reaches 50 % when \
                 trained on 250 of 500 originals, minus the same for Methods 1 and 2 (fitted on \
                 100, 1000 generated training samples), averaged over the two methods \
                 (experiments/cnn_location_gain.yaml, constant target)",
-            differs_because: LOCATION,
-            ordering: false,
-            unit: None,
-        },
-        Statement {
-            quantity: "Constant target location",
-            terms: gain(GAIN, col::SCR_90_DB),
-            computed: "the same gain at 90 % accuracy (a repeat where the originals' network \
+            LOCATION,
+        ),
+        number(
+            "Constant target location",
+            gain(GAIN, col::SCR_90_DB),
+            "the same gain at 90 % accuracy (a repeat where the originals' network \
                 stays below 90 % up to +20 dB gives no value)",
-            differs_because: "",
-            ordering: false,
-            unit: None,
-        },
-        Statement {
-            quantity: "Constant target location",
-            terms: gain(GAIN_DISSERTATION, col::SCR_50_DB),
-            computed: "under the dissertation's protocol, every network tested on all 1000 \
+            "",
+        ),
+        number(
+            "Constant target location",
+            gain(GAIN_DISSERTATION, col::SCR_50_DB),
+            "under the dissertation's protocol, every network tested on all 1000 \
                 originals, those it saw included (experiments/cnn_location_gain_dissertation.yaml): \
                 the same gain at 50 % accuracy",
-            differs_because: "",
-            ordering: false,
-            unit: None,
-        },
-        Statement {
-            quantity: "Constant target location",
-            terms: gain(GAIN_DISSERTATION, col::SCR_90_DB),
-            computed: "under the dissertation's protocol, the gain at 90 % accuracy",
-            differs_because: "",
-            ordering: false,
-            unit: None,
-        },
-        Statement {
-            quantity: "Half-resolution",
+            "",
+        ),
+        number(
+            "Constant target location",
+            gain(GAIN_DISSERTATION, col::SCR_90_DB),
+            "under the dissertation's protocol, the gain at 90 % accuracy",
+            "",
+        ),
+        number(
+            "Half-resolution",
             terms,
-            computed: "worst-pixel KL divergence (dB, real part) at full resolution minus at \
+            "worst-pixel KL divergence (dB, real part) at full resolution minus at \
                 half resolution (experiments/model_order_half.yaml: 8 GHz x 25.5 degrees), mean \
                 over plants A-C, no and light wind, 2nd- and 4th-order models",
-            differs_because: MODEL_ORDER,
-            ordering: false,
-            unit: None,
-        },
-        Statement {
-            quantity: "KL divergence improvement of the 4th-order",
-            terms: orders,
-            computed: "mean-image KL divergence (dB, real part; Table 1) of the 2nd-order model \
+            MODEL_ORDER,
+        ),
+        number(
+            "KL divergence improvement of the 4th-order",
+            orders,
+            "mean-image KL divergence (dB, real part; Table 1) of the 2nd-order model \
                 minus the 4th-order model's, mean over plants A-C, no and light wind (a \
                 positive number: the 4th order is better)",
-            differs_because: MODEL_ORDER,
-            ordering: false,
-            unit: None,
-        },
+            MODEL_ORDER,
+        ),
     ]
 }
