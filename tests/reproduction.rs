@@ -17,16 +17,21 @@ fn header() -> render::Header {
     }
 }
 
-fn run(out: &Path, numbers: &[u32]) -> (rep::Coverage, Vec<rep::SpecRuns>) {
-    let recipes = rep::Coverage::tables(numbers);
-    let opts = rep::Options {
-        out: out.to_path_buf(),
-        specs: PathBuf::from("experiments"),
-        repeats: 2,
+/// The options of a quiet reproduction into `out` from the specs in `specs`, on 2 threads.
+fn options(out: PathBuf, specs: PathBuf, repeats: usize) -> rep::Options {
+    rep::Options {
+        out,
+        specs,
+        repeats,
         threads: 2,
         write_only: false,
         quiet: true,
-    };
+    }
+}
+
+fn run(out: &Path, numbers: &[u32]) -> (rep::Coverage, Vec<rep::SpecRuns>) {
+    let recipes = rep::Coverage::tables(numbers);
+    let opts = options(out.to_path_buf(), PathBuf::from("experiments"), 2);
     let runs = rep::run_all(&opts, &recipes).unwrap();
     (recipes, runs)
 }
@@ -149,14 +154,7 @@ fn every_covered_table_gives_the_numbers_the_document_records() {
             .collect(),
         statements: Vec::new(),
     };
-    let opts = rep::Options {
-        out: dir.path().to_path_buf(),
-        specs: PathBuf::from("experiments"),
-        repeats: 1,
-        threads: 2,
-        write_only: false,
-        quiet: true,
-    };
+    let opts = options(dir.path().to_path_buf(), PathBuf::from("experiments"), 1);
     let runs = rep::run_all(&opts, &recipes).unwrap();
     let doc = dir.path().join("reproduction.md");
     rep::write(&recipes, &runs, &doc, &header()).unwrap();
@@ -245,14 +243,7 @@ fn cnn_tables_read_every_repeat_under_both_protocols() {
         statements: Vec::new(),
     };
     assert!(coverage.recipes.iter().all(|r| r.runs_once()));
-    let opts = rep::Options {
-        out: dir.path().join("out"),
-        specs,
-        repeats: 5,
-        threads: 2,
-        write_only: false,
-        quiet: true,
-    };
+    let opts = options(dir.path().join("out"), specs, 5);
     let runs = rep::run_all(&opts, &coverage).unwrap();
     // Run once each, whatever `repeats` says: the spec repeats inside.
     assert!(runs.iter().all(|r| r.runs.len() == 1), "{runs:?}");
@@ -317,14 +308,7 @@ fn fig_74_links_are_differences_of_mean_accuracy_over_the_scr_points() {
         recipes: Vec::new(),
         statements: rep::cnn::stochastic_location(),
     };
-    let opts = rep::Options {
-        out: dir.path().join("out"),
-        specs,
-        repeats: 2,
-        threads: 2,
-        write_only: false,
-        quiet: true,
-    };
+    let opts = options(dir.path().join("out"), specs, 2);
     let runs = rep::run_all(&opts, &coverage).unwrap();
     assert_eq!(runs.len(), 1);
     assert_eq!(runs[0].runs.len(), 2, "two repeats");

@@ -8,7 +8,7 @@
 //! target (`experiments/cnn_location_stochastic.yaml`).
 
 use super::compare::Spread;
-use super::extract::{Key, Query, Recipe, Statement};
+use super::extract::{q, Key, Query, Recipe, Statement};
 use crate::io::results::{self, col};
 
 /// The spec of the dissertation's protocol.
@@ -41,14 +41,9 @@ pub fn accuracy(
     ];
     filters.extend(size.map(|n| (col::TRAIN_SIZE, Key::I(n))));
     Query {
-        spec,
-        table: results::CLASSIFICATION,
-        filters,
-        column: col::TEST_ACCURACY,
         scale: 100.0,
-        all_verified: false,
         each_row: true,
-        mean_rows: false,
+        ..q(spec, results::CLASSIFICATION, filters, col::TEST_ACCURACY)
     }
 }
 
@@ -98,17 +93,17 @@ pub const STOCHASTIC: &str = "cnn_location_stochastic";
 /// The mean test accuracy (%) of `method` over the SCR points of the stochastic target.
 fn stochastic_accuracy(method: &'static str) -> Query {
     Query {
-        spec: STOCHASTIC,
-        table: results::LOCATION,
-        filters: vec![
-            (col::TARGET, Key::S("stochastic")),
-            (col::METHOD, Key::S(method)),
-        ],
-        column: col::TEST_ACCURACY,
         scale: 100.0,
-        all_verified: false,
-        each_row: false,
         mean_rows: true,
+        ..q(
+            STOCHASTIC,
+            results::LOCATION,
+            vec![
+                (col::TARGET, Key::S("stochastic")),
+                (col::METHOD, Key::S(method)),
+            ],
+            col::TEST_ACCURACY,
+        )
     }
 }
 

@@ -73,7 +73,9 @@ impl Recipe {
     }
 }
 
-fn q(
+/// The query of `column` in the one row of `table` that `filters` select in a run of `spec`
+/// (scale 1, no flags).
+pub(super) fn q(
     spec: &'static str,
     table: Table,
     filters: Vec<(&'static str, Key)>,

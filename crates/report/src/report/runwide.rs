@@ -6,7 +6,9 @@ use super::figures;
 use super::{rel, Figure, Task};
 use crate::io::results::{self, col, Table};
 use anyhow::{Context, Result};
-use polars::prelude::{ArrowDataType, DataType, ParquetReader, SerReader, StringChunked};
+use polars::prelude::{
+    ArrowDataType, ArrowSchema, DataType, ParquetReader, SerReader, StringChunked,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -145,21 +147,16 @@ impl Row<'_> {
     }
 }
 
-/// The columns of `path` that `curve_figures` reads: `y`, those of `columns` the table has,
-/// and the swept parameters (the float columns the contract of `table` does not declare).
-/// Only these are read: a sweep of 100,000 jobs has 3 million rows of `analysis_summary`.
+/// The columns of a table of `schema` that `curve_figures` reads: `y`, those of `columns` the
+/// table has, and the swept parameters (the float columns the contract of `table` does not
+/// declare), returned apart as well. Only these are read: a sweep of 100,000 jobs has 3 million
+/// rows of `analysis_summary`.
 fn curve_columns(
-    path: &Path,
+    schema: &ArrowSchema,
     table: Table,
     y: &str,
     columns: &[&str],
-) -> Result<Option<(Vec<String>, Vec<String>)>> {
-    let Ok(file) = std::fs::File::open(path) else {
-        return Ok(None);
-    };
-    let schema = ParquetReader::new(file)
-        .schema()
-        .with_context(|| format!("reading the columns of {}", path.display()))?;
+) -> (Vec<String>, Vec<String>) {
     let axes: Vec<String> = schema
         .iter()
         .filter(|(name, field)| {
@@ -173,7 +170,7 @@ fn curve_columns(
         .map(str::to_string)
         .chain(axes.iter().cloned())
         .collect();
-    Ok(Some((axes, read)))
+    (axes, read)
 }
 
 /// Draws `y` against every numeric swept column of `file`: `pick` maps a row (of which it reads
@@ -190,14 +187,19 @@ fn curve_figures(
     pick: &dyn Fn(&Row) -> Option<(String, String)>,
 ) -> Result<Vec<Task>> {
     let path = table.path(dir);
-    let Some((axes, read)) = curve_columns(&path, table, y, columns)? else {
-        return Ok(vec![]);
-    };
-    if axes.is_empty() {
+    if !path.exists() {
         return Ok(vec![]);
     }
     let file = std::fs::File::open(&path).with_context(|| format!("opening {}", path.display()))?;
-    let df = ParquetReader::new(file)
+    let mut reader = ParquetReader::new(file);
+    let schema = reader
+        .schema()
+        .with_context(|| format!("reading the columns of {}", path.display()))?;
+    let (axes, read) = curve_columns(&schema, table, y, columns);
+    if axes.is_empty() {
+        return Ok(vec![]);
+    }
+    let df = reader
         .with_columns(Some(read))
         .finish()
         .with_context(|| format!("reading {}", path.display()))?;
