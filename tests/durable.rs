@@ -76,7 +76,10 @@ fn done_records(out: &Path) -> usize {
     fs::read_dir(out.join("jobs"))
         .map(|r| {
             r.flatten()
-                .filter(|e| e.path().join("job.pack").is_file())
+                .filter(|e| {
+                    e.path().join("job.pack").is_file()
+                        || e.path().extension().is_some_and(|x| x == "pack")
+                })
                 .count()
         })
         .unwrap_or(0)
@@ -403,7 +406,14 @@ fn results_of_another_build_are_merged_and_named() {
     let pack = fs::read_dir(out.join("jobs"))
         .unwrap()
         .flatten()
-        .map(|e| e.path().join("job.pack"))
+        .map(|e| {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "pack") {
+                p
+            } else {
+                p.join("job.pack")
+            }
+        })
         .find(|p| p.is_file())
         .unwrap();
     let bytes = fs::read(&pack).unwrap();
