@@ -76,11 +76,18 @@ fn done_records(out: &Path) -> usize {
     fs::read_dir(out.join("jobs"))
         .map(|r| {
             r.flatten()
-                .filter(|e| {
-                    e.path().join("job.pack").is_file()
-                        || e.path().extension().is_some_and(|x| x == "pack")
+                .map(|e| {
+                    let p = e.path();
+                    if p.join("job.pack").is_file() {
+                        1
+                    } else if p.is_dir() && e.file_name().len() == 2 {
+                        // Packs of jobs without files, by their keys' first two digits.
+                        fs::read_dir(&p).map_or(0, |r| r.flatten().count())
+                    } else {
+                        0
+                    }
                 })
-                .count()
+                .sum()
         })
         .unwrap_or(0)
 }
@@ -403,18 +410,15 @@ fn results_of_another_build_are_merged_and_named() {
     assert!(jobs(&out).iter().all(|j| j["computed_by"] == this.as_str()));
     // One pack as an older build wrote it: header (magic, record length, XXH3-128 of the
     // body), then the record (JSON) and the fragments.
+    // A job's folder holds `job.pack`; a job without files has its pack in a folder named
+    // by its key's first two digits.
     let pack = fs::read_dir(out.join("jobs"))
         .unwrap()
         .flatten()
-        .map(|e| {
-            let p = e.path();
-            if p.extension().is_some_and(|x| x == "pack") {
-                p
-            } else {
-                p.join("job.pack")
-            }
-        })
-        .find(|p| p.is_file())
+        .filter(|e| e.path().is_dir())
+        .flat_map(|e| fs::read_dir(e.path()).unwrap().flatten())
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|x| x == "pack"))
         .unwrap();
     let bytes = fs::read(&pack).unwrap();
     let len = u64::from_le_bytes(bytes[8..16].try_into().unwrap()) as usize;

@@ -229,6 +229,8 @@ pub fn merge_claimed(
     // Pass 1, the records: files put in place, the tables' layout, what failed or is missing.
     let mut layout = assembly::Layout::new(tables::table_names(plan));
     let order: Vec<usize> = (0..jobs.len()).collect();
+    // Bytes of each job's fragments (what reading it ahead holds), for the chunks of pass 2.
+    let mut weight = vec![0u64; jobs.len()];
     for chunk in order.chunks(256) {
         let states: Vec<(State, Option<DataFrame>)> = chunk
             .par_iter()
@@ -244,6 +246,7 @@ pub fn merge_claimed(
         for (&i, (state, row)) in chunk.iter().zip(states) {
             match state {
                 State::Done(d) => {
+                    weight[i] = d.fragments.iter().map(|f| f.bytes).sum();
                     for (n, f) in d.fragments.iter().enumerate() {
                         layout.stored(&f.table, f.columns, f.rows, i, n);
                     }
@@ -268,8 +271,7 @@ pub fn merge_claimed(
     let t_tables = Instant::now();
     let mut sinks = assembly::Sinks::new(open_tables(plan, out, keys, &layout)?, opts.threads > 1)?;
     let mut manifest = manifest::Manifest::start(plan, opts.threads, out)?;
-    let in_flight = (4 * opts.threads).max(8);
-    let chunks: Vec<&[usize]> = order.chunks(in_flight).collect();
+    let chunks = read_chunks(&order, &weight, (32 * opts.threads).max(64), 16 << 20);
     let read = |chunk: &[usize]| -> Result<Vec<Loaded>> {
         chunk
             .par_iter()
@@ -363,6 +365,31 @@ pub fn merge_claimed(
         ));
     }
     Ok(merged)
+}
+
+/// `order` cut into the chunks pass 2 reads ahead: consecutive jobs, at most `jobs` of them, and
+/// no more than one job past `bytes` of fragments (`weight`, a job's). Tiny jobs are read 64 at a
+/// time (8 at a time, the pool's threads met and woke each other 12,500 times in a merge of
+/// 100,000: `futex` was a tenth of its CPU samples), big ones one or a few at a time.
+fn read_chunks<'a>(
+    order: &'a [usize],
+    weight: &[u64],
+    jobs: usize,
+    bytes: u64,
+) -> Vec<&'a [usize]> {
+    let mut chunks = vec![];
+    let (mut start, mut held) = (0, 0u64);
+    for (n, &i) in order.iter().enumerate() {
+        held += weight[i];
+        if n + 1 - start >= jobs || held >= bytes {
+            chunks.push(&order[start..=n]);
+            (start, held) = (n + 1, 0);
+        }
+    }
+    if start < order.len() {
+        chunks.push(&order[start..]);
+    }
+    chunks
 }
 
 /// Hands the allocator's free memory back to the system every 64 calls (`n` counts them):
@@ -636,4 +663,26 @@ pub fn status(out: &Path) -> Result<String> {
         }
     )?;
     Ok(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::read_chunks;
+
+    #[test]
+    fn read_chunks_cover_the_order_bounded_by_jobs_and_bytes() {
+        let order: Vec<usize> = (0..10).collect();
+        let weight = [1, 1, 1, 50, 1, 1, 1, 1, 1, 1];
+        let chunks = read_chunks(&order, &weight, 4, 10);
+        assert_eq!(
+            chunks,
+            vec![&[0, 1, 2, 3][..], &[4, 5, 6, 7][..], &[8, 9][..]]
+        );
+        let chunks = read_chunks(&order, &weight, 100, 3);
+        assert_eq!(
+            chunks,
+            vec![&[0, 1, 2][..], &[3][..], &[4, 5, 6][..], &[7, 8, 9][..]]
+        );
+        assert!(read_chunks(&[], &[], 4, 10).is_empty());
+    }
 }

@@ -13,7 +13,7 @@
 //! A job's folder holds the files the job wrote (`maps/<id>/...`, `models/<id>/...`,
 //! `samples/...`, `kspace/...`, the same relative paths as in the output folder) and, written
 //! last, one pack `job.pack` ([`PACK`]); a job that wrote no files has no folder, its pack is
-//! `OUT/jobs/<key>.pack` ([`flat_pack`]). The pack holds its record (id, kind, key, schema, timings, every
+//! `OUT/jobs/<two digits>/<key>.pack` ([`flat_pack`]). The pack holds its record (id, kind, key, schema, timings, every
 //! file with its size and content hash) and its table fragments (Parquet), one file per job
 //! however many tables it fills. A failed job leaves `failed.json` with its error instead, and
 //! is run again by the next run. The pack is written through the atomic writer; packs are
@@ -134,13 +134,17 @@ pub fn job_dir(out: &Path, key: &str) -> PathBuf {
     out.join("jobs").join(key)
 }
 
-/// The pack of a finished job that wrote no files (`jobs/<key>.pack`): beside the job folders,
+/// The pack of a finished job that wrote no files (`jobs/<first two digits of the key>/<key>.pack`):
 /// not in a folder of its own. A folder costs the file system a directory inode (ext4 places
 /// each with its Orlov search over the block groups), more than the pack itself: in a sweep of
-/// tiny jobs the `mkdir` was 18 % of a shard's CPU (`perf`). A job with files keeps them and
-/// its pack in `jobs/<key>/` ([`PACK`]).
+/// tiny jobs the `mkdir` was 18 % of a shard's CPU (`perf`). The packs are spread over 256
+/// folders by their keys' first two digits: a file is created and renamed under its folder's
+/// lock, and with every pack in `jobs/` the pool's threads took turns at that one lock (spinning
+/// on it was 18 % of a shard's CPU). A job with files keeps them and its pack in `jobs/<key>/`
+/// ([`PACK`]).
 pub fn flat_pack(out: &Path, key: &str) -> PathBuf {
-    out.join("jobs").join(format!("{key}.pack"))
+    let fan = key.get(..2).unwrap_or("00");
+    out.join("jobs").join(fan).join(format!("{key}.pack"))
 }
 
 /// The key of `job` in `plan`.
