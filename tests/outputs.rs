@@ -482,6 +482,46 @@ fn rayon_num_threads_is_honoured_and_recorded() {
     assert!(manifest["files"]["maps/noise/mean.npy"]["bytes"].is_u64());
     let owned = fs::read_to_string(out.join(".isar-clutter/owned")).unwrap();
     assert!(owned.lines().any(|l| l == "maps/noise/mean.npy"), "{owned}");
+    // One thread: the tables are written inline, each hashed as it is written.
+    assert_tables_hashed(&out, &manifest);
+}
+
+/// Every table in the manifest carries the SHA-256 of the file's bytes (the merge computes it
+/// while writing the table, not by reading it back).
+fn assert_tables_hashed(out: &Path, manifest: &serde_json::Value) {
+    let mut tables = 0;
+    for e in fs::read_dir(out).unwrap().flatten() {
+        let name = e.file_name().into_string().unwrap();
+        if !name.ends_with(".parquet") {
+            continue;
+        }
+        let want = isar_clutter::seeds::sha256_hex(&fs::read(e.path()).unwrap());
+        assert_eq!(manifest["files"][&name]["sha256"], want.as_str(), "{name}");
+        tables += 1;
+    }
+    assert!(tables >= 5, "{tables} tables");
+}
+
+#[test]
+fn tables_written_on_threads_of_their_own_carry_their_sha256() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = setup(dir.path());
+    let out = dir.path().join("out");
+    let o = bin(&[
+        "run",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--no-report",
+        "--jobs",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["threads"], 2);
+    assert_tables_hashed(&out, &manifest);
 }
 
 #[test]

@@ -204,6 +204,8 @@ pub struct Staged {
     path: PathBuf,
     writer: AtomicWriter,
     committed: bool,
+    /// SHA-256 of the bytes written so far, where asked for ([`Staged::hashed`]).
+    sha: Option<sha2::Sha256>,
 }
 
 impl Staged {
@@ -213,26 +215,55 @@ impl Staged {
             path: path.to_path_buf(),
             writer: AtomicWriter::new(path),
             committed: false,
+            sha: None,
         }
+    }
+
+    /// [`Staged::new`], with the SHA-256 of the bytes kept up to date as they are written, for
+    /// [`Staged::commit_hashed`]: the manifest's hash of a table of gigabytes without reading
+    /// the table again, computed on the thread that writes it.
+    pub fn hashed(path: &Path) -> Self {
+        use sha2::Digest;
+        let mut staged = Staged::new(path);
+        staged.sha = Some(sha2::Sha256::new());
+        staged
     }
 
     /// Puts the file in place, as [`atomic_write`] does.
     ///
     /// # Errors
     /// If the temporary file cannot be written or renamed; it is removed then.
-    pub fn commit(mut self) -> Result<()> {
+    pub fn commit(self) -> Result<()> {
+        self.commit_hashed().map(|_| ())
+    }
+
+    /// [`Staged::commit`], and the lower-case hex SHA-256 of the file's bytes where the file
+    /// was started [`Staged::hashed`] (`None` otherwise).
+    ///
+    /// # Errors
+    /// As [`Staged::commit`].
+    pub fn commit_hashed(mut self) -> Result<Option<String>> {
+        use sha2::Digest;
         self.committed = true;
         let result = self.writer.finish(&self.path, false);
         if result.is_err() {
             let _ = fs::remove_file(&self.writer.tmp);
         }
-        result.with_context(|| format!("writing {}", self.path.display()))
+        result.with_context(|| format!("writing {}", self.path.display()))?;
+        Ok(self
+            .sha
+            .take()
+            .map(|h| h.finalize().iter().map(|b| format!("{b:02x}")).collect()))
     }
 }
 
 impl Write for Staged {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.writer.write(buf)
+        let n = self.writer.write(buf)?;
+        if let Some(h) = &mut self.sha {
+            sha2::Digest::update(h, &buf[..n]);
+        }
+        Ok(n)
     }
 
     fn flush(&mut self) -> std::io::Result<()> {

@@ -194,7 +194,7 @@ impl Sink {
     /// If the writer cannot be made for these columns.
     pub fn new(out: &Path, name: &str, widest: &DataFrame, rows: usize) -> Result<Sink> {
         let writer = GroupWriter::new(
-            Staged::new(&out.join(format!("{name}.parquet"))),
+            Staged::hashed(&out.join(format!("{name}.parquet"))),
             widest.schema().clone(),
             Encoding {
                 compression: ParquetCompression::Snappy,
@@ -300,12 +300,13 @@ impl Sink {
         Ok(())
     }
 
-    /// Writes the footer and puts the file in place.
+    /// Writes the footer and puts the file in place; its SHA-256 (lower-case hex), computed as
+    /// it was written.
     ///
     /// # Errors
     /// If rows are left over or missing (the records and the fragments disagree), or the
     /// file cannot be written.
-    pub fn finish(self) -> Result<()> {
+    pub fn finish(self) -> Result<Option<String>> {
         let left = self.pending_rows;
         let due: usize = self.groups.iter().sum();
         if left != 0 || due != 0 {
@@ -318,7 +319,7 @@ impl Sink {
         self.writer
             .finish()
             .with_context(|| format!("writing {}.parquet", self.name))?
-            .commit()
+            .commit_hashed()
     }
 }
 
@@ -346,12 +347,12 @@ pub enum Sinks {
 /// in place, as a [`Sink`] dropped without [`Sink::finish`] does.
 pub struct Worker {
     queue: Option<std::sync::mpsc::SyncSender<Option<DataFrame>>>,
-    thread: std::thread::JoinHandle<Result<()>>,
+    thread: std::thread::JoinHandle<Result<Option<String>>>,
 }
 
 impl Worker {
     /// Closes the queue, after `None` when `finish`, and waits for the thread's result.
-    fn join(mut self, finish: bool) -> Result<()> {
+    fn join(mut self, finish: bool) -> Result<Option<String>> {
         if let Some(q) = self.queue.take() {
             if finish {
                 // A thread that failed has closed its end: its error comes from the join.
@@ -367,7 +368,7 @@ impl Worker {
     fn failed(self) -> anyhow::Error {
         match self.join(false) {
             Err(e) => e,
-            Ok(()) => anyhow::anyhow!("a table's writer stopped early"),
+            Ok(_) => anyhow::anyhow!("a table's writer stopped early"),
         }
     }
 }
@@ -386,7 +387,7 @@ impl Sinks {
             let (queue, parts) = std::sync::mpsc::sync_channel::<Option<DataFrame>>(QUEUE);
             let thread = std::thread::Builder::new()
                 .name(format!("table {name}"))
-                .spawn(move || -> Result<()> {
+                .spawn(move || -> Result<Option<String>> {
                     for part in parts {
                         match part {
                             Some(part) => sink.push(&part)?,
@@ -394,7 +395,7 @@ impl Sinks {
                         }
                     }
                     // Abandoned: the staged file goes with the sink, nothing is put in place.
-                    Ok(())
+                    Ok(None)
                 })
                 .with_context(|| format!("starting the writer of {name}.parquet"))?;
             workers.insert(
@@ -432,26 +433,34 @@ impl Sinks {
         }
     }
 
-    /// Writes every table's footer and puts the files in place.
+    /// Writes every table's footer and puts the files in place; the SHA-256 of each (by
+    /// table name), computed as it was written.
     ///
     /// # Errors
     /// The first table's error, in name order.
-    pub fn finish(self) -> Result<()> {
+    pub fn finish(self) -> Result<std::collections::BTreeMap<String, String>> {
+        let mut hashes = std::collections::BTreeMap::new();
         match self {
             Sinks::Inline(sinks) => {
-                for (_, sink) in sinks {
-                    sink.finish()?;
+                for (name, sink) in sinks {
+                    if let Some(h) = sink.finish()? {
+                        hashes.insert(name, h);
+                    }
                 }
-                Ok(())
+                Ok(hashes)
             }
             Sinks::Threaded(workers) => {
                 let mut first = None;
-                for (_, w) in workers {
-                    if let (Err(e), None) = (w.join(true), &first) {
-                        first = Some(e);
+                for (name, w) in workers {
+                    match (w.join(true), &first) {
+                        (Err(e), None) => first = Some(e),
+                        (Ok(Some(h)), _) => {
+                            hashes.insert(name, h);
+                        }
+                        _ => {}
                     }
                 }
-                first.map_or(Ok(()), Err)
+                first.map_or(Ok(hashes), Err)
             }
         }
     }

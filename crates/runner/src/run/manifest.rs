@@ -126,13 +126,14 @@ impl Manifest {
     }
 
     /// Appends a file the run wrote (`rel`, relative to `out`) with its size and, for a table,
-    /// its SHA-256, so that a reader can tell a folder that was changed afterwards; a file
-    /// that is not there is left out.
+    /// its SHA-256 (`sha256` where it is known, computed as the table was written; otherwise
+    /// the table is read for it), so that a reader can tell a folder that was changed
+    /// afterwards; a file that is not there is left out.
     ///
     /// # Errors
     /// If the file cannot be written, or a table read for its hash.
-    pub fn file(&mut self, out: &Path, rel: &Path) -> Result<()> {
-        let Some((key, rec)) = crate::io::outdir::file_record(out, rel)? else {
+    pub fn file(&mut self, out: &Path, rel: &Path, sha256: Option<&str>) -> Result<()> {
+        let Some((key, rec)) = crate::io::outdir::file_record_hashed(out, rel, sha256)? else {
             return Ok(());
         };
         let sep = match self.files {

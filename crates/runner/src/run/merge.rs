@@ -313,7 +313,7 @@ pub fn merge_claimed(
         next = ahead?;
         release_free_memory(c);
     }
-    sinks.finish()?;
+    let hashes = sinks.finish()?;
     if let (n, Some(build)) = other_builds {
         merged.notes.push(format!(
             "{n} job(s) were merged from results a different build of the tool computed \
@@ -339,7 +339,12 @@ pub fn merge_claimed(
     }
     outdir.each_written(|rel| {
         if !rel.starts_with("jobs") && rel != Path::new("manifest.json") {
-            manifest.file(out, rel)?;
+            // A table written by its sink was hashed as it was written.
+            let written = rel
+                .to_str()
+                .and_then(|r| r.strip_suffix(".parquet"))
+                .and_then(|name| hashes.get(name));
+            manifest.file(out, rel, written.map(String::as_str))?;
         }
         Ok(())
     })?;

@@ -204,6 +204,19 @@ fn live_writer(root: &Path) -> Option<String> {
 /// # Errors
 /// If a table cannot be read for its hash.
 pub fn file_record(root: &Path, rel: &Path) -> Result<Option<(String, serde_json::Value)>> {
+    file_record_hashed(root, rel, None)
+}
+
+/// [`file_record`], with the SHA-256 of a table given where it is known (computed as the table
+/// was written): the file is not read again then.
+///
+/// # Errors
+/// If a table that needs hashing cannot be read.
+pub fn file_record_hashed(
+    root: &Path,
+    rel: &Path,
+    sha256: Option<&str>,
+) -> Result<Option<(String, serde_json::Value)>> {
     let path = root.join(rel);
     let Ok(m) = fs::metadata(&path) else {
         return Ok(None);
@@ -213,9 +226,12 @@ pub fn file_record(root: &Path, rel: &Path) -> Result<Option<(String, serde_json
     };
     let mut rec = serde_json::json!({ "bytes": m.len() });
     if rel.extension().is_some_and(|e| e == "parquet") && rel.components().count() == 1 {
-        let hash = fs::File::open(&path)
-            .and_then(crate::seeds::sha256_hex_of)
-            .with_context(|| format!("reading {}", path.display()))?;
+        let hash = match sha256 {
+            Some(h) => h.to_string(),
+            None => fs::File::open(&path)
+                .and_then(crate::seeds::sha256_hex_of)
+                .with_context(|| format!("reading {}", path.display()))?,
+        };
         rec["sha256"] = serde_json::Value::String(hash);
     }
     Ok(Some((key.to_string(), rec)))

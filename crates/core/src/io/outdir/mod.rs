@@ -32,7 +32,9 @@ use std::path::{Path, PathBuf};
 mod check;
 mod lock;
 
-pub use check::{check_complete, check_file_output, file_record, remove_dead_temporaries_of};
+pub use check::{
+    check_complete, check_file_output, file_record, file_record_hashed, remove_dead_temporaries_of,
+};
 pub use lock::{is_held, take_lock, HeldLock, Holder};
 
 use crate::io::journal::{self, safe_relative};
