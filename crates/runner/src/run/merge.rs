@@ -271,7 +271,7 @@ pub fn merge_claimed(
     let t_tables = Instant::now();
     let mut sinks = assembly::Sinks::new(open_tables(plan, out, keys, &layout)?, opts.threads > 1)?;
     let mut manifest = manifest::Manifest::start(plan, opts.threads, out)?;
-    let chunks = read_chunks(&order, &weight, (32 * opts.threads).max(64), 16 << 20);
+    let chunks = read_chunks(&order, &weight, (16 * opts.threads).max(32), 8 << 20);
     let read = |chunk: &[usize]| -> Result<Vec<Loaded>> {
         chunk
             .par_iter()
@@ -373,9 +373,10 @@ pub fn merge_claimed(
 }
 
 /// `order` cut into the chunks pass 2 reads ahead: consecutive jobs, at most `jobs` of them, and
-/// no more than one job past `bytes` of fragments (`weight`, a job's). Tiny jobs are read 64 at a
-/// time (8 at a time, the pool's threads met and woke each other 12,500 times in a merge of
-/// 100,000: `futex` was a tenth of its CPU samples), big ones one or a few at a time.
+/// no more than one job past `bytes` of fragments (`weight`, a job's). Tiny jobs are read 32 at a
+/// time on two threads (8 at a time, the pool's threads met and woke each other 12,500 times in
+/// a merge of 100,000: `futex` was a tenth of its CPU samples; 64 at a time held 30 MB more),
+/// big ones one or a few at a time.
 fn read_chunks<'a>(
     order: &'a [usize],
     weight: &[u64],
