@@ -66,13 +66,19 @@ fn setup(dir: &Path) -> PathBuf {
 }
 
 fn run(spec: &Path, out: &Path) -> Output {
-    bin(&[
+    run_with(spec, out, &["--quiet"])
+}
+
+/// `run SPEC --out OUT` with `extra` arguments.
+fn run_with(spec: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
         "run",
         spec.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-        "--quiet",
-    ])
+    ];
+    args.extend_from_slice(extra);
+    bin(&args)
 }
 
 /// Every file under `dir` with its bytes (the tool's state folder left out on request).
@@ -395,13 +401,7 @@ fn a_run_killed_while_writing_is_refused_by_table_and_report_until_rerun() {
     fs::write(&tmp, b"half").unwrap();
     // The rerun takes over the dead run's lock, removes its temporary file and completes.
     let spec = dir.path().join("slow.yaml");
-    let o = bin(&[
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--no-report",
-    ]);
+    let o = run_with(&spec, &out, &["--no-report"]);
     assert!(o.status.success(), "{}", text(&o));
     let msg = text(&o);
     assert!(msg.contains("took over the lock of a run"), "{msg}");
@@ -416,13 +416,7 @@ fn two_runs_into_one_folder_the_second_is_refused() {
     let mut first = start_slow(dir.path(), &out);
     wait_for(&out.join(".isar-clutter/lock"));
     let spec = dir.path().join("slow.yaml");
-    let o = bin(&[
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let o = run(&spec, &out);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let msg = text(&o);
     assert!(
@@ -507,16 +501,7 @@ fn tables_written_on_threads_of_their_own_carry_their_sha256() {
     let dir = tempfile::tempdir().unwrap();
     let spec = setup(dir.path());
     let out = dir.path().join("out");
-    let o = bin(&[
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-        "--no-report",
-        "--jobs",
-        "2",
-    ]);
+    let o = run_with(&spec, &out, &["--quiet", "--no-report", "--jobs", "2"]);
     assert!(o.status.success(), "{}", text(&o));
     let manifest: serde_json::Value =
         serde_json::from_slice(&fs::read(out.join("manifest.json")).unwrap()).unwrap();

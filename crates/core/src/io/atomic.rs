@@ -250,10 +250,7 @@ impl Staged {
             let _ = fs::remove_file(&self.writer.tmp);
         }
         result.with_context(|| format!("writing {}", self.path.display()))?;
-        Ok(self
-            .sha
-            .take()
-            .map(|h| h.finalize().iter().map(|b| format!("{b:02x}")).collect()))
+        Ok(self.sha.take().map(|h| crate::seeds::hex(&h.finalize())))
     }
 }
 

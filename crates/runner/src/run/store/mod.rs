@@ -1,5 +1,5 @@
-//! The durable job store: every job, when it finishes, leaves its result under
-//! `OUT/jobs/` (its key names it), so that a run killed at any moment resumes where it stopped, shards on
+//! The durable job store: every job, when it finishes, leaves its result under `OUT/jobs/`
+//! (its key names it), so that a run killed at any moment resumes where it stopped, shards on
 //! other machines add their jobs to the same folder, and `merge` assembles the tables from the
 //! store alone.
 //!
@@ -13,8 +13,9 @@
 //! A job's folder holds the files the job wrote (`maps/<id>/...`, `models/<id>/...`,
 //! `samples/...`, `kspace/...`, the same relative paths as in the output folder) and, written
 //! last, one pack `job.pack` ([`PACK`]); a job that wrote no files has no folder, its pack is
-//! `OUT/jobs/<two digits>/<key>.pack` ([`flat_pack`]). The pack holds its record (id, kind, key, schema, timings, every
-//! file with its size and content hash) and its table fragments (Parquet), one file per job
+//! `OUT/jobs/<two digits>/<key>.pack` ([`flat_pack`]). The pack holds its record (id, kind,
+//! key, schema, timings, every file with its size and content hash) and its table fragments
+//! (Parquet), one file per job
 //! however many tables it fills. A failed job leaves `failed.json` with its error instead, and
 //! is run again by the next run. The pack is written through the atomic writer; packs are
 //! committed to disk in groups ([`Commits`]: one `syncfs` per group, not two `fsync`s per
@@ -134,17 +135,37 @@ pub fn job_dir(out: &Path, key: &str) -> PathBuf {
     out.join("jobs").join(key)
 }
 
-/// The pack of a finished job that wrote no files (`jobs/<first two digits of the key>/<key>.pack`):
+/// The pack of a finished job that wrote no files (`jobs/<the key's first two digits>/<key>.pack`):
 /// not in a folder of its own. A folder costs the file system a directory inode (ext4 places
 /// each with its Orlov search over the block groups), more than the pack itself: in a sweep of
 /// tiny jobs the `mkdir` was 18 % of a shard's CPU (`perf`). The packs are spread over 256
-/// folders by their keys' first two digits: a file is created and renamed under its folder's
-/// lock, and with every pack in `jobs/` the pool's threads took turns at that one lock (spinning
-/// on it was 18 % of a shard's CPU). A job with files keeps them and its pack in `jobs/<key>/`
-/// ([`PACK`]).
+/// folders by their keys' first two digits: no folder of 100,000 entries, and a file is created
+/// and renamed under its folder's lock, for which the pool's threads spun when every pack was
+/// in `jobs/` (18 % of a shard's CPU samples; the shards' wall time did not move measurably).
+/// A job with files keeps them and its pack in `jobs/<key>/` ([`PACK`]).
 pub fn flat_pack(out: &Path, key: &str) -> PathBuf {
     let fan = key.get(..2).unwrap_or("00");
     out.join("jobs").join(fan).join(format!("{key}.pack"))
+}
+
+/// Where the pack of the job with `key` may be, in the order it is looked for: without a folder
+/// ([`flat_pack`]), then in the job's folder.
+fn pack_places(out: &Path, key: &str) -> [PathBuf; 2] {
+    [flat_pack(out, key), job_dir(out, key).join(PACK)]
+}
+
+/// The first place of [`pack_places`] where `read` finds something (`Ok(None)`: not there).
+fn first_pack<T>(
+    out: &Path,
+    key: &str,
+    read: impl Fn(&Path) -> std::result::Result<Option<T>, String>,
+) -> std::result::Result<Option<T>, String> {
+    for place in pack_places(out, key) {
+        if let Some(found) = read(&place)? {
+            return Ok(Some(found));
+        }
+    }
+    Ok(None)
 }
 
 /// The key of `job` in `plan`.
@@ -217,10 +238,7 @@ fn read_entry(out: &Path, key: &str, verify_files: bool) -> Entry {
     let pack = if verify_files {
         read_pack(out, key).map(|p| p.map(|(done, _)| done))
     } else {
-        match read_record(&flat_pack(out, key)) {
-            Ok(None) => read_record(&dir.join(PACK)),
-            other => other,
-        }
+        first_pack(out, key, read_record)
     };
     match pack {
         Ok(Some(done)) => {
@@ -292,12 +310,8 @@ pub fn read_pack(out: &Path, key: &str) -> std::result::Result<Option<(Done, Vec
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(format!("{PACK} cannot be read: {e}")),
     };
-    let bytes = match read(&flat_pack(out, key))? {
-        Some(b) => b,
-        None => match read(&job_dir(out, key).join(PACK))? {
-            Some(b) => b,
-            None => return Ok(None),
-        },
+    let Some(bytes) = first_pack(out, key, read)? else {
+        return Ok(None);
     };
     let len = record_len(&bytes)?;
     let want = u128::from_le_bytes(bytes[16..32].try_into().expect("16 bytes"));
@@ -363,20 +377,16 @@ pub fn damaged_note(damaged: &[String]) -> String {
 /// # Errors
 /// If the folder cannot be emptied.
 pub fn begin(out: &Path, key: &str) -> Result<PathBuf> {
+    let gone = |removed: std::io::Result<()>, doing: &str, path: &Path| match removed {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            Err(e).with_context(|| format!("{doing} {}", path.display()))
+        }
+        _ => Ok(()),
+    };
     let dir = job_dir(out, key);
-    match fs::remove_dir_all(&dir) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-            return Err(e).with_context(|| format!("emptying {}", dir.display()))
-        }
-        _ => {}
-    }
+    gone(fs::remove_dir_all(&dir), "emptying", &dir)?;
     let flat = flat_pack(out, key);
-    match fs::remove_file(&flat) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-            return Err(e).with_context(|| format!("removing {}", flat.display()))
-        }
-        _ => {}
-    }
+    gone(fs::remove_file(&flat), "removing", &flat)?;
     Ok(dir)
 }
 
