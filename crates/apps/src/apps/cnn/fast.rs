@@ -6,8 +6,9 @@
 //! Why: on flex, a block is a dozen separate operations, each reading and writing the whole
 //! activation (32 MiB for Table 23's first block at batch 128), the convolution's weight
 //! gradient goes through a generic im2col, and the batch statistics broadcast through slow
-//! paths. Here a convolution is an explicit im2col plus one `gemm` call per chunk of samples
-//! (the `gemm` crate that flex itself uses, single-threaded per call), and normalisation, ReLU
+//! paths. Here a convolution is an explicit im2col ([`super::im2col`], written in the tiles the
+//! product reads) plus one matrix product per chunk of samples ([`super::sgemm`], on the
+//! calling thread, AVX-512 where the processor has it), and normalisation, ReLU
 //! and pooling are one pass forward and two passes backward. The block is one node of burn's
 //! autodiff graph ([`Backward`]): burn still owns the graph, the other layers, the loss and the
 //! optimiser.
@@ -21,6 +22,8 @@
 //! Process-wide state: a pool of large buffers (`POOL`) and per-thread scratch (`SCRATCH`),
 //! reused between training steps; neither carries values from one call to the next.
 
+use super::im2col::{col2im, im2col, tiled_len};
+use super::sgemm::{gemm_nn, gemm_nt, Tiled};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;
@@ -120,12 +123,12 @@ pub struct BlockGeom {
 
 impl BlockGeom {
     /// Values per filter (`c * k * k`): the inner dimension of the convolution's matrix product.
-    fn kk(&self) -> usize {
+    pub(crate) fn kk(&self) -> usize {
         self.c * self.k * self.k
     }
 
     /// Output pixels of the convolution per sample and filter.
-    fn p(&self) -> usize {
+    pub(crate) fn p(&self) -> usize {
         self.oh * self.ow
     }
 
@@ -149,146 +152,6 @@ impl BlockGeom {
         let (h, w) = self.out_hw();
         [self.n, self.f, h, w]
     }
-}
-
-/// `c = (if acc { c } else { 0 }) + a b` for an `m x k` matrix `a` (strides `a_rs`, `a_cs`),
-/// a `k x n` matrix `b` (strides `b_rs`, `b_cs`) and a row-major `m x n` matrix `c`, on the
-/// calling thread.
-#[allow(clippy::too_many_arguments)]
-fn matmul(
-    m: usize,
-    n: usize,
-    k: usize,
-    c: &mut [f32],
-    acc: bool,
-    a: &[f32],
-    (a_rs, a_cs): (usize, usize),
-    b: &[f32],
-    (b_rs, b_cs): (usize, usize),
-) {
-    if m == 0 || n == 0 {
-        return;
-    }
-    if k == 0 {
-        if !acc {
-            c[..m * n].fill(0.0);
-        }
-        return;
-    }
-    assert!(c.len() >= m * n);
-    assert!(a.len() > (m - 1) * a_rs + (k - 1) * a_cs);
-    assert!(b.len() > (k - 1) * b_rs + (n - 1) * b_cs);
-    // SAFETY: the asserts above keep every index of the three matrices inside their slices,
-    // and `c` does not alias `a` or `b` (a unique borrow).
-    unsafe {
-        gemm::gemm(
-            m,
-            n,
-            k,
-            c.as_mut_ptr(),
-            1,
-            n as isize,
-            acc,
-            a.as_ptr(),
-            a_cs as isize,
-            a_rs as isize,
-            b.as_ptr(),
-            b_cs as isize,
-            b_rs as isize,
-            1.0f32,
-            1.0f32,
-            false,
-            false,
-            false,
-            gemm::Parallelism::None,
-        );
-    }
-}
-
-/// The im2col matrix `[c k k, s p]` of samples `n0 .. n0 + s` of `x`: row `(ci, a, b)`,
-/// column `(sample, i, j)` holds `x[n0 + sample, ci, i stride + a - top, j stride + b - left]`
-/// (zero outside the image).
-fn im2col(g: &BlockGeom, x: &[f32], n0: usize, s: usize, col: &mut [f32]) {
-    let (p, sp, hw) = (g.p(), s * g.p(), g.h * g.w);
-    for ci in 0..g.c {
-        for a in 0..g.k {
-            for b in 0..g.k {
-                let r = (ci * g.k + a) * g.k + b;
-                let row = &mut col[r * sp..(r + 1) * sp];
-                let (j0, j1) = valid_range(g.ow, g.stride, b, g.left, g.w);
-                for si in 0..s {
-                    let img = &x[((n0 + si) * g.c + ci) * hw..][..hw];
-                    for i in 0..g.oh {
-                        let out = &mut row[si * p + i * g.ow..][..g.ow];
-                        let ih = (i * g.stride + a) as isize - g.top as isize;
-                        if ih < 0 || ih >= g.h as isize || j0 >= j1 {
-                            out.fill(0.0);
-                            continue;
-                        }
-                        let src = &img[ih as usize * g.w..][..g.w];
-                        out[..j0].fill(0.0);
-                        out[j1..].fill(0.0);
-                        let first = j0 * g.stride + b - g.left;
-                        if g.stride == 1 {
-                            out[j0..j1].copy_from_slice(&src[first..first + (j1 - j0)]);
-                        } else {
-                            for (o, v) in out[j0..j1]
-                                .iter_mut()
-                                .zip(src[first..].iter().step_by(g.stride))
-                            {
-                                *o = *v;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// Adds the im2col-shaped `col` (`[c k k, s p]`) back onto the images `dx` of samples
-/// `n0 .. n0 + s` (`dx` starts at sample `n0`): the adjoint of [`im2col`].
-fn col2im(g: &BlockGeom, col: &[f32], s: usize, dx: &mut [f32]) {
-    let (p, sp, hw) = (g.p(), s * g.p(), g.h * g.w);
-    for ci in 0..g.c {
-        for a in 0..g.k {
-            for b in 0..g.k {
-                let r = (ci * g.k + a) * g.k + b;
-                let row = &col[r * sp..(r + 1) * sp];
-                let (j0, j1) = valid_range(g.ow, g.stride, b, g.left, g.w);
-                if j0 >= j1 {
-                    continue;
-                }
-                for si in 0..s {
-                    let img = &mut dx[(si * g.c + ci) * hw..][..hw];
-                    for i in 0..g.oh {
-                        let ih = (i * g.stride + a) as isize - g.top as isize;
-                        if ih < 0 || ih >= g.h as isize {
-                            continue;
-                        }
-                        let src = &row[si * p + i * g.ow..][..g.ow];
-                        let dst = &mut img[ih as usize * g.w..][..g.w];
-                        let first = j0 * g.stride + b - g.left;
-                        for (o, v) in dst[first..].iter_mut().step_by(g.stride).zip(&src[j0..j1]) {
-                            *o += *v;
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// The output columns `j0 .. j1` whose input column `j stride + b - left` lies in `0 .. w`.
-fn valid_range(ow: usize, stride: usize, b: usize, left: usize, w: usize) -> (usize, usize) {
-    let j0 = left.saturating_sub(b).div_ceil(stride).min(ow);
-    // j stride + b - left <= w - 1  <=>  j <= (w - 1 + left - b) / stride
-    let j1 = if w + left > b {
-        ((w - 1 + left - b) / stride + 1).min(ow)
-    } else {
-        0
-    };
-    (j0, j1.max(j0))
 }
 
 /// Sum of `v` in eight interleaved f32 lanes (vectorisable, a fixed order), then in f64.
@@ -317,13 +180,26 @@ pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> Vec<f3
             let n0 = ci * s;
             let sn = zc.len() / (g.f * p);
             let sp = sn * p;
-            with_scratch(kk * sp + g.f * sp, |scratch| {
-                let (col, tmp) = scratch.split_at_mut(kk * sp);
-                im2col(g, x, n0, sn, col);
+            let cl = tiled_len(g, sn);
+            with_scratch(cl + g.f * sp, |scratch| {
+                let (col, tmp) = scratch.split_at_mut(cl);
+                // The output rows serve as im2col's row scratch before they get the bias.
+                im2col(g, x, n0, sn, col, tmp);
                 for (row, &b) in tmp.chunks_exact_mut(sp).zip(bias) {
                     row.fill(b);
                 }
-                matmul(g.f, sp, kk, tmp, true, w, (kk, 1), col, (sp, 1));
+                gemm_nn(
+                    g.f,
+                    sp,
+                    kk,
+                    w,
+                    (kk, 1),
+                    col,
+                    Tiled::packed(kk),
+                    tmp,
+                    sp,
+                    true,
+                );
                 for si in 0..sn {
                     for fi in 0..g.f {
                         zc[(si * g.f + fi) * p..][..p]
@@ -402,22 +278,30 @@ pub fn affine_relu_pool(
                 for i in 0..ph {
                     let (r0, r1) = (&row[2 * i * g.ow..], &row[(2 * i + 1) * g.ow..]);
                     for j in 0..pw {
-                        let c = [r0[2 * j], r0[2 * j + 1], r1[2 * j], r1[2 * j + 1]];
-                        let mut best = 0;
-                        for (t, &v) in c.iter().enumerate().skip(1) {
-                            if v > c[best] {
-                                best = t;
-                            }
-                        }
-                        op[i * pw + j] = c[best];
+                        let (v, best) = max4([r0[2 * j], r0[2 * j + 1], r1[2 * j], r1[2 * j + 1]]);
+                        op[i * pw + j] = v;
                         if write_arg {
-                            ars[fi * q + i * pw + j] = best as u8;
+                            ars[fi * q + i * pw + j] = best;
                         }
                     }
                 }
             }
         });
     (out, arg)
+}
+
+/// The largest of a 2x2 window's values (row-major) and its position, the first on ties:
+/// a tournament of the two rows' pairs, without branches (the data decide each comparison at
+/// random, which a branch predictor cannot follow).
+#[inline(always)]
+fn max4(c: [f32; 4]) -> (f32, u8) {
+    let (m01, i01) = if c[1] > c[0] { (c[1], 1) } else { (c[0], 0) };
+    let (m23, i23) = if c[3] > c[2] { (c[3], 3) } else { (c[2], 2) };
+    if m23 > m01 {
+        (m23, i23)
+    } else {
+        (m01, i01)
+    }
 }
 
 /// What the backward pass of a training block needs from its forward pass.
@@ -525,7 +409,10 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
     let inv_f: Vec<f32> = t.inv_std.iter().map(|&v| v as f32).collect();
     // Phase 1: the gradient `da` of the BN output (through pooling and ReLU) and its sums.
     let mut da = take(g.n * f * p);
-    da.fill(0.0);
+    if g.pool {
+        // Only each window's maximum gets a gradient.
+        da.fill(0.0);
+    }
     let sums: Vec<Vec<(f64, f64)>> = da
         .par_chunks_mut(f * p)
         .enumerate()
@@ -544,16 +431,15 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
                             for j in 0..pw {
                                 let a = ap[i * pw + j] as usize;
                                 let pos = (2 * i + a / 2) * g.ow + 2 * j + a % 2;
-                                if zp[pos] * sc + sh > 0.0 {
-                                    dp[pos] = gp[i * pw + j];
-                                }
+                                // Each position once (the windows do not overlap); a select,
+                                // not a branch.
+                                let live = zp[pos] * sc + sh > 0.0;
+                                dp[pos] = if live { gp[i * pw + j] } else { 0.0 };
                             }
                         }
                     } else {
                         for ((d, &v), &gv) in dp.iter_mut().zip(zp).zip(gp) {
-                            if v * sc + sh > 0.0 {
-                                *d = gv;
-                            }
+                            *d = if v * sc + sh > 0.0 { gv } else { 0.0 };
                         }
                     }
                     let (mu, is) = (meanf[fi], inv_f[fi]);
@@ -603,8 +489,9 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
             let n0 = ci * s;
             let sn = (g.n - n0).min(s);
             let sp = sn * p;
-            with_scratch(2 * kk * sp + f * sp, |scratch| {
-                let (col, rest) = scratch.split_at_mut(kk * sp);
+            let cl = tiled_len(g, sn);
+            with_scratch(cl + kk * sp + f * sp, |scratch| {
+                let (col, rest) = scratch.split_at_mut(cl);
                 let (dz, dcol) = rest.split_at_mut(f * sp);
                 let mut db = vec![0.0f64; f];
                 for si in 0..sn {
@@ -620,14 +507,26 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
                         db[fi] += lane_sum(out, |v| v);
                     }
                 }
-                im2col(g, x, n0, sn, col);
+                im2col(g, x, n0, sn, col, dcol);
                 let mut dw = vec![0.0f32; f * kk];
                 // dw[f, kk] = dz[f, sp] col[kk, sp]^T
-                matmul(f, kk, sp, &mut dw, false, dz, (sp, 1), col, (1, sp));
+                gemm_nt(
+                    f,
+                    kk,
+                    sp,
+                    dz,
+                    sp,
+                    col,
+                    Tiled::packed(kk),
+                    &mut dw,
+                    kk,
+                    false,
+                );
                 if want_dx {
                     // dcol[kk, sp] = w[f, kk]^T dz[f, sp]
                     let dcol = &mut dcol[..kk * sp];
-                    matmul(kk, sp, f, dcol, false, &t.w, (1, kk), dz, (sp, 1));
+                    let dzl = Tiled::row_major(sp);
+                    gemm_nn(kk, sp, f, &t.w, (1, kk), dz, dzl, dcol, sp, false);
                     col2im(g, dcol, sn, dxc);
                 }
                 (dw, db)

@@ -8,7 +8,9 @@
 
 pub mod classification;
 pub mod fast;
+pub mod im2col;
 pub mod location;
 pub mod net;
+pub mod sgemm;
 pub mod store;
 pub mod train;
