@@ -6,7 +6,8 @@
 //! two trainings side by side on 1 thread each (what a run of many trainings does); then the
 //! prediction rate (forward only, inference mode: what validation and testing run) of the
 //! trained network through [`isar_clutter::apps::cnn::train::Trained::evaluate`] on 1 and 2
-//! threads. Prints one JSON object per line with `--json`. Figures go to BENCHMARKS.md.
+//! threads. Prints one JSON object per line with `--json`; `CNN_BENCH_BATCHES` (default 8)
+//! and `CNN_BENCH_NETS` (`table18`, `table23`) shorten it. Figures go to BENCHMARKS.md.
 
 /// The binary's allocator, so that figures match what `isar-clutter` does.
 #[global_allocator]
@@ -46,10 +47,18 @@ fn main() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(8);
     let n = 128 * batches;
+    // `CNN_BENCH_NETS=table18` (or `table23`) measures one network alone (for profiles).
+    let only = std::env::var("CNN_BENCH_NETS").ok();
     for (arch, classes, name) in [
         (Arch::Table18, 4, "table18"),
         (Arch::Table23, 25, "table23"),
     ] {
+        if only
+            .as_deref()
+            .is_some_and(|o| !o.split(',').any(|x| x == name))
+        {
+            continue;
+        }
         let cfg = NetConfig {
             arch,
             height: 64,

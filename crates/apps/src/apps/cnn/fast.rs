@@ -22,7 +22,7 @@
 //! Process-wide state: a pool of large buffers (`POOL`) and per-thread scratch (`SCRATCH`),
 //! reused between training steps; neither carries values from one call to the next.
 
-use super::im2col::{col2im, im2col, tiled_len};
+use super::im2col::{col2im, im2col, in_place, tiled_len};
 use super::sgemm::{gemm_nn, gemm_nt, Tiled};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
@@ -53,28 +53,32 @@ fn take(len: usize) -> Vec<f32> {
     let best = pool
         .iter()
         .enumerate()
-        .filter(|(_, v)| v.len() >= len && v.len() <= 2 * len)
-        .min_by_key(|(_, v)| v.len())
+        .filter(|(_, v)| v.capacity() >= len && v.capacity() <= 2 * len)
+        .min_by_key(|(_, v)| v.capacity())
         .map(|(i, _)| i);
     match best {
         Some(i) => {
-            let mut v = pool.swap_remove(i);
-            v.truncate(len);
+            let mut v = pool.remove(i);
+            // Within the capacity: pages already touched, no allocation.
+            v.resize(len, 0.0);
             v
         }
         None => vec![0.0; len],
     }
 }
 
-/// Gives a buffer back to [`POOL`].
+/// Gives a buffer back to [`POOL`]; when it is full, the buffer given back longest ago goes
+/// (a full pool of buffers of another network's sizes would otherwise never take the ones in
+/// use now, and every call would map and zero fresh pages).
 fn give(v: Vec<f32>) {
     if v.len() < 1 << 16 {
         return;
     }
     let mut pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
-    if pool.len() < POOL_MAX {
-        pool.push(v);
+    if pool.len() >= POOL_MAX {
+        pool.remove(0);
     }
+    pool.push(v);
 }
 
 /// Runs `f` on this thread's scratch buffer resized to `len` values.
@@ -132,10 +136,13 @@ impl BlockGeom {
         self.oh * self.ow
     }
 
-    /// Samples per chunk: about 2048 output pixels per chunk, at least 4 chunks per batch
-    /// (for two threads), a function of the shapes only.
+    /// Samples per chunk: about 2048 output pixels per chunk, fewer where the chunk's im2col
+    /// matrix would pass 1 MiB (it is written, then read by the product: from the core's own
+    /// cache, not the shared one), at least 4 chunks per batch (for two threads); a function of
+    /// the shapes only.
     fn chunk(&self) -> usize {
-        (2048 / self.p()).clamp(1, (self.n / 4).max(1))
+        let pixels = 2048.min((1 << 18) / self.kk().max(1));
+        (pixels / self.p()).clamp(1, (self.n / 4).max(1))
     }
 
     /// Side lengths of the block's output.
@@ -180,26 +187,22 @@ pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> Vec<f3
             let n0 = ci * s;
             let sn = zc.len() / (g.f * p);
             let sp = sn * p;
-            let cl = tiled_len(g, sn);
+            let view = in_place(g, n0, sn);
+            let cl = if view.is_some() { 0 } else { tiled_len(g, sn) };
             with_scratch(cl + g.f * sp, |scratch| {
                 let (col, tmp) = scratch.split_at_mut(cl);
-                // The output rows serve as im2col's row scratch before they get the bias.
-                im2col(g, x, n0, sn, col, tmp);
+                let (b, bl) = match &view {
+                    Some((tiles, rows)) => (x, Tiled::gather(tiles, rows)),
+                    None => {
+                        // The output rows serve as im2col's row scratch before the bias.
+                        im2col(g, x, n0, sn, col, tmp);
+                        (&*col, Tiled::packed(kk, sp))
+                    }
+                };
                 for (row, &b) in tmp.chunks_exact_mut(sp).zip(bias) {
                     row.fill(b);
                 }
-                gemm_nn(
-                    g.f,
-                    sp,
-                    kk,
-                    w,
-                    (kk, 1),
-                    col,
-                    Tiled::packed(kk),
-                    tmp,
-                    sp,
-                    true,
-                );
+                gemm_nn(g.f, sp, kk, w, (kk, 1), b, &bl, tmp, sp, true);
                 for si in 0..sn {
                     for fi in 0..g.f {
                         zc[(si * g.f + fi) * p..][..p]
@@ -489,7 +492,8 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
             let n0 = ci * s;
             let sn = (g.n - n0).min(s);
             let sp = sn * p;
-            let cl = tiled_len(g, sn);
+            let view = in_place(g, n0, sn);
+            let cl = if view.is_some() { 0 } else { tiled_len(g, sn) };
             with_scratch(cl + kk * sp + f * sp, |scratch| {
                 let (col, rest) = scratch.split_at_mut(cl);
                 let (dz, dcol) = rest.split_at_mut(f * sp);
@@ -507,26 +511,21 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
                         db[fi] += lane_sum(out, |v| v);
                     }
                 }
-                im2col(g, x, n0, sn, col, dcol);
+                let (b, bl) = match &view {
+                    Some((tiles, rows)) => (x, Tiled::gather(tiles, rows)),
+                    None => {
+                        im2col(g, x, n0, sn, col, dcol);
+                        (&*col, Tiled::packed(kk, sp))
+                    }
+                };
                 let mut dw = vec![0.0f32; f * kk];
                 // dw[f, kk] = dz[f, sp] col[kk, sp]^T
-                gemm_nt(
-                    f,
-                    kk,
-                    sp,
-                    dz,
-                    sp,
-                    col,
-                    Tiled::packed(kk),
-                    &mut dw,
-                    kk,
-                    false,
-                );
+                gemm_nt(f, kk, sp, dz, sp, b, &bl, &mut dw, kk, false);
                 if want_dx {
                     // dcol[kk, sp] = w[f, kk]^T dz[f, sp]
                     let dcol = &mut dcol[..kk * sp];
-                    let dzl = Tiled::row_major(sp);
-                    gemm_nn(kk, sp, f, &t.w, (1, kk), dz, dzl, dcol, sp, false);
+                    let dzl = Tiled::row_major(sp, f, sp);
+                    gemm_nn(kk, sp, f, &t.w, (1, kk), dz, &dzl, dcol, sp, false);
                     col2im(g, dcol, sn, dxc);
                 }
                 (dw, db)

@@ -5,12 +5,43 @@
 //! (the input gradient).
 
 use super::fast::BlockGeom;
-use super::sgemm::TILE;
+use super::sgemm::{Isa, TILE};
 
 /// Values of the tiled im2col matrix of `s` samples: its rows times the columns rounded up to
 /// whole tiles.
 pub fn tiled_len(g: &BlockGeom, s: usize) -> usize {
     g.kk() * (s * g.p()).div_ceil(TILE) * TILE
+}
+
+/// The im2col matrix of samples `n0 .. n0 + s` of `x` read in place, where the convolution
+/// reads no padding and each tile is a stretch of an output row (stride 1, `ow` a multiple of
+/// [`TILE`], no padding above or on the left, every window inside the image): the tiles'
+/// starts in `x` (sample, output row, stretch) and the rows' offsets `(ci, a, b)`, for
+/// [`super::sgemm::Tiled::gather`]. `None` for other geometries (then [`im2col`] copies).
+/// The network's first convolution, in its space-to-depth form, is such a geometry: its
+/// im2col matrix would be 16 copies of the input.
+pub fn in_place(g: &BlockGeom, n0: usize, s: usize) -> Option<(Vec<usize>, Vec<usize>)> {
+    let fits = g.stride == 1
+        && g.ow.is_multiple_of(TILE)
+        && g.top == 0
+        && g.left == 0
+        && g.oh + g.k - 1 <= g.h
+        && g.ow + g.k - 1 <= g.w;
+    if !fits {
+        return None;
+    }
+    let hw = g.h * g.w;
+    let tiles = (n0..n0 + s)
+        .flat_map(|ni| {
+            (0..g.oh).flat_map(move |i| {
+                (0..g.ow / TILE).map(move |part| ni * g.c * hw + i * g.w + part * TILE)
+            })
+        })
+        .collect();
+    let rows = (0..g.c)
+        .flat_map(|ci| (0..g.k).flat_map(move |a| (0..g.k).map(move |b| ci * hw + a * g.w + b)))
+        .collect();
+    Some((tiles, rows))
 }
 
 /// The im2col matrix `[c k k, s p]` of samples `n0 .. n0 + s` of `x` in tiles
@@ -19,6 +50,32 @@ pub fn tiled_len(g: &BlockGeom, s: usize) -> usize {
 /// `x[n0 + sample, ci, i stride + a - top, j stride + b - left]` (zero outside the image).
 /// `row` is scratch of at least `s p` values.
 pub fn im2col(g: &BlockGeom, x: &[f32], n0: usize, s: usize, col: &mut [f32], row: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if Isa::best() == Isa::Avx512 {
+        // SAFETY: the processor runs AVX-512 (checked above).
+        unsafe { im2col_avx512(g, x, n0, s, col, row) };
+        return;
+    }
+    im2col_body(g, x, n0, s, col, row);
+}
+
+/// [`im2col`] compiled for AVX-512 (wider copies and the stride-2 gathers as shuffles).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+unsafe fn im2col_avx512(
+    g: &BlockGeom,
+    x: &[f32],
+    n0: usize,
+    s: usize,
+    col: &mut [f32],
+    row: &mut [f32],
+) {
+    im2col_body(g, x, n0, s, col, row);
+}
+
+/// The body of [`im2col`].
+#[inline(always)]
+fn im2col_body(g: &BlockGeom, x: &[f32], n0: usize, s: usize, col: &mut [f32], row: &mut [f32]) {
     let (p, sp, hw, kk) = (g.p(), s * g.p(), g.h * g.w, g.kk());
     // A run of the `ow` columns of one output row starts at a multiple of `ow`; when `ow`
     // divides the tile, no run crosses a tile and each is written in place.
@@ -56,6 +113,8 @@ pub fn im2col(g: &BlockGeom, x: &[f32], n0: usize, s: usize, col: &mut [f32], ro
                             *dst = *src;
                         } else if g.stride == 1 {
                             out[j0..j1].copy_from_slice(&src[first..first + (j1 - j0)]);
+                        } else if g.stride == 2 {
+                            gather2(&mut out[j0..j1], &src[first..]);
                         } else {
                             for (o, v) in out[j0..j1]
                                 .iter_mut()
@@ -82,9 +141,57 @@ pub fn im2col(g: &BlockGeom, x: &[f32], n0: usize, s: usize, col: &mut [f32], ro
     }
 }
 
+/// `out[t] = src[2 t]`: as pairs when `src` holds them all (a shape the compiler turns into
+/// vector shuffles), one by one otherwise.
+#[inline(always)]
+fn gather2(out: &mut [f32], src: &[f32]) {
+    let n = out.len();
+    if src.len() >= 2 * n {
+        // Eight at a time (a run is often just eight long, too short for the compiler's own
+        // vector loop), then the rest.
+        let mut o8 = out.chunks_exact_mut(8);
+        let mut s16 = src[..2 * n].chunks_exact(16);
+        for (o, s) in (&mut o8).zip(&mut s16) {
+            for t in 0..8 {
+                o[t] = s[2 * t];
+            }
+        }
+        for (o, pair) in o8
+            .into_remainder()
+            .iter_mut()
+            .zip(s16.remainder().chunks_exact(2))
+        {
+            *o = pair[0];
+        }
+    } else {
+        for (t, o) in out.iter_mut().enumerate() {
+            *o = src[2 * t];
+        }
+    }
+}
+
 /// Adds the row-major `col` (`[c k k, s p]`, the im2col matrix's shape) back onto the images `dx` of samples
 /// `n0 .. n0 + s` (`dx` starts at sample `n0`): the adjoint of [`im2col`].
 pub fn col2im(g: &BlockGeom, col: &[f32], s: usize, dx: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if Isa::best() == Isa::Avx512 {
+        // SAFETY: the processor runs AVX-512 (checked above).
+        unsafe { col2im_avx512(g, col, s, dx) };
+        return;
+    }
+    col2im_body(g, col, s, dx);
+}
+
+/// [`col2im`] compiled for AVX-512 (the same additions in the same order).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+unsafe fn col2im_avx512(g: &BlockGeom, col: &[f32], s: usize, dx: &mut [f32]) {
+    col2im_body(g, col, s, dx);
+}
+
+/// The body of [`col2im`].
+#[inline(always)]
+fn col2im_body(g: &BlockGeom, col: &[f32], s: usize, dx: &mut [f32]) {
     let (p, sp, hw) = (g.p(), s * g.p(), g.h * g.w);
     for ci in 0..g.c {
         for a in 0..g.k {

@@ -15,6 +15,8 @@
 //! against a plain triple loop in f64 on seeded random shapes and against each other bit for
 //! bit.
 
+use std::borrow::Cow;
+
 /// Columns of one tile of a right-hand matrix (two AVX-512 vectors of f32).
 pub const TILE: usize = 32;
 /// Rows of `C` computed together by [`gemm_nn`] (16 AVX-512 accumulators with [`TILE`]).
@@ -22,45 +24,63 @@ const MR: usize = 8;
 /// Rows of `A` and of `B` combined together by [`gemm_nt`] (16 accumulators of 16 lanes).
 const NT: usize = 4;
 
-/// Where the values of a right-hand matrix lie: the element of row `k`, column `j` (of
-/// [`gemm_nn`]'s `B`; row `j`, column `k` of [`gemm_nt`]'s) at
-/// `(j / TILE) * tile + k * row + j % TILE` (for [`gemm_nt`], with the roles of the two indices
-/// exchanged: `(k / TILE) * tile + j * row + k % TILE`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Tiled {
-    /// Distance between two tiles.
-    pub tile: usize,
-    /// Distance between two rows inside a tile.
-    pub row: usize,
+/// Where the values of a right-hand matrix lie: the element of row `r`, column `j` (of
+/// [`gemm_nn`]'s `B`; row `j`, column `r` of [`gemm_nt`]'s, whose tiles run along its inner
+/// dimension) at `tiles[j / TILE] + rows[r] + j % TILE`: each row of a tile is [`TILE`]
+/// consecutive values. Strided layouts ([`Tiled::row_major`], [`Tiled::packed`]) and a
+/// convolution's input read in place (a tile is a 32-pixel stretch of an output row, a row an
+/// offset `(channel, a, b)` into the image: [`Tiled::gather`]) are both of this form.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Tiled<'a> {
+    /// Where each tile starts.
+    tiles: Cow<'a, [usize]>,
+    /// Where each row starts inside a tile.
+    rows: Cow<'a, [usize]>,
 }
 
-impl Tiled {
-    /// A row-major matrix with `ld` values a row (a tile is [`TILE`] consecutive values).
-    pub fn row_major(ld: usize) -> Self {
+impl Tiled<'static> {
+    /// A row-major `rows x cols` matrix with `ld` values a row.
+    pub fn row_major(ld: usize, rows: usize, cols: usize) -> Self {
         Tiled {
-            tile: TILE,
-            row: ld,
+            tiles: (0..cols.div_ceil(TILE)).map(|t| t * TILE).collect(),
+            rows: (0..rows).map(|r| r * ld).collect(),
         }
     }
 
-    /// The tiled layout of a matrix of `rows` rows: tile after tile, each `rows x TILE`
-    /// row-major (what [`super::im2col`] writes).
-    pub fn packed(rows: usize) -> Self {
+    /// A `rows x cols` matrix tile after tile, each `rows x TILE` row-major (what
+    /// [`super::im2col::im2col`] writes).
+    pub fn packed(rows: usize, cols: usize) -> Self {
         Tiled {
-            tile: rows * TILE,
-            row: TILE,
+            tiles: (0..cols.div_ceil(TILE)).map(|t| t * rows * TILE).collect(),
+            rows: (0..rows).map(|r| r * TILE).collect(),
+        }
+    }
+}
+
+impl<'a> Tiled<'a> {
+    /// Tiles and rows starting where the slices say.
+    pub fn gather(tiles: &'a [usize], rows: &'a [usize]) -> Self {
+        Tiled {
+            tiles: Cow::Borrowed(tiles),
+            rows: Cow::Borrowed(rows),
         }
     }
 
-    /// One past the largest index of a `rows x cols` matrix in this layout (rows along
-    /// `row`, columns along the tiles), counting the partial last tile's missing columns
-    /// only where they are read (never: partial tiles are copied).
-    fn extent(self, rows: usize, cols: usize) -> usize {
+    /// Checks the layout against a matrix of `rows` rows and `cols` columns in `len` values:
+    /// every value read (the partial last tile's first `cols % TILE` columns only) lies
+    /// inside.
+    fn check(&self, rows: usize, cols: usize, len: usize) {
         if rows == 0 || cols == 0 {
-            return 0;
+            return;
         }
-        let last = cols - 1;
-        (last / TILE) * self.tile + (rows - 1) * self.row + last % TILE + 1
+        assert!(self.rows.len() >= rows, "B has too few rows");
+        let tiles = cols.div_ceil(TILE);
+        assert!(self.tiles.len() >= tiles, "B has too few tiles");
+        let top = self.rows[..rows].iter().max().copied().unwrap_or(0);
+        for (t, &base) in self.tiles[..tiles].iter().enumerate() {
+            let w = (cols - t * TILE).min(TILE);
+            assert!(base + top + w <= len, "B too short");
+        }
     }
 }
 
@@ -118,7 +138,7 @@ pub fn gemm_nn(
     a: &[f32],
     (a_rs, a_cs): (usize, usize),
     b: &[f32],
-    bl: Tiled,
+    bl: &Tiled,
     c: &mut [f32],
     ldc: usize,
     acc: bool,
@@ -136,7 +156,7 @@ pub fn gemm_nn_on(
     a: &[f32],
     (a_rs, a_cs): (usize, usize),
     b: &[f32],
-    bl: Tiled,
+    bl: &Tiled,
     c: &mut [f32],
     ldc: usize,
     acc: bool,
@@ -148,7 +168,7 @@ pub fn gemm_nn_on(
     assert!(ldc >= n, "C's rows overlap");
     if kk > 0 {
         assert!(a.len() > (m - 1) * a_rs + (kk - 1) * a_cs, "A too short");
-        assert!(b.len() >= bl.extent(kk, n), "B too short");
+        bl.check(kk, n, b.len());
     }
     assert!(Isa::available().contains(&isa), "{isa:?} not run here");
     let p = NnArgs {
@@ -159,7 +179,8 @@ pub fn gemm_nn_on(
         a_rs,
         a_cs,
         b: b.as_ptr(),
-        bl,
+        tiles: bl.tiles.as_ptr(),
+        rows: bl.rows.as_ptr(),
         c: c.as_mut_ptr(),
         ldc,
         acc,
@@ -188,7 +209,7 @@ pub fn gemm_nt(
     a: &[f32],
     lda: usize,
     b: &[f32],
-    bl: Tiled,
+    bl: &Tiled,
     c: &mut [f32],
     ldc: usize,
     acc: bool,
@@ -206,7 +227,7 @@ pub fn gemm_nt_on(
     a: &[f32],
     lda: usize,
     b: &[f32],
-    bl: Tiled,
+    bl: &Tiled,
     c: &mut [f32],
     ldc: usize,
     acc: bool,
@@ -218,7 +239,7 @@ pub fn gemm_nt_on(
     assert!(ldc >= n, "C's rows overlap");
     if kk > 0 {
         assert!(a.len() >= (m - 1) * lda + kk, "A too short");
-        assert!(b.len() >= bl.extent(n, kk), "B too short");
+        bl.check(n, kk, b.len());
     }
     assert!(Isa::available().contains(&isa), "{isa:?} not run here");
     let p = NtArgs {
@@ -228,7 +249,8 @@ pub fn gemm_nt_on(
         a: a.as_ptr(),
         lda,
         b: b.as_ptr(),
-        bl,
+        tiles: bl.tiles.as_ptr(),
+        rows: bl.rows.as_ptr(),
         c: c.as_mut_ptr(),
         ldc,
         acc,
@@ -254,7 +276,8 @@ struct NnArgs {
     a_rs: usize,
     a_cs: usize,
     b: *const f32,
-    bl: Tiled,
+    tiles: *const usize,
+    rows: *const usize,
     c: *mut f32,
     ldc: usize,
     acc: bool,
@@ -268,7 +291,8 @@ struct NtArgs {
     a: *const f32,
     lda: usize,
     b: *const f32,
-    bl: Tiled,
+    tiles: *const usize,
+    rows: *const usize,
     c: *mut f32,
     ldc: usize,
     acc: bool,
@@ -303,21 +327,26 @@ unsafe fn nt_avx2(p: &NtArgs) {
 #[inline(always)]
 unsafe fn nn_body(p: &NnArgs) {
     let mut pad: Vec<f32> = Vec::new();
+    let mut packed_rows: Vec<usize> = Vec::new();
     for jt in 0..p.n.div_ceil(TILE) {
         let j0 = jt * TILE;
         let w = (p.n - j0).min(TILE);
-        let (bp, brow) = if w == TILE {
-            (p.b.add(jt * p.bl.tile), p.bl.row)
+        let base = *p.tiles.add(jt);
+        let (bp, rows) = if w == TILE {
+            (p.b.add(base), p.rows)
         } else {
             pad.clear();
             pad.resize(p.kk * TILE, 0.0);
             for k in 0..p.kk {
-                let src = p.b.add(jt * p.bl.tile + k * p.bl.row);
+                let src = p.b.add(base + *p.rows.add(k));
                 for l in 0..w {
                     pad[k * TILE + l] = *src.add(l);
                 }
             }
-            (pad.as_ptr(), TILE)
+            if packed_rows.len() < p.kk {
+                packed_rows = (0..p.kk).map(|k| k * TILE).collect();
+            }
+            (pad.as_ptr(), packed_rows.as_ptr())
         };
         let mut i0 = 0;
         while i0 < p.m {
@@ -330,7 +359,7 @@ unsafe fn nn_body(p: &NnArgs) {
                 a_rs: p.a_rs,
                 a_cs: p.a_cs,
                 b: bp,
-                brow,
+                rows,
                 c,
                 ldc: p.ldc,
                 w,
@@ -358,7 +387,7 @@ struct NnTile {
     a_rs: usize,
     a_cs: usize,
     b: *const f32,
-    brow: usize,
+    rows: *const usize,
     c: *mut f32,
     ldc: usize,
     w: usize,
@@ -376,7 +405,7 @@ unsafe fn nn_tile<const R: usize>(t: &NnTile) {
         }
     }
     for k in 0..t.kk {
-        let bv: [f32; TILE] = *(t.b.add(k * t.brow) as *const [f32; TILE]);
+        let bv: [f32; TILE] = *(t.b.add(*t.rows.add(k)) as *const [f32; TILE]);
         for (r, row) in s.iter_mut().enumerate() {
             let av = *t.a.add(r * t.a_rs + k * t.a_cs);
             for l in 0..TILE {
@@ -426,8 +455,9 @@ unsafe fn nt_body(p: &NtArgs) {
                 kk: p.kk,
                 a: p.a.add(i0 * p.lda),
                 lda: p.lda,
-                b: p.b.add(t0 * p.bl.row),
-                bl: p.bl,
+                b: p.b,
+                tiles: p.tiles,
+                rows: p.rows.add(t0),
                 c: p.c.add(i0 * p.ldc + t0),
                 ldc: p.ldc,
                 acc: p.acc,
@@ -462,7 +492,8 @@ struct NtTile {
     a: *const f32,
     lda: usize,
     b: *const f32,
-    bl: Tiled,
+    tiles: *const usize,
+    rows: *const usize,
     c: *mut f32,
     ldc: usize,
     acc: bool,
@@ -481,7 +512,7 @@ unsafe fn nt_tile<const R: usize, const T: usize>(t: &NtTile) {
     for kt in 0..full {
         let mut bv = [[0.0f32; TILE]; T];
         for (ti, v) in bv.iter_mut().enumerate() {
-            *v = *(t.b.add(kt * t.bl.tile + ti * t.bl.row) as *const [f32; TILE]);
+            *v = *(t.b.add(*t.tiles.add(kt) + *t.rows.add(ti)) as *const [f32; TILE]);
         }
         for (r, sr) in s.iter_mut().enumerate() {
             let av: [f32; TILE] = *(t.a.add(r * t.lda + kt * TILE) as *const [f32; TILE]);
@@ -492,7 +523,7 @@ unsafe fn nt_tile<const R: usize, const T: usize>(t: &NtTile) {
     if rest > 0 {
         let mut bv = [[0.0f32; TILE]; T];
         for (ti, v) in bv.iter_mut().enumerate() {
-            let src = t.b.add(full * t.bl.tile + ti * t.bl.row);
+            let src = t.b.add(*t.tiles.add(full) + *t.rows.add(ti));
             for (l, x) in v.iter_mut().enumerate().take(rest) {
                 *x = *src.add(l);
             }
@@ -554,40 +585,67 @@ mod tests {
     }
 
     /// Element (k, j) of a tiled matrix.
-    fn at(b: &[f32], bl: Tiled, k: usize, j: usize) -> f32 {
-        b[(j / TILE) * bl.tile + k * bl.row + j % TILE]
+    fn at(b: &[f32], bl: &Tiled, k: usize, j: usize) -> f32 {
+        b[bl.tiles[j / TILE] + bl.rows[k] + j % TILE]
+    }
+
+    /// Overlapping tiles and rows at random places of a buffer (as a convolution's input read
+    /// in place), or a strided layout.
+    fn layout(
+        rng: &mut ChaCha8Rng,
+        case: usize,
+        rows: usize,
+        cols: usize,
+    ) -> (Vec<f32>, Tiled<'static>) {
+        let tiles = cols.div_ceil(TILE);
+        match case % 3 {
+            0 => {
+                let ld = cols + case % 4;
+                (
+                    random(rng, (rows * ld).max(1)),
+                    Tiled::row_major(ld, rows, cols),
+                )
+            }
+            1 => (random(rng, rows * tiles * TILE), Tiled::packed(rows, cols)),
+            _ => {
+                let t: Vec<usize> = (0..tiles).map(|_| rng.random_range(0..60)).collect();
+                let r: Vec<usize> = (0..rows).map(|_| rng.random_range(0..60)).collect();
+                let b = random(rng, 120 + TILE);
+                (
+                    b,
+                    Tiled {
+                        tiles: t.into(),
+                        rows: r.into(),
+                    },
+                )
+            }
+        }
     }
 
     #[test]
     fn nn_matches_a_triple_loop_in_f64_on_every_instruction_set_bit_for_bit_between_them() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
-        for case in 0..40 {
+        for case in 0..60 {
             let m = rng.random_range(1..20usize);
             let n = rng.random_range(1..100usize);
             let kk = rng.random_range(0..40usize);
             let a_t = case % 2 == 1;
             let (a_rs, a_cs) = if a_t { (1, m) } else { (kk, 1) };
             let a = random(&mut rng, (m * kk).max(1));
-            let packed = case % 3 != 0;
-            let tiles = n.div_ceil(TILE);
-            let (b, bl) = if packed {
-                (random(&mut rng, kk * tiles * TILE), Tiled::packed(kk))
-            } else {
-                let ld = n + case % 4;
-                (random(&mut rng, kk * ld), Tiled::row_major(ld))
-            };
+            let (b, bl) = layout(&mut rng, case, kk, n);
             let ldc = n + case % 3;
             let c0 = random(&mut rng, m * ldc);
             let acc = case % 4 < 2;
             let mut first: Option<Vec<f32>> = None;
             for isa in Isa::available() {
                 let mut c = c0.clone();
-                gemm_nn_on(isa, m, n, kk, &a, (a_rs, a_cs), &b, bl, &mut c, ldc, acc);
+                gemm_nn_on(isa, m, n, kk, &a, (a_rs, a_cs), &b, &bl, &mut c, ldc, acc);
                 for i in 0..m {
                     for j in 0..n {
                         let mut want = if acc { f64::from(c0[i * ldc + j]) } else { 0.0 };
                         for k in 0..kk {
-                            want += f64::from(a[i * a_rs + k * a_cs]) * f64::from(at(&b, bl, k, j));
+                            want +=
+                                f64::from(a[i * a_rs + k * a_cs]) * f64::from(at(&b, &bl, k, j));
                         }
                         let got = f64::from(c[i * ldc + j]);
                         assert!(
@@ -614,31 +672,25 @@ mod tests {
     #[test]
     fn nt_matches_a_triple_loop_in_f64_on_every_instruction_set_bit_for_bit_between_them() {
         let mut rng = ChaCha8Rng::seed_from_u64(12);
-        for case in 0..40 {
+        for case in 0..60 {
             let m = rng.random_range(1..11usize);
             let n = rng.random_range(1..11usize);
             let kk = rng.random_range(0..130usize);
             let lda = kk + case % 3;
             let a = random(&mut rng, (m * lda).max(1));
-            let tiles = kk.div_ceil(TILE);
-            let (b, bl) = if case % 2 == 0 {
-                (random(&mut rng, n * tiles * TILE), Tiled::packed(n))
-            } else {
-                let ld = kk + case % 5;
-                (random(&mut rng, (n * ld).max(1)), Tiled::row_major(ld))
-            };
+            let (b, bl) = layout(&mut rng, case, n, kk);
             let ldc = n + case % 2;
             let c0 = random(&mut rng, m * ldc);
             let acc = case % 4 < 2;
             let mut first: Option<Vec<f32>> = None;
             for isa in Isa::available() {
                 let mut c = c0.clone();
-                gemm_nt_on(isa, m, n, kk, &a, lda, &b, bl, &mut c, ldc, acc);
+                gemm_nt_on(isa, m, n, kk, &a, lda, &b, &bl, &mut c, ldc, acc);
                 for i in 0..m {
                     for t in 0..n {
                         let mut want = if acc { f64::from(c0[i * ldc + t]) } else { 0.0 };
                         for k in 0..kk {
-                            want += f64::from(a[i * lda + k]) * f64::from(at(&b, bl, t, k));
+                            want += f64::from(a[i * lda + k]) * f64::from(at(&b, &bl, t, k));
                         }
                         let got = f64::from(c[i * ldc + t]);
                         assert!(
