@@ -39,8 +39,9 @@ use std::sync::{Arc, Mutex};
 /// block of that size is mapped from the kernel and zeroed page by page on every step
 /// otherwise (a sixth of the time in the profile).
 static POOL: Mutex<Vec<Vec<f32>>> = Mutex::new(Vec::new());
-/// Most buffers [`POOL`] keeps.
-const POOL_MAX: usize = 8;
+/// Most buffers [`POOL`] keeps: two training steps' worth (burn frees a step's tapes after the
+/// next step has begun: with 8, about one buffer a step was mapped and zeroed afresh).
+const POOL_MAX: usize = 12;
 
 thread_local! {
     /// Per-thread scratch (im2col matrices and their products), kept between calls.
