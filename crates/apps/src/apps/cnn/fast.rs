@@ -180,39 +180,54 @@ fn lane_sum(v: &[f32], f: impl Fn(f32) -> f32) -> f64 {
 
 /// The convolution with bias: `[n, f, oh, ow]` from `x` `[n, c, h, w]`, `w` `[f, c, k, k]`.
 pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> Vec<f32> {
-    let (p, kk, s) = (g.p(), g.kk(), g.chunk());
+    let (p, s) = (g.p(), g.chunk());
     let mut z = take(g.n * g.f * p);
     z.par_chunks_mut(s * g.f * p)
         .enumerate()
         .for_each(|(ci, zc)| {
-            let n0 = ci * s;
             let sn = zc.len() / (g.f * p);
-            let sp = sn * p;
-            let view = in_place(g, n0, sn);
-            let cl = if view.is_some() { 0 } else { tiled_len(g, sn) };
-            with_scratch(cl + g.f * sp, |scratch| {
-                let (col, tmp) = scratch.split_at_mut(cl);
-                let (b, bl) = match &view {
-                    Some((tiles, rows)) => (x, Tiled::gather(tiles, rows)),
-                    None => {
-                        // The output rows serve as im2col's row scratch before the bias.
-                        im2col(g, x, n0, sn, col, tmp);
-                        (&*col, Tiled::packed(kk, sp))
-                    }
-                };
-                for (row, &b) in tmp.chunks_exact_mut(sp).zip(bias) {
-                    row.fill(b);
-                }
-                gemm_nn(g.f, sp, kk, w, (kk, 1), b, &bl, tmp, sp, true);
+            conv_chunk(g, x, w, bias, ci * s, sn, |tmp| {
                 for si in 0..sn {
                     for fi in 0..g.f {
                         zc[(si * g.f + fi) * p..][..p]
-                            .copy_from_slice(&tmp[fi * sp + si * p..][..p]);
+                            .copy_from_slice(&tmp[fi * sn * p + si * p..][..p]);
                     }
                 }
-            })
+            });
         });
     z
+}
+
+/// The convolution with bias of samples `n0 .. n0 + sn`, handed to `then` as `[f, sn p]`
+/// (filter-major, in this thread's scratch).
+fn conv_chunk(
+    g: &BlockGeom,
+    x: &[f32],
+    w: &[f32],
+    bias: &[f32],
+    n0: usize,
+    sn: usize,
+    then: impl FnOnce(&[f32]),
+) {
+    let (kk, sp) = (g.kk(), sn * g.p());
+    let view = in_place(g, n0, sn);
+    let cl = if view.is_some() { 0 } else { tiled_len(g, sn) };
+    with_scratch(cl + g.f * sp, |scratch| {
+        let (col, tmp) = scratch.split_at_mut(cl);
+        let (b, bl) = match &view {
+            Some((tiles, rows)) => (x, Tiled::gather(tiles, rows)),
+            None => {
+                // The output rows serve as im2col's row scratch before the bias.
+                im2col(g, x, n0, sn, col, tmp);
+                (&*col, Tiled::packed(kk, sp))
+            }
+        };
+        for (row, &b) in tmp.chunks_exact_mut(sp).zip(bias) {
+            row.fill(b);
+        }
+        gemm_nn(g.f, sp, kk, w, (kk, 1), b, &bl, tmp, sp, true);
+        then(tmp);
+    });
 }
 
 /// Per-channel mean and biased variance of `z` `[n, f, p]` (two passes, f64 between samples).
@@ -265,33 +280,62 @@ pub fn affine_relu_pool(
         .zip(args.par_chunks_mut(arg_chunk))
         .zip(z.par_chunks(f * p))
         .for_each_init(Vec::new, |row: &mut Vec<f32>, ((os, ars), zs)| {
-            row.resize(p, 0.0);
             for fi in 0..f {
-                let (sc, sh) = (scale[fi], shift[fi]);
                 let zp = &zs[fi * p..][..p];
                 let op = &mut os[fi * q..][..q];
-                if !g.pool {
-                    for (o, &v) in op.iter_mut().zip(zp) {
-                        *o = (v * sc + sh).max(0.0);
-                    }
-                    continue;
-                }
-                for (r, &v) in row.iter_mut().zip(zp) {
-                    *r = (v * sc + sh).max(0.0);
-                }
-                for i in 0..ph {
-                    let (r0, r1) = (&row[2 * i * g.ow..], &row[(2 * i + 1) * g.ow..]);
-                    for j in 0..pw {
-                        let (v, best) = max4([r0[2 * j], r0[2 * j + 1], r1[2 * j], r1[2 * j + 1]]);
-                        op[i * pw + j] = v;
-                        if write_arg {
-                            ars[fi * q + i * pw + j] = best;
-                        }
-                    }
-                }
+                let ap = write_arg.then(|| &mut ars[fi * q..][..q]);
+                plane(g, zp, scale[fi], shift[fi], op, ap, row);
             }
         });
     (out, arg)
+}
+
+/// One sample's channel of [`affine_relu_pool`]: `relu(z scale + shift)` of the `p` values
+/// `zp`, pooled when the block pools, into the `q` values `op` (and the maxima's positions
+/// into `arg`, when given); `row` is scratch.
+#[inline(always)]
+fn plane(
+    g: &BlockGeom,
+    zp: &[f32],
+    sc: f32,
+    sh: f32,
+    op: &mut [f32],
+    arg: Option<&mut [u8]>,
+    row: &mut Vec<f32>,
+) {
+    if !g.pool {
+        for (o, &v) in op.iter_mut().zip(zp) {
+            *o = (v * sc + sh).max(0.0);
+        }
+        return;
+    }
+    let (ph, pw) = g.out_hw();
+    row.resize(zp.len(), 0.0);
+    for (r, &v) in row.iter_mut().zip(zp) {
+        *r = (v * sc + sh).max(0.0);
+    }
+    let window = |i: usize, j: usize| {
+        let (r0, r1) = (&row[2 * i * g.ow..], &row[(2 * i + 1) * g.ow..]);
+        max4([r0[2 * j], r0[2 * j + 1], r1[2 * j], r1[2 * j + 1]])
+    };
+    match arg {
+        Some(arg) => {
+            for i in 0..ph {
+                for j in 0..pw {
+                    let (v, best) = window(i, j);
+                    op[i * pw + j] = v;
+                    arg[i * pw + j] = best;
+                }
+            }
+        }
+        None => {
+            for i in 0..ph {
+                for j in 0..pw {
+                    op[i * pw + j] = window(i, j).0;
+                }
+            }
+        }
+    }
 }
 
 /// The largest of a 2x2 window's values (row-major) and its position, the first on ties:
@@ -679,7 +723,6 @@ pub fn block_infer(
         values(var),
     );
     let x = contiguous(x.into_primitive().tensor());
-    let z = conv_forward(g, flex_slice(&x), &wv, &bv);
     let scale: Vec<f32> = gv
         .iter()
         .zip(&vv)
@@ -691,7 +734,28 @@ pub fn block_infer(
         .zip(&scale)
         .map(|((&b, &mu), &sc)| (f64::from(b) - f64::from(mu) * f64::from(sc)) as f32)
         .collect();
-    let (out, _) = affine_relu_pool(g, &z, &scale, &shift, false);
-    give(z);
+    // The convolution of each chunk goes straight into normalisation, ReLU and pooling (the
+    // same operations as `conv_forward` then `affine_relu_pool`, without the full-size
+    // convolution output in between).
+    let (p, s, f) = (g.p(), g.chunk(), g.f);
+    let (ph, pw) = g.out_hw();
+    let q = ph * pw;
+    let xs = flex_slice(&x);
+    let mut out = vec![0.0f32; g.n * f * q];
+    out.par_chunks_mut(s * f * q).enumerate().for_each_init(
+        Vec::new,
+        |row: &mut Vec<f32>, (ci, oc)| {
+            let sn = oc.len() / (f * q);
+            conv_chunk(g, xs, &wv, &bv, ci * s, sn, |tmp| {
+                for si in 0..sn {
+                    for fi in 0..f {
+                        let zp = &tmp[fi * sn * p + si * p..][..p];
+                        let op = &mut oc[(si * f + fi) * q..][..q];
+                        plane(g, zp, scale[fi], shift[fi], op, None, row);
+                    }
+                }
+            });
+        },
+    );
     Tensor::from_primitive(TensorPrimitive::Float(flex_tensor(out, &g.out_shape())))
 }

@@ -236,12 +236,20 @@ impl NetConfig {
         out.fill(0.0);
         for i in 0..h {
             let (pi, p) = ((i + top) / 2, (i + top) % 2);
-            for j in 0..w {
-                let (pj, q) = ((j + left) / 2, (j + left) % 2);
-                let z = image[i * w + j];
-                for (c, v) in [(0, z.re), (1, z.im)] {
+            let img = &image[i * w..][..w];
+            for c in 0..2 {
+                let m = &mean[c * h * w + i * w..][..w];
+                for q in 0..2 {
+                    // Columns j with (j + left) % 2 == q land in channel 4c + 2p + q at
+                    // (j + left) / 2: every other column, in order.
                     let ch = 4 * c + 2 * p + q;
-                    out[(ch * hb + pi) * wb + pj] = v - mean[c * h * w + i * w + j];
+                    let j0 = (q + 2 - left % 2) % 2;
+                    let dst =
+                        &mut out[(ch * hb + pi) * wb + (j0 + left) / 2..][..(w - j0).div_ceil(2)];
+                    let cols = img[j0..].iter().step_by(2).zip(m[j0..].iter().step_by(2));
+                    for (o, (z, &mu)) in dst.iter_mut().zip(cols) {
+                        *o = if c == 0 { z.re } else { z.im } - mu;
+                    }
                 }
             }
         }

@@ -568,17 +568,27 @@ fn accuracy<B: Backend>(net: &Net<B>, cfg: &NetConfig, set: &Prepared) -> f64 {
 
 impl Trained {
     /// Predicted classes of `images` (`N * H * W`).
+    ///
+    /// Batch by batch (as [`predict_prepared`]), each prepared as it is needed: no copy of the
+    /// whole set.
     pub fn predict(&self, images: &[Complex32]) -> Vec<usize> {
-        let n = images.len() / (self.cfg.height * self.cfg.width);
-        let set = Labelled {
-            images: images.to_vec(),
-            labels: vec![0; n],
-        };
-        predict_prepared(
-            &self.net,
-            &self.cfg,
-            &Prepared::new(&self.cfg, &set, &self.mean),
-        )
+        let cfg = &self.cfg;
+        let pixels = cfg.height * cfg.width;
+        let each = cfg.prepared_len();
+        let [c, h, w] = cfg.prepared_shape();
+        let device = Default::default();
+        images
+            .chunks(PREDICT_BATCH * pixels)
+            .flat_map(|chunk| {
+                let n = chunk.len() / pixels;
+                let mut v = vec![0.0f32; n * each];
+                for (img, out) in chunk.chunks_exact(pixels).zip(v.chunks_exact_mut(each)) {
+                    cfg.prepare(img, &self.mean, out);
+                }
+                let x = Tensor::from_data(TensorData::new(v, [n, c, h, w]), &device);
+                argmax_rows(self.net.logits(x))
+            })
+            .collect()
     }
 
     /// Accuracy on a labelled set and its confusion matrix (`[true][predicted]` counts).
