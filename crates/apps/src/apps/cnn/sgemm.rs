@@ -262,7 +262,7 @@ pub fn gemm_nt_on(
             Isa::Avx512 => nt_avx512(&p),
             #[cfg(target_arch = "x86_64")]
             Isa::Avx2 => nt_avx2(&p),
-            _ => nt_body(&p),
+            _ => nt_body::<false>(&p),
         }
     }
 }
@@ -313,13 +313,13 @@ unsafe fn nn_avx2(p: &NnArgs) {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
 unsafe fn nt_avx512(p: &NtArgs) {
-    nt_body(p)
+    nt_body::<true>(p)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn nt_avx2(p: &NtArgs) {
-    nt_body(p)
+    nt_body::<false>(p)
 }
 
 /// [`gemm_nn`]: tile after tile of `B` (a partial last tile copied with zeros), [`MR`] rows of
@@ -444,7 +444,7 @@ unsafe fn store(p: *mut f32, v: [f32; TILE], w: usize) {
 /// [`gemm_nt`]: [`NT`] rows of `B` (kept in the caches) against every block of [`NT`] rows of
 /// `A`.
 #[inline(always)]
-unsafe fn nt_body(p: &NtArgs) {
+unsafe fn nt_body<const WIDE: bool>(p: &NtArgs) {
     let mut t0 = 0;
     while t0 < p.n {
         let tn = (p.n - t0).min(NT);
@@ -463,22 +463,22 @@ unsafe fn nt_body(p: &NtArgs) {
                 acc: p.acc,
             };
             match (rn, tn) {
-                (4, 4) => nt_tile::<4, 4>(&t),
-                (4, 3) => nt_tile::<4, 3>(&t),
-                (4, 2) => nt_tile::<4, 2>(&t),
-                (4, _) => nt_tile::<4, 1>(&t),
-                (3, 4) => nt_tile::<3, 4>(&t),
-                (3, 3) => nt_tile::<3, 3>(&t),
-                (3, 2) => nt_tile::<3, 2>(&t),
-                (3, _) => nt_tile::<3, 1>(&t),
-                (2, 4) => nt_tile::<2, 4>(&t),
-                (2, 3) => nt_tile::<2, 3>(&t),
-                (2, 2) => nt_tile::<2, 2>(&t),
-                (2, _) => nt_tile::<2, 1>(&t),
-                (_, 4) => nt_tile::<1, 4>(&t),
-                (_, 3) => nt_tile::<1, 3>(&t),
-                (_, 2) => nt_tile::<1, 2>(&t),
-                (_, _) => nt_tile::<1, 1>(&t),
+                (4, 4) => nt_tile::<4, 4, WIDE>(&t),
+                (4, 3) => nt_tile::<4, 3, false>(&t),
+                (4, 2) => nt_tile::<4, 2, false>(&t),
+                (4, _) => nt_tile::<4, 1, false>(&t),
+                (3, 4) => nt_tile::<3, 4, false>(&t),
+                (3, 3) => nt_tile::<3, 3, false>(&t),
+                (3, 2) => nt_tile::<3, 2, false>(&t),
+                (3, _) => nt_tile::<3, 1, false>(&t),
+                (2, 4) => nt_tile::<2, 4, false>(&t),
+                (2, 3) => nt_tile::<2, 3, false>(&t),
+                (2, 2) => nt_tile::<2, 2, false>(&t),
+                (2, _) => nt_tile::<2, 1, false>(&t),
+                (_, 4) => nt_tile::<1, 4, false>(&t),
+                (_, 3) => nt_tile::<1, 3, false>(&t),
+                (_, 2) => nt_tile::<1, 2, false>(&t),
+                (_, _) => nt_tile::<1, 1, false>(&t),
             }
             i0 += rn;
         }
@@ -506,10 +506,22 @@ const HALF: usize = TILE / 2;
 /// tile into the same lanes), a partial last tile copied with zeros, then each sum's lanes
 /// added in a fixed tree.
 #[inline(always)]
-unsafe fn nt_tile<const R: usize, const T: usize>(t: &NtTile) {
+unsafe fn nt_tile<const R: usize, const T: usize, const WIDE: bool>(t: &NtTile) {
     let mut s = [[[0.0f32; HALF]; T]; R];
     let full = t.kk / TILE;
-    for kt in 0..full {
+    #[cfg(target_arch = "x86_64")]
+    if WIDE && R == NT && T == NT {
+        // SAFETY: `WIDE` only from `nt_avx512`, on a processor with AVX-512; the tile is
+        // `NT x NT`, what the kernel reads and writes.
+        let s4 = &mut *(&mut s as *mut [[[f32; HALF]; T]; R]).cast::<[[[f32; HALF]; NT]; NT]>();
+        nt_full_avx512(t, full, s4);
+    }
+    let start = if WIDE && R == NT && T == NT && cfg!(target_arch = "x86_64") {
+        full
+    } else {
+        0
+    };
+    for kt in start..full {
         let mut bv = [[0.0f32; TILE]; T];
         for (ti, v) in bv.iter_mut().enumerate() {
             *v = *(t.b.add(*t.tiles.add(kt) + *t.rows.add(ti)) as *const [f32; TILE]);
@@ -542,6 +554,36 @@ unsafe fn nt_tile<const R: usize, const T: usize>(t: &NtTile) {
             let c = t.c.add(r * t.ldc + ti);
             let v = lane_tree(lanes);
             *c = if t.acc { *c + v } else { v };
+        }
+    }
+}
+
+/// The whole tiles of an `NT x NT` block of [`nt_tile`] in AVX-512 registers: the same
+/// fused multiply-adds in the same order as [`nt_step`] (which the compiler kept spilling to
+/// the stack here), 16 accumulators, the four rows of `B` loaded once a tile.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn nt_full_avx512(t: &NtTile, full: usize, s: &mut [[[f32; HALF]; NT]; NT]) {
+    use std::arch::x86_64::{__m512, _mm512_fmadd_ps, _mm512_loadu_ps, _mm512_storeu_ps};
+    let zero = _mm512_loadu_ps([0.0f32; HALF].as_ptr());
+    let mut acc: [[__m512; NT]; NT] = [[zero; NT]; NT];
+    let rows: [usize; NT] = std::array::from_fn(|ti| *t.rows.add(ti));
+    for kt in 0..full {
+        let base = t.b.add(*t.tiles.add(kt));
+        let b0: [__m512; NT] = std::array::from_fn(|ti| _mm512_loadu_ps(base.add(rows[ti])));
+        let b1: [__m512; NT] = std::array::from_fn(|ti| _mm512_loadu_ps(base.add(rows[ti] + HALF)));
+        for (r, ar) in acc.iter_mut().enumerate() {
+            let ap = t.a.add(r * t.lda + kt * TILE);
+            let (a0, a1) = (_mm512_loadu_ps(ap), _mm512_loadu_ps(ap.add(HALF)));
+            for ti in 0..NT {
+                ar[ti] = _mm512_fmadd_ps(a0, b0[ti], ar[ti]);
+                ar[ti] = _mm512_fmadd_ps(a1, b1[ti], ar[ti]);
+            }
+        }
+    }
+    for (sr, ar) in s.iter_mut().zip(&acc) {
+        for (lanes, v) in sr.iter_mut().zip(ar) {
+            _mm512_storeu_ps(lanes.as_mut_ptr(), *v);
         }
     }
 }
