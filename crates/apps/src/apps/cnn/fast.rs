@@ -178,15 +178,29 @@ fn lane_sum(v: &[f32], f: impl Fn(f32) -> f32) -> f64 {
     s
 }
 
-/// The convolution with bias: `[n, f, oh, ow]` from `x` `[n, c, h, w]`, `w` `[f, c, k, k]`.
-pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> Vec<f32> {
+/// The convolution with bias: `[n, f, oh, ow]` from `x` `[n, c, h, w]`, `w` `[f, c, k, k]`,
+/// and the chunks' im2col matrices one after the other ([`chunk_cols`]; empty where the
+/// convolution reads its input in place), kept for the backward pass: reading them back costs
+/// less than building them again.
+pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> (Vec<f32>, Vec<f32>) {
     let (p, s) = (g.p(), g.chunk());
     let mut z = take(g.n * g.f * p);
+    let keep = in_place(g, 0, 1).is_none();
+    let mut cols = if keep {
+        take(chunk_cols(g, g.n))
+    } else {
+        Vec::new()
+    };
+    let col_chunk = if keep { tiled_len(g, s) } else { 1 };
+    let mut none = vec![0.0f32; g.n.div_ceil(s)];
+    let cols_of: &mut [f32] = if keep { &mut cols } else { &mut none };
     z.par_chunks_mut(s * g.f * p)
+        .zip(cols_of.par_chunks_mut(col_chunk))
         .enumerate()
-        .for_each(|(ci, zc)| {
+        .for_each(|(ci, (zc, cc))| {
             let sn = zc.len() / (g.f * p);
-            conv_chunk(g, x, w, bias, ci * s, sn, |tmp| {
+            let cc = keep.then_some(cc);
+            conv_chunk(g, x, w, bias, ci * s, sn, cc, |tmp| {
                 for si in 0..sn {
                     for fi in 0..g.f {
                         zc[(si * g.f + fi) * p..][..p]
@@ -195,11 +209,20 @@ pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> Vec<f3
                 }
             });
         });
-    z
+    (z, cols)
+}
+
+/// Values of the im2col matrices of the chunks of `n` samples, one after the other (each
+/// chunk's at `chunk index * tiled_len(g, g.chunk())`).
+fn chunk_cols(g: &BlockGeom, n: usize) -> usize {
+    let s = g.chunk();
+    (n / s) * tiled_len(g, s) + tiled_len(g, n % s)
 }
 
 /// The convolution with bias of samples `n0 .. n0 + sn`, handed to `then` as `[f, sn p]`
-/// (filter-major, in this thread's scratch).
+/// (filter-major, in this thread's scratch); the im2col matrix (where one is needed) goes to
+/// `keep` when given, else to scratch.
+#[allow(clippy::too_many_arguments)]
 fn conv_chunk(
     g: &BlockGeom,
     x: &[f32],
@@ -207,16 +230,22 @@ fn conv_chunk(
     bias: &[f32],
     n0: usize,
     sn: usize,
+    keep: Option<&mut [f32]>,
     then: impl FnOnce(&[f32]),
 ) {
     let (kk, sp) = (g.kk(), sn * g.p());
     let view = in_place(g, n0, sn);
-    let cl = if view.is_some() { 0 } else { tiled_len(g, sn) };
+    let cl = if view.is_some() || keep.is_some() {
+        0
+    } else {
+        tiled_len(g, sn)
+    };
     with_scratch(cl + g.f * sp, |scratch| {
         let (col, tmp) = scratch.split_at_mut(cl);
-        let (b, bl) = match &view {
-            Some((tiles, rows)) => (x, Tiled::gather(tiles, rows)),
-            None => {
+        let (b, bl) = match (&view, keep) {
+            (Some((tiles, rows)), _) => (x, Tiled::gather(tiles, rows)),
+            (None, keep) => {
+                let col = keep.unwrap_or(col);
                 // The output rows serve as im2col's row scratch before the bias.
                 im2col(g, x, n0, sn, col, tmp);
                 (&*col, Tiled::packed(kk, sp))
@@ -363,6 +392,8 @@ pub struct BlockTape {
     pub w: Vec<f32>,
     /// The convolution's output with bias `[n, f, oh, ow]`.
     pub z: Vec<f32>,
+    /// The chunks' im2col matrices (empty where the convolution reads its input in place).
+    pub cols: Vec<f32>,
     /// Pooling positions (empty without pooling).
     pub arg: Vec<u8>,
     /// Batch mean per channel.
@@ -382,6 +413,7 @@ pub struct BlockTape {
 impl Drop for BlockTape {
     fn drop(&mut self) {
         give(std::mem::take(&mut self.z));
+        give(std::mem::take(&mut self.cols));
     }
 }
 
@@ -412,7 +444,7 @@ pub fn block_forward_train(
     beta: &[f32],
     eps: f64,
 ) -> (Vec<f32>, BlockTape) {
-    let z = conv_forward(g, flex_slice(&x), w, bias);
+    let (z, cols) = conv_forward(g, flex_slice(&x), w, bias);
     let (mean, var) = batch_stats(g, &z);
     let inv_std: Vec<f64> = var.iter().map(|&v| 1.0 / (v + eps).sqrt()).collect();
     let scale: Vec<f32> = gamma
@@ -432,6 +464,7 @@ pub fn block_forward_train(
         x,
         w: w.to_vec(),
         z,
+        cols,
         arg,
         mean,
         var,
@@ -538,7 +571,12 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
             let sn = (g.n - n0).min(s);
             let sp = sn * p;
             let view = in_place(g, n0, sn);
-            let cl = if view.is_some() { 0 } else { tiled_len(g, sn) };
+            let kept = !t.cols.is_empty();
+            let cl = if view.is_some() || kept {
+                0
+            } else {
+                tiled_len(g, sn)
+            };
             with_scratch(cl + kk * sp + f * sp, |scratch| {
                 let (col, rest) = scratch.split_at_mut(cl);
                 let (dz, dcol) = rest.split_at_mut(f * sp);
@@ -558,6 +596,10 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
                 }
                 let (b, bl) = match &view {
                     Some((tiles, rows)) => (x, Tiled::gather(tiles, rows)),
+                    None if kept => {
+                        let cc = &t.cols[ci * tiled_len(g, s)..][..tiled_len(g, sn)];
+                        (cc, Tiled::packed(kk, sp))
+                    }
                     None => {
                         im2col(g, x, n0, sn, col, dcol);
                         (&*col, Tiled::packed(kk, sp))
@@ -746,7 +788,7 @@ pub fn block_infer(
         Vec::new,
         |row: &mut Vec<f32>, (ci, oc)| {
             let sn = oc.len() / (f * q);
-            conv_chunk(g, xs, &wv, &bv, ci * s, sn, |tmp| {
+            conv_chunk(g, xs, &wv, &bv, ci * s, sn, None, |tmp| {
                 for si in 0..sn {
                     for fi in 0..f {
                         let zp = &tmp[fi * sn * p + si * p..][..p];
