@@ -234,21 +234,31 @@ impl NetConfig {
         let (_, top, _) = same_padding(h, KERNELS[0], STRIDE);
         let (_, left, _) = same_padding(w, KERNELS[0], STRIDE);
         out.fill(0.0);
+        let mut planes = [vec![0.0f32; w], vec![0.0f32; w]];
         for i in 0..h {
             let (pi, p) = ((i + top) / 2, (i + top) % 2);
+            // The row's real and imaginary planes less the mean, then every other column of
+            // each into its channel: columns j with (j + left) % 2 == q go to channel
+            // 4c + 2p + q at (j + left) / 2.
             let img = &image[i * w..][..w];
-            for c in 0..2 {
-                let m = &mean[c * h * w + i * w..][..w];
+            let means = (&mean[i * w..][..w], &mean[h * w + i * w..][..w]);
+            let [re, im] = &mut planes;
+            for ((r, m), (z, (mr, mi))) in re
+                .iter_mut()
+                .zip(im.iter_mut())
+                .zip(img.iter().zip(means.0.iter().zip(means.1)))
+            {
+                *r = z.re - mr;
+                *m = z.im - mi;
+            }
+            for (c, plane) in planes.iter().enumerate() {
                 for q in 0..2 {
-                    // Columns j with (j + left) % 2 == q land in channel 4c + 2p + q at
-                    // (j + left) / 2: every other column, in order.
                     let ch = 4 * c + 2 * p + q;
                     let j0 = (q + 2 - left % 2) % 2;
-                    let dst =
-                        &mut out[(ch * hb + pi) * wb + (j0 + left) / 2..][..(w - j0).div_ceil(2)];
-                    let cols = img[j0..].iter().step_by(2).zip(m[j0..].iter().step_by(2));
-                    for (o, (z, &mu)) in dst.iter_mut().zip(cols) {
-                        *o = if c == 0 { z.re } else { z.im } - mu;
+                    let len = (w - j0).div_ceil(2);
+                    let dst = &mut out[(ch * hb + pi) * wb + (j0 + left) / 2..][..len];
+                    for (o, pair) in dst.iter_mut().zip(plane[j0..].chunks(2)) {
+                        *o = pair[0];
                     }
                 }
             }
