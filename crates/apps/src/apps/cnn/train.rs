@@ -548,7 +548,7 @@ fn argmax_rows<B: Backend>(scores: Tensor<B, 2>) -> Vec<usize> {
 /// Rows of prediction per pass: 32 keeps a pass's buffers (1.3 MB of prepared 64 x 64 images,
 /// the blocks' outputs) below the size the allocator maps afresh, so that they are reused
 /// instead of faulted in and zeroed for every pass (20 % faster than 256 on Table 18's
-/// network; BENCHMARKS.md). Each image's prediction does not depend on the others in its pass.
+/// network; BENCHMARKS.md).
 const PREDICT_BATCH: usize = 32;
 
 /// Predicted classes of a prepared set.
