@@ -39,6 +39,87 @@ fn data(n: usize, classes: usize, seed: u64) -> Labelled {
     set
 }
 
+/// Multiply-add floating-point operations per sample of a training step and of a prediction
+/// (`2 x` the multiply-adds of the convolutions and the fully connected layer, from the layer
+/// table): forward, then the weight gradients of every layer and the input gradients of all but
+/// the first convolution. Normalisation, ReLU and pooling are not counted.
+fn flops(cfg: &NetConfig) -> (f64, f64) {
+    let mut fwd = 0.0;
+    let mut train = 0.0;
+    for (b, l) in cfg
+        .layers()
+        .iter()
+        .filter(|l| l.name.starts_with("conv"))
+        .enumerate()
+    {
+        let f = l.activations[2];
+        let macs = ((l.learnables - f) * l.activations[0] * l.activations[1]) as f64;
+        fwd += 2.0 * macs;
+        train += 2.0 * macs * if b == 0 { 2.0 } else { 3.0 };
+    }
+    let fc = 2.0 * (cfg.flat() * cfg.classes) as f64;
+    (train + 3.0 * fc, fwd + fc)
+}
+
+/// Peak f32 GFLOP/s of one thread: AVX-512 fused multiply-adds on 12 independent vectors
+/// (AVX2 where the processor has no AVX-512), counting a multiply-add as two operations.
+fn peak_gflops() -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx512f")]
+        fn run512(steps: u64) -> f32 {
+            use std::arch::x86_64::*;
+            let m = _mm512_set1_ps(std::hint::black_box(1.000_000_1));
+            let a = _mm512_set1_ps(std::hint::black_box(1e-9));
+            let mut acc = [_mm512_setzero_ps(); 12];
+            for _ in 0..steps {
+                for v in acc.iter_mut() {
+                    *v = _mm512_fmadd_ps(*v, m, a);
+                }
+            }
+            let sum = acc
+                .iter()
+                .fold(_mm512_setzero_ps(), |s, v| _mm512_add_ps(s, *v));
+            _mm512_reduce_add_ps(sum)
+        }
+        #[target_feature(enable = "avx2,fma")]
+        fn run256(steps: u64) -> f32 {
+            use std::arch::x86_64::*;
+            let m = _mm256_set1_ps(std::hint::black_box(1.000_000_1));
+            let a = _mm256_set1_ps(std::hint::black_box(1e-9));
+            let mut acc = [_mm256_setzero_ps(); 12];
+            for _ in 0..steps {
+                for v in acc.iter_mut() {
+                    *v = _mm256_fmadd_ps(*v, m, a);
+                }
+            }
+            let mut out = [0.0f32; 8];
+            let sum = acc
+                .iter()
+                .fold(_mm256_setzero_ps(), |s, v| _mm256_add_ps(s, *v));
+            // SAFETY: `out` holds eight f32, the width of the stored vector.
+            unsafe { _mm256_storeu_ps(out.as_mut_ptr(), sum) };
+            out.iter().sum()
+        }
+        let steps = 20_000_000u64;
+        let t = std::time::Instant::now();
+        let lanes = if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the processor has AVX-512 F, checked just above.
+            std::hint::black_box(unsafe { run512(steps) });
+            16
+        } else if std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the processor has AVX2 and FMA, checked just above.
+            std::hint::black_box(unsafe { run256(steps) });
+            8
+        } else {
+            return 0.0;
+        };
+        return (steps * 12 * lanes * 2) as f64 / t.elapsed().as_secs_f64() / 1e9;
+    }
+    #[allow(unreachable_code)]
+    0.0
+}
+
 fn main() {
     isar_clutter::alloc::tune_malloc();
     let json = std::env::args().any(|a| a == "--json");
@@ -47,6 +128,12 @@ fn main() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(8);
     let n = 128 * batches;
+    let peak = peak_gflops();
+    if json {
+        println!("{{\"peak_gflops_per_thread\":{peak:.1}}}");
+    } else {
+        println!("peak: {peak:.1} GFLOP/s f32 on one thread (fused multiply-adds)");
+    }
     // `CNN_BENCH_NETS=table18` (or `table23`) measures one network alone (for profiles).
     let only = std::env::var("CNN_BENCH_NETS").ok();
     for (arch, classes, name) in [
@@ -65,6 +152,7 @@ fn main() {
             width: 64,
             classes,
         };
+        let (train_flops, predict_flops) = flops(&cfg);
         let set = data(n, classes, 1);
         let empty = Labelled::default();
         let opts = TrainingOptions {
@@ -107,6 +195,8 @@ fn main() {
             };
             let wall = t.elapsed().as_secs_f64();
             let per_training: f64 = rates.iter().sum::<f64>() / rates.len() as f64;
+            let gflops = per_training * train_flops / 1e9;
+            let share = 100.0 * gflops / (peak * threads as f64);
             let total = (side_by_side * n * opts.epochs) as f64 / wall;
             let label = if side_by_side > 1 {
                 format!("{side_by_side} trainings x 1 thread")
@@ -115,11 +205,11 @@ fn main() {
             };
             if json {
                 println!(
-                    "{{\"net\":\"{name}\",\"threads\":{threads},\"trainings\":{side_by_side},\"batch_size\":128,\"samples_per_second\":{per_training:.1},\"machine_samples_per_second\":{total:.1}}}"
+                    "{{\"net\":\"{name}\",\"threads\":{threads},\"trainings\":{side_by_side},\"batch_size\":128,\"samples_per_second\":{per_training:.1},\"machine_samples_per_second\":{total:.1},\"gflops\":{gflops:.1},\"peak_share_percent\":{share:.1}}}"
                 );
             } else {
                 println!(
-                    "burn flex {name}: {label}: {per_training:.0} samples/s per training (steps only), {total:.0} samples/s for the machine (wall, with data preparation)"
+                    "burn flex {name}: {label}: {per_training:.0} samples/s per training (steps only; {gflops:.0} GFLOP/s, {share:.0} % of the threads' peak), {total:.0} samples/s for the machine (wall, with data preparation)"
                 );
             }
         }
@@ -137,13 +227,15 @@ fn main() {
                 std::hint::black_box(pool.install(|| trained.evaluate(&set)));
             }
             let rate = (passes * n) as f64 / t.elapsed().as_secs_f64();
+            let gflops = rate * predict_flops / 1e9;
+            let share = 100.0 * gflops / (peak * threads as f64);
             if json {
                 println!(
-                    "{{\"net\":\"{name}\",\"threads\":{threads},\"mode\":\"predict\",\"batch_size\":128,\"samples_per_second\":{rate:.1}}}"
+                    "{{\"net\":\"{name}\",\"threads\":{threads},\"mode\":\"predict\",\"samples_per_second\":{rate:.1},\"gflops\":{gflops:.1},\"peak_share_percent\":{share:.1}}}"
                 );
             } else {
                 println!(
-                    "burn flex {name}: {threads} thread(s): {rate:.0} samples/s predicted (forward only, inference mode)"
+                    "burn flex {name}: {threads} thread(s): {rate:.0} samples/s predicted (forward only, inference mode; {gflops:.0} GFLOP/s, {share:.0} % of the threads' peak)"
                 );
             }
         }

@@ -35,7 +35,7 @@ const B: usize = 16;
 const H: usize = 16;
 
 /// Columns per tile of the image (see [`FastFilter::filter_body`]).
-const T: usize = 32;
+pub(super) const T: usize = 32;
 
 /// A Method 1 or 2 filter bank prepared for sample format 2 (see the module documentation).
 #[derive(Debug, Clone)]
@@ -194,6 +194,13 @@ impl FastFilter {
     fn filter(&self, scratch: &mut Scratch, out: &mut [Complex32]) {
         #[cfg(target_arch = "x86_64")]
         {
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
+                // SAFETY: the CPU supports AVX-512 F, AVX2 and FMA, checked just above.
+                return unsafe { self.filter_avx512(scratch, out) };
+            }
             if std::arch::is_x86_feature_detected!("avx2")
                 && std::arch::is_x86_feature_detected!("fma")
             {
@@ -201,13 +208,20 @@ impl FastFilter {
                 return unsafe { self.filter_avx2(scratch, out) };
             }
         }
-        self.filter_body::<false>(scratch, out)
+        self.filter_body::<false, false>(scratch, out)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     fn filter_avx2(&self, scratch: &mut Scratch, out: &mut [Complex32]) {
-        self.filter_body::<true>(scratch, out)
+        self.filter_body::<true, false>(scratch, out)
+    }
+
+    /// Whole tiles through the AVX-512 blocks ([`super::kernel_avx512`]), the rest as on AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    fn filter_avx512(&self, scratch: &mut Scratch, out: &mut [Complex32]) {
+        self.filter_body::<true, true>(scratch, out)
     }
 
     /// Filters a white seed given in `f64` (the oracle tests' entry): `seed` row-major
@@ -229,7 +243,11 @@ impl FastFilter {
     /// stay in L1 in a ring of rows: on the whole image at once they were 368 KiB for Method 1,
     /// read from L2 nine times per sample, and those loads bounded the kernel.
     #[inline(always)]
-    fn filter_body<const AVX: bool>(&self, scratch: &mut Scratch, out: &mut [Complex32]) {
+    fn filter_body<const AVX: bool, const WIDE: bool>(
+        &self,
+        scratch: &mut Scratch,
+        out: &mut [Complex32],
+    ) {
         let (h, w, k) = (self.h, self.w, self.k);
         assert_eq!(out.len(), h * w);
         let sw = w + 2 * k;
@@ -261,6 +279,15 @@ impl FastFilter {
                         let src = &src[r * sw + j0..][..tw + 2 * k];
                         let mut x = 0;
                         #[cfg(target_arch = "x86_64")]
+                        #[cfg(target_arch = "x86_64")]
+                        while WIDE && x + 16 <= tw {
+                            let (s, d) =
+                                (src.as_ptr().add(k + x), dst.as_mut_ptr().add(comp * T + x));
+                            // SAFETY: AVX-512 is present (WIDE); as below for 16 columns.
+                            unsafe { super::kernel_avx512::basis(s, &self.hclass, d) };
+                            x += 16;
+                        }
+                        #[cfg(target_arch = "x86_64")]
                         if AVX {
                             while x + 8 <= tw {
                                 // SAFETY: AVX2 is present (AVX); columns x .. x + 8 <= tw of
@@ -290,7 +317,7 @@ impl FastFilter {
                     }
                 }
                 next = next.max(end);
-                self.group_tile::<AVX>(gi, (g0, g1), (j0, tw), (basis, hsum), out);
+                self.group_tile::<AVX, WIDE>(gi, (g0, g1), (j0, tw), (basis, hsum), out);
             }
         }
     }
@@ -302,7 +329,7 @@ impl FastFilter {
     /// Long because it is the inner kernel, unrolled by hand so that the compiler keeps its
     /// accumulators in registers.
     #[inline(always)]
-    fn group_tile<const AVX: bool>(
+    fn group_tile<const AVX: bool, const WIDE: bool>(
         &self,
         gi: usize,
         (g0, g1): (usize, usize),
@@ -339,6 +366,19 @@ impl FastFilter {
                 } else {
                     h0.as_mut_ptr()
                 };
+                while WIDE && j + 2 * H <= tw {
+                    // SAFETY: AVX-512 is present (WIDE); as below for 32 columns.
+                    unsafe {
+                        super::kernel_avx512::horizontal(
+                            coef.as_ptr().add(j),
+                            [b0.as_ptr().add(j), b1.as_ptr().add(j)],
+                            (w, nt),
+                            [h0.as_mut_ptr().add(j), h1p.add(j)],
+                            pair,
+                        )
+                    };
+                    j += 2 * H;
+                }
                 while j + H <= tw {
                     // SAFETY: AVX2 and FMA are present (AVX); the 16 columns from j lie in
                     // the tile (j + 16 <= tw <= T): coefficient rows `t w` apart (checked
@@ -383,6 +423,20 @@ impl FastFilter {
                         && centre >= rv
                         && vc.len() >= (nv - 1) * w + tw
                 );
+                while WIDE && j + 2 * B <= tw {
+                    // SAFETY: AVX-512 is present (WIDE); as below for 32 columns.
+                    unsafe {
+                        super::kernel_avx512::vertical(
+                            vc.as_ptr().add(j),
+                            hsum.as_ptr().add(j),
+                            (w, centre),
+                            &self.vclass,
+                            (mean.0.as_ptr().add(j), mean.1.as_ptr().add(j)),
+                            o.as_mut_ptr().add(j),
+                        )
+                    };
+                    j += 2 * B;
+                }
                 while j + B <= tw {
                     // SAFETY: AVX2 and FMA are present (AVX); columns j .. j + 16 <= tw of
                     // the coefficient rows, the mean rows, the output row and the H rows
@@ -707,7 +761,7 @@ mod tests {
                 im: seed.iter().map(|z| z.im as f32).collect(),
                 ..Scratch::default()
             };
-            fast.filter_body::<false>(&mut scratch, &mut portable);
+            fast.filter_body::<false, false>(&mut scratch, &mut portable);
             assert_eq!(
                 out, portable,
                 "{shape:?}: the AVX2 path is the portable path's bits"

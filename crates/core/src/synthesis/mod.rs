@@ -37,6 +37,8 @@ use serde::{Deserialize, Serialize};
 mod fit;
 mod generate;
 pub mod kernel;
+#[cfg(target_arch = "x86_64")]
+mod kernel_avx512;
 
 pub use fit::*;
 
