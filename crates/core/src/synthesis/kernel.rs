@@ -17,7 +17,7 @@
 //! against 17 x 9 + 17 for the direct sum with shared horizontal sums.
 //!
 //! Multiply-adds are fused (`f32::mul_add`), so results are the same bits with or without the
-//! AVX2 + FMA path (which only compiles the same loops for those instructions). The direct
+//! AVX2 + FMA and AVX-512 paths (the same operations per lane, wider). The direct
 //! double sum in `f64` ([`crate::stats::filters::filter_pixel_direct`]) is the oracle of the
 //! tests: the two agree to `f32` rounding.
 
@@ -193,20 +193,14 @@ impl FastFilter {
     /// Filters the white seed held in `scratch.re`, `scratch.im` into `out`.
     fn filter(&self, scratch: &mut Scratch, out: &mut [Complex32]) {
         #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
-            if std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
+            if std::arch::is_x86_feature_detected!("avx512f") {
                 // SAFETY: the CPU supports AVX-512 F, AVX2 and FMA, checked just above.
                 return unsafe { self.filter_avx512(scratch, out) };
             }
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                // SAFETY: the CPU supports AVX2 and FMA, checked just above.
-                return unsafe { self.filter_avx2(scratch, out) };
-            }
+            // SAFETY: the CPU supports AVX2 and FMA, checked just above.
+            return unsafe { self.filter_avx2(scratch, out) };
         }
         self.filter_body::<false, false>(scratch, out)
     }
@@ -281,10 +275,13 @@ impl FastFilter {
                         #[cfg(target_arch = "x86_64")]
                         #[cfg(target_arch = "x86_64")]
                         while WIDE && x + 16 <= tw {
-                            let (s, d) =
-                                (src.as_ptr().add(k + x), dst.as_mut_ptr().add(comp * T + x));
-                            // SAFETY: AVX-512 is present (WIDE); as below for 16 columns.
-                            unsafe { super::kernel_avx512::basis(s, &self.hclass, d) };
+                            // SAFETY: AVX-512 is present (WIDE); as below for 16 columns (the
+                            // class offsets reach k to either side of `src + k + x`).
+                            unsafe {
+                                let (s, d) =
+                                    (src.as_ptr().add(k + x), dst.as_mut_ptr().add(comp * T + x));
+                                super::kernel_avx512::basis(s, &self.hclass, d)
+                            };
                             x += 16;
                         }
                         #[cfg(target_arch = "x86_64")]
@@ -764,7 +761,7 @@ mod tests {
             fast.filter_body::<false, false>(&mut scratch, &mut portable);
             assert_eq!(
                 out, portable,
-                "{shape:?}: the AVX2 path is the portable path's bits"
+                "{shape:?}: the vector path (AVX-512 or AVX2) is the portable path's bits"
             );
             for i in 0..h {
                 for j in 0..w {
