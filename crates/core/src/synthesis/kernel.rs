@@ -35,7 +35,7 @@ const B: usize = 16;
 const H: usize = 16;
 
 /// Columns per tile of the image (see [`FastFilter::filter_body`]).
-pub(super) const T: usize = 32;
+const T: usize = 32;
 
 /// A Method 1 or 2 filter bank prepared for sample format 2 (see the module documentation).
 #[derive(Debug, Clone)]
@@ -280,7 +280,7 @@ impl FastFilter {
                             unsafe {
                                 let (s, d) =
                                     (src.as_ptr().add(k + x), dst.as_mut_ptr().add(comp * T + x));
-                                super::kernel_avx512::basis(s, &self.hclass, d)
+                                super::kernel_avx512::basis(s, &self.hclass, d, T)
                             };
                             x += 16;
                         }
@@ -369,7 +369,7 @@ impl FastFilter {
                         super::kernel_avx512::horizontal(
                             coef.as_ptr().add(j),
                             [b0.as_ptr().add(j), b1.as_ptr().add(j)],
-                            (w, nt),
+                            (w, nt, T),
                             [h0.as_mut_ptr().add(j), h1p.add(j)],
                             pair,
                         )
@@ -426,7 +426,7 @@ impl FastFilter {
                         super::kernel_avx512::vertical(
                             vc.as_ptr().add(j),
                             hsum.as_ptr().add(j),
-                            (w, centre),
+                            (w, centre, T),
                             &self.vclass,
                             (mean.0.as_ptr().add(j), mean.1.as_ptr().add(j)),
                             o.as_mut_ptr().add(j),

@@ -2,9 +2,9 @@
 //! the horizontal sums, the output pixels): twice the columns of the AVX2 blocks per call, the
 //! same operations per lane in the same order (a product, then fused multiply-adds class by
 //! class; the pair sums added in class order), so the same bits as the AVX2 and portable
-//! paths (`kernel::tests` compares them).
+//! paths (`kernel::tests` compares them). `tile` is the kernel's tile width (its `T`): the
+//! distance between a slot's components and classes.
 
-use super::kernel::T;
 use num_complex::Complex32;
 use std::arch::x86_64::*;
 
@@ -12,9 +12,9 @@ use std::arch::x86_64::*;
 ///
 /// # Safety
 /// The CPU has AVX-512 F; `src - k .. src + 16 + k` is valid for every class offset up to `k`,
-/// and `dst + 2 t T + 16` for every class `t`.
+/// and `dst + 2 t tile + 16` for every class `t`.
 #[target_feature(enable = "avx512f")]
-pub(super) unsafe fn basis(src: *const f32, hclass: &[Vec<usize>], dst: *mut f32) {
+pub(super) unsafe fn basis(src: *const f32, hclass: &[Vec<usize>], dst: *mut f32, tile: usize) {
     // SAFETY (whole body): every offset stays within the ranges the caller guarantees.
     unsafe {
         _mm512_storeu_ps(dst, _mm512_loadu_ps(src));
@@ -25,7 +25,7 @@ pub(super) unsafe fn basis(src: *const f32, hclass: &[Vec<usize>], dst: *mut f32
             for &d in &class[1..] {
                 acc = _mm512_add_ps(acc, pair(d));
             }
-            _mm512_storeu_ps(dst.add((1 + t) * 2 * T), acc);
+            _mm512_storeu_ps(dst.add((1 + t) * 2 * tile), acc);
         }
     }
 }
@@ -35,12 +35,12 @@ pub(super) unsafe fn basis(src: *const f32, hclass: &[Vec<usize>], dst: *mut f32
 ///
 /// # Safety
 /// The CPU has AVX-512 F; 32 columns from each pointer are valid, for `nt` classes
-/// (`coef + t w`, `basis + (2 t + comp) T`) and both components of the H rows (`+ T`).
+/// (`coef + t w`, `basis + (2 t + comp) tile`) and both components of the H rows (`+ tile`).
 #[target_feature(enable = "avx512f")]
 pub(super) unsafe fn horizontal(
     coef: *const f32,
     basis: [*const f32; 2],
-    (w, nt): (usize, usize),
+    (w, nt, tile): (usize, usize, usize),
     hrow: [*mut f32; 2],
     pair: bool,
 ) {
@@ -51,7 +51,7 @@ pub(super) unsafe fn horizontal(
         for r in 0..2 {
             for comp in 0..2 {
                 for v in 0..2 {
-                    let b = _mm512_loadu_ps(basis[r].add(comp * T + 16 * v));
+                    let b = _mm512_loadu_ps(basis[r].add(comp * tile + 16 * v));
                     acc[r][2 * comp + v] = _mm512_mul_ps(c[v], b);
                 }
             }
@@ -62,7 +62,7 @@ pub(super) unsafe fn horizontal(
             for r in 0..2 {
                 for comp in 0..2 {
                     for v in 0..2 {
-                        let b = _mm512_loadu_ps(basis[r].add((2 * t + comp) * T + 16 * v));
+                        let b = _mm512_loadu_ps(basis[r].add((2 * t + comp) * tile + 16 * v));
                         acc[r][2 * comp + v] = _mm512_fmadd_ps(c[v], b, acc[r][2 * comp + v]);
                     }
                 }
@@ -71,7 +71,7 @@ pub(super) unsafe fn horizontal(
         for r in 0..1 + usize::from(pair) {
             for comp in 0..2 {
                 for v in 0..2 {
-                    _mm512_storeu_ps(hrow[r].add(comp * T + 16 * v), acc[r][2 * comp + v]);
+                    _mm512_storeu_ps(hrow[r].add(comp * tile + 16 * v), acc[r][2 * comp + v]);
                 }
             }
         }
@@ -84,12 +84,12 @@ pub(super) unsafe fn horizontal(
 /// # Safety
 /// The CPU has AVX-512 F; 32 columns from each pointer are valid: coefficient rows
 /// `0 ..= vclass.len()` (`+ t w`), H rows `centre - d ..= centre + d` for every class offset
-/// `d` (`+ r 2 T`, both components), the mean rows and 32 output values.
+/// `d` (`+ r 2 tile`, both components), the mean rows and 32 output values.
 #[target_feature(enable = "avx512f")]
 pub(super) unsafe fn vertical(
     vc: *const f32,
     hsum: *const f32,
-    (w, centre): (usize, usize),
+    (w, centre, tile): (usize, usize, usize),
     vclass: &[Vec<usize>],
     (mean_re, mean_im): (*const f32, *const f32),
     out: *mut Complex32,
@@ -100,11 +100,11 @@ pub(super) unsafe fn vertical(
             [
                 _mm512_loadu_ps(p),
                 _mm512_loadu_ps(p.add(16)),
-                _mm512_loadu_ps(p.add(T)),
-                _mm512_loadu_ps(p.add(T + 16)),
+                _mm512_loadu_ps(p.add(tile)),
+                _mm512_loadu_ps(p.add(tile + 16)),
             ]
         };
-        let row = |r: usize| hsum.add(r * 2 * T);
+        let row = |r: usize| hsum.add(r * 2 * tile);
         let c = [_mm512_loadu_ps(vc), _mm512_loadu_ps(vc.add(16))];
         let hc = load4(row(centre));
         let mut acc: [__m512; 4] = std::array::from_fn(|x| _mm512_mul_ps(c[x % 2], hc[x]));

@@ -4,7 +4,7 @@
 //! without packing, and [`col2im`] adds a row-major matrix of that shape back onto the images
 //! (the input gradient).
 
-use super::fast::BlockGeom;
+use super::geom::BlockGeom;
 use super::sgemm::{Isa, TILE};
 
 /// Values of the tiled im2col matrix of `s` samples: its rows times the columns rounded up to

@@ -3,11 +3,13 @@
 //! networks of Tables 18 and 23, [`train`] the training loop (MATLAB's `sgdm` defaults) on
 //! burn's pure-Rust CPU backend, [`classification`] and [`location`] the two applications'
 //! data sets (splits, normalisation, the mix of generated and original samples, targets and
-//! signal-to-clutter ratio), [`store`] saving and loading trained networks, and [`fast`] the hand-written CPU kernels of
-//! the convolution blocks.
+//! signal-to-clutter ratio), [`store`] saving and loading trained networks, and [`fast`] the
+//! hand-written CPU kernels of the convolution blocks ([`geom`] their geometry, [`im2col`] their
+//! im2col matrices, [`sgemm`] their matrix products).
 
 pub mod classification;
 pub mod fast;
+pub mod geom;
 pub mod im2col;
 pub mod location;
 pub mod net;
