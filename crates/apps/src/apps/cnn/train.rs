@@ -20,6 +20,7 @@ use num_complex::Complex32;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -234,13 +235,11 @@ impl Prepared {
         let pixels = cfg.height * cfg.width;
         let each = cfg.prepared_len();
         let mut values = vec![0.0f32; set.len() * each];
-        for (img, out) in set
-            .images
-            .chunks_exact(pixels)
-            .zip(values.chunks_exact_mut(each))
-        {
-            cfg.prepare(img, mean, out);
-        }
+        // Each image on its own (a pure function of it): on the pool's threads.
+        values
+            .par_chunks_exact_mut(each)
+            .zip(set.images.par_chunks_exact(pixels))
+            .for_each(|(out, img)| cfg.prepare(img, mean, out));
         Prepared {
             values,
             labels: set.labels.clone(),
@@ -585,9 +584,9 @@ impl Trained {
             .flat_map(|chunk| {
                 let n = chunk.len() / pixels;
                 let mut v = vec![0.0f32; n * each];
-                for (img, out) in chunk.chunks_exact(pixels).zip(v.chunks_exact_mut(each)) {
-                    cfg.prepare(img, &self.mean, out);
-                }
+                v.par_chunks_exact_mut(each)
+                    .zip(chunk.par_chunks_exact(pixels))
+                    .for_each(|(out, img)| cfg.prepare(img, &self.mean, out));
                 let x = Tensor::from_data(TensorData::new(v, [n, c, h, w]), &device);
                 argmax_rows(self.net.logits(x))
             })
