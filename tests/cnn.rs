@@ -457,6 +457,9 @@ fn fast_blocks_match_the_plain_loop_oracle_forward_and_gradients() {
         // Rows of a whole tile (32 columns, stride 1): the im2col's fixed-size copies, and
         // products over several tiles.
         (2, 2, 35, 35, 3, 4, 1, 0, 0, 32, 32, true),
+        // The networks' second convolution: 4x4 stride 2 'same' (padding 1 and 2), rows of 8
+        // columns (im2col through padded planes split by column parity).
+        (3, 3, 15, 15, 4, 4, 2, 1, 1, 8, 8, true),
         // Rows of 12 columns, which do not divide a tile: im2col through its row buffer.
         (5, 2, 12, 12, 3, 3, 1, 1, 1, 12, 12, true),
     ];
