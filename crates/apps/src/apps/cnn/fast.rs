@@ -23,7 +23,7 @@
 //! reused between training steps; neither carries values from one call to the next.
 
 pub use super::geom::BlockGeom;
-use super::im2col::{col2im, im2col, in_place, tiled_len};
+use super::im2col::{col2im, im2col, in_place, reads_in_place, tiled_len};
 use super::sgemm::{gemm_nn, gemm_nt, Tiled};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
@@ -119,22 +119,24 @@ fn lane_sum(v: &[f32], f: impl Fn(f32) -> f32) -> f64 {
 pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> (Vec<f32>, Vec<f32>) {
     let (p, s) = (g.p(), g.chunk());
     let mut z = take(g.n * g.f * p);
-    let keep = in_place(g, 0, 1).is_none();
+    let keep = !reads_in_place(g);
     let mut cols = if keep {
         take(chunk_cols(g, g.n))
     } else {
         Vec::new()
     };
-    let col_chunk = if keep { tiled_len(g, s) } else { 1 };
-    let mut none = vec![0.0f32; g.n.div_ceil(s)];
-    let cols_of: &mut [f32] = if keep { &mut cols } else { &mut none };
+    // Each chunk's part of `cols` (none where nothing is kept).
+    let mut parts: Vec<Option<&mut [f32]>> = if keep {
+        cols.chunks_mut(tiled_len(g, s)).map(Some).collect()
+    } else {
+        (0..g.n.div_ceil(s)).map(|_| None).collect()
+    };
     z.par_chunks_mut(s * g.f * p)
-        .zip(cols_of.par_chunks_mut(col_chunk))
+        .zip(parts.par_iter_mut())
         .enumerate()
         .for_each(|(ci, (zc, cc))| {
             let sn = zc.len() / (g.f * p);
-            let cc = keep.then_some(cc);
-            conv_chunk(g, x, w, bias, ci * s, sn, cc, |tmp| {
+            conv_chunk(g, x, w, bias, ci * s, sn, cc.take(), |tmp| {
                 for si in 0..sn {
                     for fi in 0..g.f {
                         zc[(si * g.f + fi) * p..][..p]
@@ -518,15 +520,8 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
             let sn = (g.n - n0).min(s);
             let sp = sn * p;
             let view = in_place(g, n0, sn);
-            let kept = !t.cols.is_empty();
-            let cl = if view.is_some() || kept {
-                0
-            } else {
-                tiled_len(g, sn)
-            };
-            with_scratch(cl + kk * sp + f * sp, |scratch| {
-                let (col, rest) = scratch.split_at_mut(cl);
-                let (dz, dcol) = rest.split_at_mut(f * sp);
+            with_scratch(kk * sp + f * sp, |scratch| {
+                let (dz, dcol) = scratch.split_at_mut(f * sp);
                 let mut db = vec![0.0f64; f];
                 for si in 0..sn {
                     let ni = n0 + si;
@@ -541,15 +536,12 @@ pub fn block_backward(t: &BlockTape, dout: &[f32], want_dx: bool) -> BlockGrads 
                         db[fi] += lane_sum(out, |v| v);
                     }
                 }
+                // The forward pass kept the im2col matrix wherever it needed one.
                 let (b, bl) = match &view {
                     Some((tiles, rows)) => (x, Tiled::gather(tiles, rows)),
-                    None if kept => {
+                    None => {
                         let cc = &t.cols[ci * tiled_len(g, s)..][..tiled_len(g, sn)];
                         (cc, Tiled::packed(kk, sp))
-                    }
-                    None => {
-                        im2col(g, x, n0, sn, col, dcol);
-                        (&*col, Tiled::packed(kk, sp))
                     }
                 };
                 let mut dw = vec![0.0f32; f * kk];

@@ -21,13 +21,7 @@ pub fn tiled_len(g: &BlockGeom, s: usize) -> usize {
 /// The network's first convolution, in its space-to-depth form, is such a geometry: its
 /// im2col matrix would be 16 copies of the input.
 pub fn in_place(g: &BlockGeom, n0: usize, s: usize) -> Option<(Vec<usize>, Vec<usize>)> {
-    let fits = g.stride == 1
-        && g.ow.is_multiple_of(TILE)
-        && g.top == 0
-        && g.left == 0
-        && g.oh + g.k - 1 <= g.h
-        && g.ow + g.k - 1 <= g.w;
-    if !fits {
+    if !reads_in_place(g) {
         return None;
     }
     let hw = g.h * g.w;
@@ -42,6 +36,17 @@ pub fn in_place(g: &BlockGeom, n0: usize, s: usize) -> Option<(Vec<usize>, Vec<u
         .flat_map(|ci| (0..g.k).flat_map(move |a| (0..g.k).map(move |b| ci * hw + a * g.w + b)))
         .collect();
     Some((tiles, rows))
+}
+
+/// Whether the convolution of `g` reads its input in place ([`in_place`]): stride 1, `ow` a
+/// multiple of [`TILE`], no padding above or on the left, every window inside the image.
+pub fn reads_in_place(g: &BlockGeom) -> bool {
+    g.stride == 1
+        && g.ow.is_multiple_of(TILE)
+        && g.top == 0
+        && g.left == 0
+        && g.oh + g.k - 1 <= g.h
+        && g.ow + g.k - 1 <= g.w
 }
 
 /// The im2col matrix `[c k k, s p]` of samples `n0 .. n0 + s` of `x` in tiles

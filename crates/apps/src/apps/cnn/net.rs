@@ -28,6 +28,7 @@ use burn::tensor::{Tensor, TensorData};
 use num_complex::Complex32;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha20Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::any::{Any, TypeId};
 
@@ -223,6 +224,19 @@ impl NetConfig {
     /// Values of one prepared sample.
     pub fn prepared_len(&self) -> usize {
         self.prepared_shape().iter().product()
+    }
+
+    /// [`NetConfig::prepare`] of every image of `images` (`N * H * W`), one after the other
+    /// (`N` times [`NetConfig::prepared_len`] values); each image on its own, on the pool's
+    /// threads.
+    pub fn prepare_all(&self, images: &[Complex32], mean: &[f32]) -> Vec<f32> {
+        let (pixels, each) = (self.height * self.width, self.prepared_len());
+        let mut values = vec![0.0f32; images.len() / pixels * each];
+        values
+            .par_chunks_exact_mut(each)
+            .zip(images.par_chunks_exact(pixels))
+            .for_each(|(out, img)| self.prepare(img, mean, out));
+        values
     }
 
     /// Prepares one complex image (`H * W`, row-major) for the network: subtracts the

@@ -20,7 +20,6 @@ use num_complex::Complex32;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -232,16 +231,9 @@ struct Prepared {
 
 impl Prepared {
     fn new(cfg: &NetConfig, set: &Labelled, mean: &[f32]) -> Self {
-        let pixels = cfg.height * cfg.width;
         let each = cfg.prepared_len();
-        let mut values = vec![0.0f32; set.len() * each];
-        // Each image on its own (a pure function of it): on the pool's threads.
-        values
-            .par_chunks_exact_mut(each)
-            .zip(set.images.par_chunks_exact(pixels))
-            .for_each(|(out, img)| cfg.prepare(img, mean, out));
         Prepared {
-            values,
+            values: cfg.prepare_all(&set.images, mean),
             labels: set.labels.clone(),
             each,
         }
@@ -576,17 +568,13 @@ impl Trained {
     pub fn predict(&self, images: &[Complex32]) -> Vec<usize> {
         let cfg = &self.cfg;
         let pixels = cfg.height * cfg.width;
-        let each = cfg.prepared_len();
         let [c, h, w] = cfg.prepared_shape();
         let device = Default::default();
         images
             .chunks(PREDICT_BATCH * pixels)
             .flat_map(|chunk| {
                 let n = chunk.len() / pixels;
-                let mut v = vec![0.0f32; n * each];
-                v.par_chunks_exact_mut(each)
-                    .zip(chunk.par_chunks_exact(pixels))
-                    .for_each(|(out, img)| cfg.prepare(img, &self.mean, out));
+                let v = cfg.prepare_all(chunk, &self.mean);
                 let x = Tensor::from_data(TensorData::new(v, [n, c, h, w]), &device);
                 argmax_rows(self.net.logits(x))
             })
