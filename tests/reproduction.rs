@@ -153,6 +153,7 @@ fn every_covered_table_gives_the_numbers_the_document_records() {
             .filter(|r| !r.runs_once())
             .collect(),
         statements: Vec::new(),
+        solver: false,
     };
     let opts = options(dir.path().to_path_buf(), PathBuf::from("experiments"), 1);
     let runs = rep::run_all(&opts, &recipes).unwrap();
@@ -241,6 +242,7 @@ fn cnn_tables_read_every_repeat_under_both_protocols() {
     let coverage = rep::Coverage {
         recipes: rep::cnn::recipes(),
         statements: Vec::new(),
+        solver: false,
     };
     assert!(coverage.recipes.iter().all(|r| r.runs_once()));
     let opts = options(dir.path().join("out"), specs, 5);
@@ -307,6 +309,7 @@ fn fig_74_links_are_differences_of_mean_accuracy_over_the_scr_points() {
     let coverage = rep::Coverage {
         recipes: Vec::new(),
         statements: rep::cnn::stochastic_location(),
+        solver: false,
     };
     let opts = options(dir.path().join("out"), specs, 2);
     let runs = rep::run_all(&opts, &coverage).unwrap();

@@ -18,6 +18,7 @@ pub mod extract;
 pub mod ranking;
 pub mod reference;
 pub mod render;
+pub mod solver;
 
 use crate::run::{driver, plan, scheduler::RunOptions};
 use anyhow::{Context, Result};
@@ -51,6 +52,8 @@ pub struct Coverage {
     pub recipes: Vec<Recipe>,
     /// Numbers the text states.
     pub statements: Vec<extract::Statement>,
+    /// Whether the worked example of Method 2's solver (4.3.1, [`solver`]) is computed.
+    pub solver: bool,
 }
 
 impl Coverage {
@@ -62,6 +65,7 @@ impl Coverage {
                 .into_iter()
                 .chain(cnn::stochastic_location())
                 .collect(),
+            solver: true,
         }
     }
 
@@ -73,6 +77,7 @@ impl Coverage {
                 .filter(|r| numbers.contains(&r.number))
                 .collect(),
             statements: Vec::new(),
+            solver: false,
         }
     }
 }
@@ -330,11 +335,14 @@ pub fn write(
             .with_context(|| format!("Table {} is not in the reference", recipe.number))?;
         evaluated.push(evaluate(recipe, table, runs, &mut tables)?);
     }
-    let stated = coverage
+    let mut stated = coverage
         .statements
         .iter()
         .map(|st| evaluate_statement(st, &dissertation, runs, &mut tables))
         .collect::<Result<Vec<_>>>()?;
+    if coverage.solver {
+        stated.extend(solver::method2_example(&dissertation)?);
+    }
     let header = render::Header {
         builds: builds(runs),
         ..header.clone()
@@ -437,9 +445,9 @@ pub struct Stated {
     /// The verdict where both are numbers.
     pub verdict: Option<Verdict>,
     /// What the tool computed.
-    pub computed: &'static str,
-    /// Why it may differ.
-    pub differs_because: &'static str,
+    pub computed: String,
+    /// Why it may differ (empty: nothing to add).
+    pub differs_because: String,
     /// The unit of the tool's number where it is not the reference's.
     pub unit: Option<&'static str>,
     /// Repeats run.
@@ -521,8 +529,8 @@ pub fn evaluate_statement(
         tool,
         printed,
         verdict,
-        computed: st.computed,
-        differs_because: st.differs_because,
+        computed: st.computed.to_string(),
+        differs_because: st.differs_because.to_string(),
         unit: st.unit,
         repeats,
         given,

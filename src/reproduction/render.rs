@@ -548,15 +548,26 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
                             st.given, st.repeats
                         )
                     };
-                    let mut t = format!(
-                        "the tool: {} ± {} {} over {over} ({}): {}.",
-                        num(st.tool.mean),
-                        num(st.tool.sd),
-                        st.unit.unwrap_or(unit),
-                        st.computed,
-                        st.verdict
-                            .map_or("no stated number to compare", Verdict::as_str),
-                    );
+                    let verdict = st
+                        .verdict
+                        .map_or("no stated number to compare", Verdict::as_str);
+                    // A computed number (one evaluation, no spread) has no repeats to name.
+                    let mut t = if st.repeats == 1 && st.tool.sd == 0.0 {
+                        let value = format!("{} {}", num(st.tool.mean), st.unit.unwrap_or(unit));
+                        format!(
+                            "the tool: {} (exact: {}): {verdict}.",
+                            value.trim_end(),
+                            st.computed,
+                        )
+                    } else {
+                        format!(
+                            "the tool: {} ± {} {} over {over} ({}): {verdict}.",
+                            num(st.tool.mean),
+                            num(st.tool.sd),
+                            st.unit.unwrap_or(unit),
+                            st.computed,
+                        )
+                    };
                     if !st.differs_because.is_empty() {
                         t = format!("{t} {}.", st.differs_because);
                     }
