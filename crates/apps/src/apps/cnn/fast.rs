@@ -24,6 +24,7 @@
 
 pub use super::geom::BlockGeom;
 use super::im2col::{col2im, im2col, in_place, reads_in_place, tiled_len};
+use super::parity::{parity_hw, parity_len, parity_planes, parity_view, reads_parity};
 use super::sgemm::{gemm_nn, gemm_nt, Tiled};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
@@ -136,7 +137,8 @@ pub fn conv_forward(g: &BlockGeom, x: &[f32], w: &[f32], bias: &[f32]) -> (Vec<f
         .enumerate()
         .for_each(|(ci, (zc, cc))| {
             let sn = zc.len() / (g.f * p);
-            conv_chunk(g, x, w, bias, ci * s, sn, cc.take(), |tmp| {
+            conv_chunk(g, x, w, bias, ci * s, sn, cc.take(), |tmp, layout| {
+                debug_assert_eq!(layout, (p, g.ow), "training reads no parity planes");
                 for si in 0..sn {
                     for fi in 0..g.f {
                         zc[(si * g.f + fi) * p..][..p]
@@ -155,9 +157,12 @@ fn chunk_cols(g: &BlockGeom, n: usize) -> usize {
     (n / s) * tiled_len(g, s) + tiled_len(g, n % s)
 }
 
-/// The convolution with bias of samples `n0 .. n0 + sn`, handed to `then` as `[f, sn p]`
-/// (filter-major, in this thread's scratch); the im2col matrix (where one is needed) goes to
-/// `keep` when given, else to scratch.
+/// The convolution with bias of samples `n0 .. n0 + sn`, handed to `then` as `[f, sn q]`
+/// (filter-major, in this thread's scratch) with `(q, row)`: each sample's `oh x ow` outputs
+/// start every `q` values, their rows every `row` (`(p, ow)`, except in prediction's
+/// stride-2 convolutions: [`super::parity`]); the im2col matrix (where one is needed) goes to
+/// `keep` when given, else to scratch. Without `keep`, a stride-2 convolution reads parity
+/// planes instead (the same sums).
 #[allow(clippy::too_many_arguments)]
 fn conv_chunk(
     g: &BlockGeom,
@@ -167,20 +172,33 @@ fn conv_chunk(
     n0: usize,
     sn: usize,
     keep: Option<&mut [f32]>,
-    then: impl FnOnce(&[f32]),
+    then: impl FnOnce(&[f32], (usize, usize)),
 ) {
-    let (kk, sp) = (g.kk(), sn * g.p());
+    let kk = g.kk();
     let view = in_place(g, n0, sn);
-    let cl = if view.is_some() || keep.is_some() {
-        0
-    } else {
-        tiled_len(g, sn)
+    let parity = (view.is_none() && keep.is_none() && reads_parity(g)).then(|| parity_view(g, sn));
+    let (q, row) = match parity {
+        Some(_) => {
+            let (ph, pw) = parity_hw(g);
+            (ph * pw, pw)
+        }
+        None => (g.p(), g.ow),
+    };
+    let sp = sn * q;
+    let cl = match (&parity, view.is_some() || keep.is_some()) {
+        (Some(_), _) => parity_len(g, sn),
+        (None, true) => 0,
+        (None, false) => tiled_len(g, sn),
     };
     with_scratch(cl + g.f * sp, |scratch| {
         let (col, tmp) = scratch.split_at_mut(cl);
-        let (b, bl) = match (&view, keep) {
-            (Some((tiles, rows)), _) => (x, Tiled::gather(tiles, rows)),
-            (None, keep) => {
+        let (b, bl) = match (&view, &parity, keep) {
+            (Some((tiles, rows)), _, _) => (x, Tiled::gather(tiles, rows)),
+            (None, Some((tiles, rows)), _) => {
+                parity_planes(g, x, n0, sn, col);
+                (&*col, Tiled::gather(tiles, rows))
+            }
+            (None, None, keep) => {
                 let col = keep.unwrap_or(col);
                 // The output rows serve as im2col's row scratch before the bias.
                 im2col(g, x, n0, sn, col, tmp);
@@ -191,7 +209,7 @@ fn conv_chunk(
             row.fill(b);
         }
         gemm_nn(g.f, sp, kk, w, (kk, 1), b, &bl, tmp, sp, true);
-        then(tmp);
+        then(tmp, (q, row));
     });
 }
 
@@ -724,15 +742,22 @@ pub fn block_infer(
     let xs = flex_slice(&x);
     let mut out = vec![0.0f32; g.n * f * q];
     out.par_chunks_mut(s * f * q).enumerate().for_each_init(
-        Vec::new,
-        |row: &mut Vec<f32>, (ci, oc)| {
+        || (Vec::new(), vec![0.0f32; p]),
+        |(row, packed): &mut (Vec<f32>, Vec<f32>), (ci, oc)| {
             let sn = oc.len() / (f * q);
-            conv_chunk(g, xs, &wv, &bv, ci * s, sn, None, |tmp| {
+            conv_chunk(g, xs, &wv, &bv, ci * s, sn, None, |tmp, (zq, zrow)| {
                 for si in 0..sn {
                     for fi in 0..f {
-                        let zp = &tmp[fi * sn * p + si * p..][..p];
+                        let mut zp = &tmp[(fi * sn + si) * zq..][..zq];
+                        if zrow != g.ow {
+                            // The convolution's rows out of the wider grid it was computed on.
+                            for (dst, src) in packed.chunks_exact_mut(g.ow).zip(zp.chunks(zrow)) {
+                                dst.copy_from_slice(&src[..g.ow]);
+                            }
+                            zp = packed;
+                        }
                         let op = &mut oc[(si * f + fi) * q..][..q];
-                        plane(g, zp, scale[fi], shift[fi], op, None, row);
+                        plane(g, &zp[..p], scale[fi], shift[fi], op, None, row);
                     }
                 }
             });

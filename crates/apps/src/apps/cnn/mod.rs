@@ -5,7 +5,8 @@
 //! data sets (splits, normalisation, the mix of generated and original samples, targets and
 //! signal-to-clutter ratio), [`store`] saving and loading trained networks, and [`fast`] the
 //! hand-written CPU kernels of the convolution blocks ([`geom`] their geometry, [`im2col`] their
-//! im2col matrices, [`sgemm`] their matrix products).
+//! im2col matrices, [`parity`] the stride-2 convolutions of prediction without them, [`sgemm`]
+//! their matrix products).
 
 pub mod classification;
 pub mod fast;
@@ -13,6 +14,7 @@ pub mod geom;
 pub mod im2col;
 pub mod location;
 pub mod net;
+pub mod parity;
 pub mod sgemm;
 pub mod store;
 pub mod train;
