@@ -6,8 +6,10 @@
 //! two trainings side by side on 1 thread each (what a run of many trainings does); then the
 //! prediction rate (forward only, inference mode: what validation and testing run) of the
 //! trained network through [`isar_clutter::apps::cnn::train::Trained::evaluate`] on 1 and 2
-//! threads. Prints one JSON object per line with `--json`; `CNN_BENCH_BATCHES` (default 8)
-//! and `CNN_BENCH_NETS` (`table18`, `table23`) shorten it. Figures go to BENCHMARKS.md.
+//! threads. Prints one JSON object per line with `--json`; `CNN_BENCH_BATCHES` (default 32:
+//! with 8, each timed stretch lasted a quarter of a second and repeats of one binary moved by
+//! a fifth) and `CNN_BENCH_NETS` (`table18`, `table23`) shorten it. Figures go to
+//! BENCHMARKS.md.
 
 /// The binary's allocator, so that figures match what `isar-clutter` does.
 #[global_allocator]
@@ -126,7 +128,7 @@ fn main() {
     let batches: usize = std::env::var("CNN_BENCH_BATCHES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(8);
+        .unwrap_or(32);
     let n = 128 * batches;
     let peak = peak_gflops();
     if json {

@@ -102,21 +102,19 @@ pub fn method2_example(d: &Dissertation) -> Result<Vec<Stated>> {
         let (r, _) = solve_dyadic(targets, HALF_WIDTH);
         let reached = dyadic_correlations(&r, HALF_WIDTH);
         for (l, (&t, &got)) in targets.iter().zip(&reached).enumerate() {
-            out.push(exact(
-                &targets_q,
-                t,
-                got,
+            let computed = if l == 0 {
                 format!(
-                    "the level-{} group correlation of the dyadic filter the tool's solver finds \
-                     for the targets {} {} (r = {}; Levenberg-Marquardt from several starts, \
+                    "the level-1 group correlation of the dyadic filter the tool's solver finds \
+                     for the targets {} {}, r = {} (Levenberg-Marquardt from several starts, \
                      not 100 steps of gradient descent)",
-                    l + 1,
                     names.get(k).unwrap_or(&"stated"),
                     triple(targets),
                     triple(&r)
-                ),
-                String::new(),
-            ));
+                )
+            } else {
+                format!("level {} of the same filter", l + 1)
+            };
+            out.push(exact(&targets_q, t, got, computed, String::new()));
         }
         solutions.push(r);
     }
@@ -136,11 +134,14 @@ pub fn method2_example(d: &Dissertation) -> Result<Vec<Stated>> {
             &params_q,
             p,
             got,
-            format!(
-                "r_{} the tool's solver finds for the targets stated as converged {}",
-                l + 1,
-                triple(readings.last().map_or(&[][..], Vec::as_slice))
-            ),
+            if l == 0 {
+                format!(
+                    "r_1 the tool's solver finds for the targets stated as converged {}",
+                    triple(readings.last().map_or(&[][..], Vec::as_slice))
+                )
+            } else {
+                format!("r_{} of the same solution", l + 1)
+            },
             if l == 0 { why.clone() } else { String::new() },
         ));
     }
