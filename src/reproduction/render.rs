@@ -437,7 +437,8 @@ fn headline(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
     let sizes = super::cnn::SIZES;
     let printed = |c: &super::Cell| c.printed;
     let tool = |c: &super::Cell| c.tool.map(|x| x.mean);
-    // The first size above the originals: `None` without a baseline, `Some(None)` never.
+    /// The first size above the originals: `None` without a baseline, `Some(None)` never.
+    type First = Option<Option<i64>>;
     let first =
         |row: &[super::Cell], base: Option<f64>, v: &dyn Fn(&super::Cell) -> Option<f64>| {
             base.map(|base| {
@@ -447,7 +448,7 @@ fn headline(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
                     .map(|(_, n)| n)
             })
         };
-    let words = |f: Option<Option<i64>>| match f {
+    let words = |f: First| match f {
         None => "-".to_string(),
         Some(None) => "never".to_string(),
         Some(Some(n)) => format!("N = {n}"),
@@ -494,7 +495,7 @@ fn headline(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
         above(&tool)
     );
     // The headline in plain words: for how many methods it holds here, and from which sizes.
-    let firsts: Vec<(Option<Option<i64>>, Option<Option<i64>>)> = (0..3)
+    let firsts: Vec<(First, First)> = (0..3)
         .map(|r| {
             (
                 first(&e.cells[r], printed(original), &printed),
