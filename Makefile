@@ -26,7 +26,7 @@ RUST_PACKAGES := -p isar-clutter -p isar-clutter-core -p isar-clutter-tables -p 
 HDF5_DIR ?= $(CARGO_TARGET_DIR)/hdf5-static
 export HDF5_DIR
 
-.PHONY: build run-experiment reproduce run-all compare validate test test-deps python hdf5 lint fmt bench bench-scale bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
+.PHONY: build run-experiment reproduce run-all compare validate test test-cuda test-deps python hdf5 lint fmt bench bench-scale bench-deps data bench-torch-deps bench-cnn-torch bench-cnn
 
 ## build: release build of the isar-clutter binary (with FEATURES; add `cuda` for
 ## `training: {device: cuda}`: make build FEATURES="mat73 cuda")
@@ -65,6 +65,11 @@ validate: build
 test: test-deps python
 	cargo test --release --locked $(RUST_PACKAGES) $(CARGO_FEATURES)
 	ISAR_CLUTTER_BIN=$(BIN) $(PYVENV)/bin/python -m pytest -q python/tests
+
+## test-cuda: the CUDA route of training (tests/cuda.rs) in a build with the `cuda` feature: on
+## a machine with an NVIDIA GPU and its driver it trains there; elsewhere it says it skipped
+test-cuda: hdf5
+	cargo test --release --locked --features "$(addprefix isar-clutter/,$(FEATURES) cuda)" --test cuda -- --nocapture
 
 ## python: the Python package isar_clutter (python/: maturin and pyo3 over the core crate)
 ## installed into PYVENV, a virtualenv under $HOME like the target directory, with what its tests

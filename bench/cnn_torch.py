@@ -20,6 +20,7 @@ steps (after the warm-up steps) are inside time.perf_counter.
 Run (torch lives in its own virtualenv, .venv-torch, made by `make bench-torch-deps`):
     make bench-cnn-torch                       # both nets, 1 and 2 threads
     .venv-torch/bin/python bench/cnn_torch.py --net table18 --threads 2 --batches 50 --json
+    python3 bench/cnn_torch.py --device cuda   # on a machine with an NVIDIA GPU (batches resident there)
 
 OMP_WAIT_POLICY: unless already set, this script sets OMP_WAIT_POLICY=PASSIVE before
 importing torch. With the default (active) policy, idle OpenMP workers spin between
@@ -93,17 +94,22 @@ def build_net(filters, classes):
     return net
 
 
-def bench(name, batch_size, warmup, steps, seed):
+def bench(name, batch_size, warmup, steps, seed, device="cpu"):
     filters, classes = NETS[name]
     torch.manual_seed(seed)
-    net = build_net(filters, classes).train()
+    net = build_net(filters, classes).to(device).train()
     opt = torch.optim.SGD(net.parameters(), lr=0.01, momentum=0.9, weight_decay=1e-4, dampening=0)
     loss_fn = nn.CrossEntropyLoss()
 
     gen = torch.Generator().manual_seed(seed)
     n_distinct = min(warmup + steps, 8)  # a few distinct batches, cycled
-    xs = [torch.randn(batch_size, *INPUT_SHAPE, generator=gen) for _ in range(n_distinct)]
-    ys = [torch.randint(0, classes, (batch_size,), generator=gen) for _ in range(n_distinct)]
+    xs = [torch.randn(batch_size, *INPUT_SHAPE, generator=gen).to(device) for _ in range(n_distinct)]
+    ys = [torch.randint(0, classes, (batch_size,), generator=gen).to(device) for _ in range(n_distinct)]
+
+    def sync():
+        # GPU work is asynchronous: wait for it before reading a clock.
+        if device != "cpu":
+            torch.cuda.synchronize()
 
     def step(i):
         x, y = xs[i % n_distinct], ys[i % n_distinct]
@@ -115,9 +121,11 @@ def bench(name, batch_size, warmup, steps, seed):
 
     for i in range(warmup):
         step(i)
+    sync()
     t0 = time.perf_counter()
     for i in range(warmup, warmup + steps):
         loss = step(i)
+    sync()
     elapsed = time.perf_counter() - t0
     if not torch.isfinite(loss):
         raise RuntimeError(f"{name}: non-finite loss {loss.item()}")
@@ -126,9 +134,11 @@ def bench(name, batch_size, warmup, steps, seed):
     with torch.inference_mode():
         for i in range(warmup):
             net(xs[i % n_distinct])
+        sync()
         t1 = time.perf_counter()
         for i in range(steps):
             net(xs[i % n_distinct])
+        sync()
         predict = batch_size * steps / (time.perf_counter() - t1)
     return batch_size * steps / elapsed, elapsed, predict
 
@@ -142,6 +152,8 @@ def main():
     p.add_argument("--batch-size", type=int, default=128)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="one JSON object per net on stdout")
+    p.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
+                   help="cuda: the GPU, the batches resident there (default cpu)")
     a = p.parse_args()
     if a.threads < 1 or a.batches < 1 or a.batch_size < 1 or a.warmup < 0:
         p.error("--threads, --batches and --batch-size must be >= 1, --warmup >= 0")
@@ -149,11 +161,12 @@ def main():
     torch.set_num_threads(a.threads)
     nets = ["table18", "table23"] if a.net == "both" else [a.net]
     for name in nets:
-        sps, elapsed, predict = bench(name, a.batch_size, a.warmup, a.batches, a.seed)
+        sps, elapsed, predict = bench(name, a.batch_size, a.warmup, a.batches, a.seed, a.device)
         if a.json:
             print(json.dumps({
                 "net": name,
                 "threads": a.threads,
+                "device": a.device,
                 "batch_size": a.batch_size,
                 "samples_per_second": round(sps, 2),
                 "predict_samples_per_second": round(predict, 2),
@@ -164,7 +177,7 @@ def main():
             print(f"{name}: {sps:9.1f} samples/s  ({a.batches} steps of {a.batch_size} in "
                   f"{elapsed:.2f} s, {1000 * elapsed / a.batches:.1f} ms/step; "
                   f"predicted {predict:.1f} samples/s; "
-                  f"threads={a.threads}, torch {torch.__version__}, "
+                  f"threads={a.threads}, device={a.device}, torch {torch.__version__}, "
                   f"OMP_WAIT_POLICY={os.environ['OMP_WAIT_POLICY']})", flush=True)
 
 

@@ -122,6 +122,43 @@ fn peak_gflops() -> f64 {
     0.0
 }
 
+/// `CNN_BENCH_DEVICE=cuda` (a bench built with the `cuda` feature, on a machine with an
+/// NVIDIA GPU): the training rate of `cfg` on burn's CUDA backend through
+/// [`isar_clutter::apps::cnn::train::train_on_device`], after one untimed training (kernel
+/// compilation and autotuning); steps only (as the CPU figures) and the whole training's wall
+/// time (with the data's preparation and the copies to the GPU).
+fn cuda(
+    cfg: &NetConfig,
+    opts: &TrainingOptions,
+    set: &Labelled,
+    name: &str,
+    flops: f64,
+    json: bool,
+) {
+    use isar_clutter::apps::cnn::train::{train_on_device, Device};
+    let opts = TrainingOptions {
+        device: Device::Cuda,
+        ..*opts
+    };
+    let empty = Labelled::default();
+    let run = || train_on_device(cfg, &opts, set, &empty, 7).expect("a CUDA training");
+    run();
+    let t = run();
+    let wall = (set.len() * opts.epochs) as f64 / t.seconds;
+    let gflops = t.samples_per_second * flops / 1e9;
+    if json {
+        println!(
+            "{{\"net\":\"{name}\",\"device\":\"cuda\",\"batch_size\":{},\"samples_per_second\":{:.1},\"wall_samples_per_second\":{wall:.1},\"gflops\":{gflops:.1}}}",
+            t.batch_size, t.samples_per_second
+        );
+    } else {
+        println!(
+            "burn cuda {name}: {:.0} samples/s per training (steps only; {gflops:.0} GFLOP/s), {wall:.0} samples/s over the whole training (batch {})",
+            t.samples_per_second, t.batch_size
+        );
+    }
+}
+
 fn main() {
     isar_clutter::alloc::tune_malloc();
     let json = std::env::args().any(|a| a == "--json");
@@ -161,6 +198,10 @@ fn main() {
             epochs: 2,
             ..TrainingOptions::default()
         };
+        if std::env::var("CNN_BENCH_DEVICE").as_deref() == Ok("cuda") {
+            cuda(&cfg, &opts, &set, name, train_flops, json);
+            continue;
+        }
         let mut trained = None;
         for (threads, side_by_side) in [(1, 1), (2, 1), (1, 2)] {
             let pool = rayon::ThreadPoolBuilder::new()
