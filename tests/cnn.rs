@@ -314,20 +314,7 @@ fn nudged<const D: usize>(
 /// epochs on a few samples.
 #[test]
 fn a_trivially_separable_toy_set_is_learnt() {
-    let c = NetConfig {
-        arch: Arch::Table18,
-        height: 32,
-        width: 32,
-        classes: 2,
-    };
-    let mut rng = ChaCha20Rng::seed_from_u64(1);
-    let mut make = |n: usize| half_bright_set(&mut rng, n, 1.0);
-    let (tr, va) = (make(64), make(64));
-    let opts = TrainingOptions {
-        batch_size: 16,
-        epochs: 4,
-        ..TrainingOptions::default()
-    };
+    let (c, tr, va, opts) = common::toy_case();
     let t = train(&c, &opts, &tr, &va, 7);
     assert!(
         t.validation_accuracy > 0.95,

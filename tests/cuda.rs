@@ -9,11 +9,7 @@
 
 mod common;
 
-use common::half_bright_set;
-use isar_clutter::apps::cnn::net::{Arch, NetConfig};
 use isar_clutter::apps::cnn::train::{train, train_on_device, Device, TrainingOptions};
-use rand::SeedableRng;
-use rand_chacha::ChaCha20Rng;
 
 /// Whether the NVIDIA driver's library loads (what the CUDA route checks first).
 fn driver() -> bool {
@@ -33,20 +29,7 @@ fn a_toy_set_is_learnt_on_the_gpu_and_predicts_on_the_cpu() {
         eprintln!("skipped: no NVIDIA driver (libcuda.so.1) on this machine");
         return;
     }
-    let c = NetConfig {
-        arch: Arch::Table18,
-        height: 32,
-        width: 32,
-        classes: 2,
-    };
-    let mut rng = ChaCha20Rng::seed_from_u64(1);
-    let mut make = |n: usize| half_bright_set(&mut rng, n, 1.0);
-    let (tr, va) = (make(64), make(64));
-    let cpu = TrainingOptions {
-        batch_size: 16,
-        epochs: 4,
-        ..TrainingOptions::default()
-    };
+    let (c, tr, va, cpu) = common::toy_case();
     let gpu = TrainingOptions {
         device: Device::Cuda,
         ..cpu

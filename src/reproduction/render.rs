@@ -425,6 +425,10 @@ fn reading(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
     }
 }
 
+/// The first training size whose accuracy is above the originals': `None` without a baseline,
+/// `Some(None)` never.
+type First = Option<Option<i64>>;
+
 /// The CNN tables' headline (5.3.6-5.3.7: from some training size on, the generated data beat
 /// the 100 originals), printed and by the tool: per generation method (rows 1-3), the first
 /// training size whose mean accuracy exceeds the originals' (the last row's one cell), and
@@ -437,8 +441,6 @@ fn headline(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
     let sizes = super::cnn::SIZES;
     let printed = |c: &super::Cell| c.printed;
     let tool = |c: &super::Cell| c.tool.map(|x| x.mean);
-    /// The first size above the originals: `None` without a baseline, `Some(None)` never.
-    type First = Option<Option<i64>>;
     let first =
         |row: &[super::Cell], base: Option<f64>, v: &dyn Fn(&super::Cell) -> Option<f64>| {
             base.map(|base| {
@@ -503,6 +505,12 @@ fn headline(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
             )
         })
         .collect();
+    plain_words(s, &firsts);
+}
+
+/// The headline in plain words, from each method's first size above the originals (printed,
+/// tool): for how many methods it holds here, and from which sizes.
+fn plain_words(s: &mut String, firsts: &[(First, First)]) {
     let held: Vec<i64> = firsts.iter().filter_map(|(_, t)| t.flatten()).collect();
     let printed_n: Vec<i64> = firsts.iter().filter_map(|(p, _)| p.flatten()).collect();
     if firsts.iter().any(|(_, t)| t.is_none()) {

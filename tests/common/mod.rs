@@ -207,3 +207,30 @@ pub fn half_bright_set(
     }
     set
 }
+
+/// The toy classification of the CNN tests: Table 18's network on 32 x 32 images of two
+/// classes ([`half_bright_set`], 64 to train and 64 to validate, seed 1), batches of 16, 4
+/// epochs; learnt to > 95 % in those epochs.
+pub fn toy_case() -> (
+    isar_clutter::apps::cnn::net::NetConfig,
+    isar_clutter::apps::cnn::train::Labelled,
+    isar_clutter::apps::cnn::train::Labelled,
+    isar_clutter::apps::cnn::train::TrainingOptions,
+) {
+    use isar_clutter::apps::cnn::net::{Arch, NetConfig};
+    let c = NetConfig {
+        arch: Arch::Table18,
+        height: 32,
+        width: 32,
+        classes: 2,
+    };
+    let mut rng = ChaCha20Rng::seed_from_u64(1);
+    let mut make = |n: usize| half_bright_set(&mut rng, n, 1.0);
+    let (tr, va) = (make(64), make(64));
+    let opts = isar_clutter::apps::cnn::train::TrainingOptions {
+        batch_size: 16,
+        epochs: 4,
+        ..Default::default()
+    };
+    (c, tr, va, opts)
+}

@@ -700,6 +700,29 @@ pub fn block_train(
     )
 }
 
+/// Batch normalisation with fixed statistics as one affine map per channel: `scale = gamma /
+/// sqrt(var + eps)`, `shift = beta - mean scale` (in f64, rounded once to f32).
+pub fn bn_affine(
+    gamma: &[f32],
+    beta: &[f32],
+    mean: &[f32],
+    var: &[f32],
+    eps: f64,
+) -> (Vec<f32>, Vec<f32>) {
+    let scale: Vec<f32> = gamma
+        .iter()
+        .zip(var)
+        .map(|(&gm, &v)| (f64::from(gm) / (f64::from(v) + eps).sqrt()) as f32)
+        .collect();
+    let shift = beta
+        .iter()
+        .zip(mean)
+        .zip(&scale)
+        .map(|((&b, &mu), &sc)| (f64::from(b) - f64::from(mu) * f64::from(sc)) as f32)
+        .collect();
+    (scale, shift)
+}
+
 /// An inference block on `Flex` with BN's running statistics.
 #[allow(clippy::too_many_arguments)]
 pub fn block_infer(
@@ -722,17 +745,7 @@ pub fn block_infer(
         values(var),
     );
     let x = contiguous(x.into_primitive().tensor());
-    let scale: Vec<f32> = gv
-        .iter()
-        .zip(&vv)
-        .map(|(&gm, &v)| (f64::from(gm) / (f64::from(v) + eps).sqrt()) as f32)
-        .collect();
-    let shift: Vec<f32> = betav
-        .iter()
-        .zip(&mv)
-        .zip(&scale)
-        .map(|((&b, &mu), &sc)| (f64::from(b) - f64::from(mu) * f64::from(sc)) as f32)
-        .collect();
+    let (scale, shift) = bn_affine(&gv, &betav, &mv, &vv, eps);
     // The convolution of each chunk goes straight into normalisation, ReLU and pooling (the
     // same operations as `conv_forward` then `affine_relu_pool`, without the full-size
     // convolution output in between).

@@ -165,7 +165,7 @@ mod tests {
     /// pooling, on the networks' second and third convolutions at a batch of several chunks.
     #[test]
     fn inference_blocks_give_the_im2col_paths_bits() {
-        use crate::apps::cnn::fast::{affine_relu_pool, block_infer, conv_forward};
+        use crate::apps::cnn::fast::{affine_relu_pool, block_infer, bn_affine, conv_forward};
         use burn::backend::Flex;
         use burn::tensor::{Tensor, TensorData};
         let mut rng = ChaCha8Rng::seed_from_u64(31);
@@ -219,18 +219,7 @@ mod tests {
             .into_data()
             .to_vec()
             .unwrap();
-            // block_infer's scale and shift, computed the same way.
-            let scale: Vec<f32> = gamma
-                .iter()
-                .zip(&var)
-                .map(|(&gm, &v)| (f64::from(gm) / (f64::from(v) + eps).sqrt()) as f32)
-                .collect();
-            let shift: Vec<f32> = beta
-                .iter()
-                .zip(&mean)
-                .zip(&scale)
-                .map(|((&b, &mu), &sc)| (f64::from(b) - f64::from(mu) * f64::from(sc)) as f32)
-                .collect();
+            let (scale, shift) = bn_affine(&gamma, &beta, &mean, &var, eps);
             let (z, _) = conv_forward(&g, &x, &wt, &bias);
             let (want, _) = affine_relu_pool(&g, &z, &scale, &shift, false);
             assert_eq!(got.len(), want.len(), "case {case}");
