@@ -75,6 +75,20 @@ impl Summary {
     }
 }
 
+/// A number as the document prints it: 4 significant digits, scientific below 1e-3.
+pub fn num(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let a = v.abs();
+    if !(1e-3..1e5).contains(&a) {
+        format!("{v:.3e}")
+    } else {
+        let digits = (3 - a.log10().floor() as i32).max(0) as usize;
+        format!("{v:.digits$}")
+    }
+}
+
 /// Half a unit in the last decimal place of `printed` as the dissertation wrote it (`decimals`
 /// digits after the point).
 pub fn half_unit(decimals: u32) -> f64 {

@@ -5,7 +5,9 @@
 //! folders: every table of the dissertation with each cell's printed value, the tool's mean
 //! and spread, the difference and a verdict ([`compare`]); the tables it does not cover yet
 //! with the reason. The reference values are [`reference`] (transcribed once, compiled in);
-//! where each cell is found in the outputs is [`extract`]; the page is [`render`].
+//! where each cell is found in the outputs is [`extract`]; the page is [`render`], with
+//! [`sections`] (the constructions the text leaves open, the stand-in's calibration) and
+//! [`solver`] (4.3.1's worked example, computed rather than run).
 //!
 //! The runs go through the job store, so an interrupted reproduction resumes; the document is
 //! written only when every folder it reads is a complete run (checked against its manifest),
@@ -18,6 +20,7 @@ pub mod extract;
 pub mod ranking;
 pub mod reference;
 pub mod render;
+pub mod sections;
 pub mod solver;
 
 use crate::run::{driver, plan, scheduler::RunOptions};

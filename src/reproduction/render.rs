@@ -3,9 +3,9 @@
 //! cell's printed value, the tool's mean and spread, the difference and the verdict), and a
 //! line for every table the reproduction does not cover, saying why.
 
-use super::compare::Verdict;
+use super::compare::{num, Verdict};
 use super::reference::Dissertation;
-use super::Evaluated;
+use super::{sections, Evaluated};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
@@ -50,20 +50,6 @@ pub fn machine() -> String {
     match mem {
         Some(kb) => format!("{cpu}, {cores} cores, {:.0} GiB", kb / 1024.0 / 1024.0),
         None => format!("{cpu}, {cores} cores"),
-    }
-}
-
-/// A number as the document prints it: 4 significant digits, scientific below 1e-3.
-fn num(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let a = v.abs();
-    if !(1e-3..1e5).contains(&a) {
-        format!("{v:.3e}")
-    } else {
-        let digits = (3 - a.log10().floor() as i32).max(0) as usize;
-        format!("{v:.digits$}")
     }
 }
 
@@ -181,176 +167,13 @@ pub fn document(
         }
         let _ = writeln!(s);
     }
-    constructions(&mut s);
-    calibration(&mut s);
+    sections::constructions(&mut s);
+    sections::calibration(&mut s);
     for t in &dissertation.tables {
         table_block(&mut s, t, evaluated);
     }
     figures(&mut s, dissertation, stated);
     (s, counts)
-}
-
-/// Where the dissertation's text leaves a construction open: (section, what it says, what the
-/// tool does, where the other reading is). docs/definitions.md gives each in full.
-const CONSTRUCTIONS: &[(&str, &str, &str, &str)] = &[
-    (
-        "4.2.4",
-        "Method 1's filter of a negative correlation has its signs \"chosen so that\" the 1-, \
-         2- and 4-pixel shifts correlate negatively; the signs are not printed",
-        "Thue-Morse signs `(-1)^popcount(|d|)` (what an exhaustive search over sign patterns \
-         finds; lag-1 reach about -0.507, targets beyond clamp and are counted)",
-        "`synthesis.negative_signs: alternating` (`(-1)^d`: lag 1 exactly negated)",
-    ),
-    (
-        "4.2.3",
-        "the filtered data are scaled by the sample variance of the generated images",
-        "scaled by the filter's exact standard deviation (independent of the samples drawn)",
-        "none (a difference of sampling noise only)",
-    ),
-    (
-        "4.3.1",
-        "the worked example of Method 2's solver states two sets of target correlations \
-         (0.3, -0.25, 0.2, then 0.3, -0.2, 0.1 as reached) and one set of parameters",
-        "both sets solved (below, \"Numbers the text states for figures\"), the parameters \
-         compared with the solution for the set stated as reached",
-        "the first set's solution, on the same line",
-    ),
-    (
-        "4.4.1",
-        "how many samples each method generated for the simulated data's similarity tables \
-         (6-10, 25-28) is not printed",
-        "5000 from the 1000 exponential originals, 1000 from the 100 non-exponential ones \
-         (`experiments/similarity_exponential.yaml`, `similarity_nonexponential.yaml`; each \
-         spec's noise floor is an independent draw of as many from the true filter)",
-        "`synthesis.samples` in either spec",
-    ),
-    (
-        "4.4.2",
-        "how many samples each method generated for the plants' similarity tables is not \
-         printed",
-        "as many as the originals, 100 (`experiments/similarity_plants.yaml`): only then can \
-         the printed correlation matrix distances be reached. The full covariance baseline \
-         draws from the sample covariance of 100 images (rank 99 at most), whose distance to \
-         its own source is about `1 - (1 + r/M)^(-1/2)` for effective rank `r` and `M` draws: \
-         at most 0.045 for `M = 1000`, against the printed 0.25-0.27; on white data (100 \
-         originals) the tool measures 0.286 for full covariance and 0.976 for Methods 1 and 2 \
-         with `M = 100`, 0.045 and 0.932 with `M = 1000`, the printed values being 0.25-0.27 \
-         and 0.970-0.976",
-        "`synthesis.samples: 1000` (the size of the other similarity specs)",
-    ),
-    (
-        "5.1.3",
-        "H2 reads the mean correlating function",
-        "its magnitude",
-        "the real part, in the same table (`hypotheses.parquet`, `correlating_function.parquet`)",
-    ),
-    (
-        "5.1.5",
-        "H4 (correlation falls with the level) was judged \"not verified\" from levels 2-3",
-        "judged at every level, and over all levels",
-        "the per-level rows of levels 2 and 3 in `hypotheses.parquet`",
-    ),
-    (
-        "5.3.8.2",
-        "each location network trains on 2500 generated samples and validates on 2500 more",
-        "1000 and 1000 (`generated_samples: 2000` in the location specs): a network's \
-         training time grows with its set, and the reproduction trains 5 repeats of 73 \
-         location networks; `original` still leaves chance, so Fig. 73's gain is a number",
-        "`location.generated_samples: 5000`",
-    ),
-];
-
-/// The section listing [`CONSTRUCTIONS`].
-fn constructions(s: &mut String) {
-    let _ = writeln!(
-        s,
-        "## Constructions the text leaves open
-"
-    );
-    let _ = writeln!(
-        s,
-        "Where the dissertation does not say enough to build something one way, the tool \
-         chooses, says so here, and keeps the other reading one spec key away (or in the same \
-         table).\n"
-    );
-    let _ = writeln!(s, "| § | the dissertation | the tool | the other reading |");
-    let _ = writeln!(s, "|---|---|---|---|");
-    for (section, text, tool, other) in CONSTRUCTIONS {
-        let _ = writeln!(s, "| {section} | {text} | {tool} | {other} |");
-    }
-    let _ = writeln!(s);
-}
-
-/// The section on the stand-in plants' calibration, from the committed fit record: the
-/// fitted parameters before and after, and each fitted table's residual.
-fn calibration(s: &mut String) {
-    use crate::physics::vegetation::calibration::record;
-    let r = record();
-    let _ = writeln!(
-        s,
-        "## The stand-in plants' calibration
-"
-    );
-    let _ = writeln!(
-        s,
-        "The measured plants are not public; the simulated stand-in's free parameters are \
-         fitted to published statistics (`{}`, seed {}, {} samples a simulation; record in \
-         reproduction/plant_calibration.json, method in docs/definitions.md section 10). No \
-         fit reads Tables 20 and 22 or Figs. 73-74.\n",
-        r.command, r.seed, r.samples
-    );
-    let _ = writeln!(
-        s,
-        "Plants A-C, to Table 16 (mean pixel variance; physical preset: gain 1, motion 1):\n"
-    );
-    let _ = writeln!(
-        s,
-        "| plant | gain | motion | Table 16 (none, light) | fitted (none, light) |"
-    );
-    let _ = writeln!(s, "|---|---:|---:|---|---|");
-    for f in &r.fits {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {}, {} | {}, {} |",
-            f.plant,
-            num(f.gain),
-            num(f.motion),
-            num(f.target[0]),
-            num(f.target[1]),
-            num(f.achieved[0]),
-            num(f.achieved[1])
-        );
-    }
-    let _ = writeln!(
-        s,
-        "\nPlants D and E, to Tables 29-36 (correlation matrix distance and multiscale \
-         correlation RMSE of the three generation methods, light and medium wind, {} samples \
-         generated a method; physical preset: motion 1, receiver noise -40 dB). The residual \
-         of a table is the root mean square over its cells of the log ratio tool / printed \
-         (for a distance printed above 1/2, of the distances from 1): 0.1 is about 10 %. \
-         Tables 11-12 repeat the fitted cells:\n",
-        r.similarity.first().map_or(0, |f| f.generated_samples)
-    );
-    let _ = writeln!(s, "| plant | motion | noise (dB) | objective before | after | residual by table (before -> after) |");
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
-    for f in &r.similarity {
-        let tables: Vec<String> = f
-            .tables
-            .iter()
-            .map(|t| format!("{}: {:.2} -> {:.2}", t.table, t.before, t.after))
-            .collect();
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {} | {} |",
-            f.plant,
-            num(f.motion),
-            num(f.noise_db),
-            num(f.objective[0]),
-            num(f.objective[1]),
-            tables.join("; ")
-        );
-    }
-    let _ = writeln!(s);
 }
 
 /// The block of table `t`: its setting, then each cell beside the tool's, or why it is not
