@@ -8,7 +8,6 @@ mod common;
 
 use burn::module::{AutodiffModule, Param};
 use burn::tensor::{Tensor, TensorData};
-use common::half_bright_set;
 use isar_clutter::apps::cnn::net::{same_padding, Arch, NetConfig};
 use isar_clutter::apps::cnn::train::{train, Cpu, CpuTrain, Labelled, TrainingOptions};
 use num_complex::Complex32;
@@ -732,15 +731,8 @@ fn training_is_bit_identical_on_1_and_2_threads() {
 /// prediction one class when the data's variance is 1e-6).
 #[test]
 fn few_updates_on_small_power_data_still_predict() {
-    let c = NetConfig {
-        arch: Arch::Table18,
-        height: 32,
-        width: 32,
-        classes: 2,
-    };
-    let mut rng = ChaCha20Rng::seed_from_u64(4);
-    let mut make = |n: usize| half_bright_set(&mut rng, n, 1e-3);
-    let (tr, va) = (make(32), make(32));
+    let c = common::toy_net();
+    let (tr, va) = common::toy_sets(4, 32, 32, 1e-3);
     let opts = TrainingOptions {
         batch_size: 32,
         epochs: 6,

@@ -4,26 +4,15 @@
 
 mod common;
 
-use common::half_bright_set;
-use isar_clutter::apps::cnn::net::{Arch, NetConfig};
 use isar_clutter::apps::cnn::train::{train, Shuffle, Trained, TrainingOptions};
-use rand::SeedableRng;
-use rand_chacha::ChaCha20Rng;
 
 /// MATLAB's `ValidationFrequency` and `Shuffle`: validation every `validation_frequency`
 /// iterations and after the last changes nothing in the network (only the record), and
 /// shuffling once gives the first epoch of shuffling every epoch, then other batches.
 #[test]
 fn validation_is_a_record_and_shuffle_once_keeps_the_first_order() {
-    let c = NetConfig {
-        arch: Arch::Table18,
-        height: 32,
-        width: 32,
-        classes: 2,
-    };
-    let mut rng = ChaCha20Rng::seed_from_u64(11);
-    let mut make = |n: usize| half_bright_set(&mut rng, n, 1.0);
-    let (tr, va) = (make(40), make(16));
+    let c = common::toy_net();
+    let (tr, va) = common::toy_sets(11, 40, 16, 1.0);
     // 40 samples in batches of 8: 5 iterations an epoch, 15 in all.
     let base = TrainingOptions {
         batch_size: 8,

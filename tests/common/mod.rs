@@ -208,29 +208,46 @@ pub fn half_bright_set(
     set
 }
 
-/// The toy classification of the CNN tests: Table 18's network on 32 x 32 images of two
-/// classes ([`half_bright_set`], 64 to train and 64 to validate, seed 1), batches of 16, 4
-/// epochs; learnt to > 95 % in those epochs.
+/// The toy network of the CNN tests: Table 18's layers on 32 x 32 images, two classes.
+pub fn toy_net() -> isar_clutter::apps::cnn::net::NetConfig {
+    use isar_clutter::apps::cnn::net::{Arch, NetConfig};
+    NetConfig {
+        arch: Arch::Table18,
+        height: 32,
+        width: 32,
+        classes: 2,
+    }
+}
+
+/// A training and a validation set of [`half_bright_set`] (`n_train` then `n_val` images from
+/// one generator seeded with `seed`, all times `scale`).
+pub fn toy_sets(
+    seed: u64,
+    n_train: usize,
+    n_val: usize,
+    scale: f64,
+) -> (
+    isar_clutter::apps::cnn::train::Labelled,
+    isar_clutter::apps::cnn::train::Labelled,
+) {
+    let mut rng = ChaCha20Rng::seed_from_u64(seed);
+    let train = half_bright_set(&mut rng, n_train, scale);
+    (train, half_bright_set(&mut rng, n_val, scale))
+}
+
+/// The toy classification of the CNN tests: [`toy_net`] on [`toy_sets`] of 64 and 64 images
+/// (seed 1), batches of 16, 4 epochs; learnt to > 95 % in those epochs.
 pub fn toy_case() -> (
     isar_clutter::apps::cnn::net::NetConfig,
     isar_clutter::apps::cnn::train::Labelled,
     isar_clutter::apps::cnn::train::Labelled,
     isar_clutter::apps::cnn::train::TrainingOptions,
 ) {
-    use isar_clutter::apps::cnn::net::{Arch, NetConfig};
-    let c = NetConfig {
-        arch: Arch::Table18,
-        height: 32,
-        width: 32,
-        classes: 2,
-    };
-    let mut rng = ChaCha20Rng::seed_from_u64(1);
-    let mut make = |n: usize| half_bright_set(&mut rng, n, 1.0);
-    let (tr, va) = (make(64), make(64));
+    let (tr, va) = toy_sets(1, 64, 64, 1.0);
     let opts = isar_clutter::apps::cnn::train::TrainingOptions {
         batch_size: 16,
         epochs: 4,
         ..Default::default()
     };
-    (c, tr, va, opts)
+    (toy_net(), tr, va, opts)
 }
