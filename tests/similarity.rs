@@ -114,7 +114,12 @@ fn kl_oracle(
                 histogram(&va, lo, hi, o.bins),
                 histogram(&vb, lo, hi, o.bins),
             );
-            kl_counts(&p, &q, o.smoothing, o.symmetric)
+            let sum = kl_counts(&p, &q, o.smoothing, o.symmetric);
+            if o.mean_over_bins {
+                sum / o.bins as f64
+            } else {
+                sum
+            }
         })
     })
 }
@@ -122,10 +127,11 @@ fn kl_oracle(
 #[test]
 fn kl_maps_match_the_oracle_on_seeded_random_stacks() {
     let mut rng = ChaCha8Rng::seed_from_u64(41);
-    for (n1, n2, h, w, block, bins, symmetric) in [
-        (30, 50, 8, 12, 1, 7, false),
-        (20, 20, 16, 16, 4, 16, true),
-        (40, 10, 9, 13, 3, 5, false),
+    for (n1, n2, h, w, block, bins, symmetric, mean_over_bins) in [
+        (30, 50, 8, 12, 1, 7, false, false),
+        (20, 20, 16, 16, 4, 16, true, false),
+        (40, 10, 9, 13, 3, 5, false, true),
+        (25, 35, 8, 8, 2, 32, true, true),
     ] {
         let mut a = random_stack(&mut rng, n1, h, w);
         let b = random_stack(&mut rng, n2, h, w);
@@ -135,6 +141,8 @@ fn kl_maps_match_the_oracle_on_seeded_random_stacks() {
             smoothing: 0.5,
             symmetric,
             db: false,
+            mean_over_bins,
+            ..KlOptions::default()
         };
         let fast = kl_maps(a.view(), b.view(), block, &o);
         let slow = kl_oracle(&a, &b, block, &o);

@@ -327,6 +327,13 @@ fn metrics_errors_name_the_entry() {
         "{syn}metrics: [{{kl_pixel: {{smoothing: -1}}}}]\n"
     ));
     assert!(e.contains("metrics[0].kl_pixel.smoothing"), "{e}");
+    let e = error_of(&format!(
+        "{syn}metrics: [{{kl_area: {{bias_correction: jackknife}}}}]\n"
+    ));
+    assert!(
+        e.contains("metrics[0].kl_area") && e.contains("resplit"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -14,9 +14,11 @@
 //! and atomically.
 
 pub mod calibrate;
+pub mod claims;
 pub mod cnn;
 pub mod compare;
 pub mod extract;
+pub mod floors;
 pub mod ranking;
 pub mod reference;
 pub mod render;
@@ -206,6 +208,8 @@ pub struct Evaluated {
     pub differs_because: &'static str,
     /// The reading of the table ([`Recipe::protocol`]).
     pub protocol: Option<&'static str>,
+    /// The KL estimator's floor at the table's sizes, in words ([`floors`]; KL tables only).
+    pub floor: Option<String>,
 }
 
 /// Evaluates `recipe` against the printed `table` over the runs in `runs`.
@@ -263,17 +267,6 @@ pub fn evaluate(
                 first,
             });
         }
-        // A row that keeps the dissertation's order turns its differing cells into
-        // `ordering holds`.
-        let printed: Vec<Option<f64>> = out.iter().map(|c| c.printed).collect();
-        let tool: Vec<Option<f64>> = out.iter().map(|c| c.tool.map(|t| t.mean)).collect();
-        if out.len() > 1 && compare::order_kept(&printed, &tool) {
-            for cell in &mut out {
-                if cell.verdict == Some(Verdict::Differs) {
-                    cell.verdict = Some(Verdict::OrderingHolds);
-                }
-            }
-        }
         cells.push(out);
     }
     let sources = extract::specs_of(recipe)
@@ -287,6 +280,7 @@ pub fn evaluate(
         differs_because: recipe.differs_because,
         spread: recipe.spread,
         protocol: recipe.protocol,
+        floor: None,
     })
 }
 
@@ -350,7 +344,23 @@ pub fn write(
         builds: builds(runs),
         ..header.clone()
     };
-    let (mut text, counts) = render::document(&dissertation, &evaluated, &stated, &header);
+    let floors = floors::kl_floors(&mut tables, &|spec| folders(runs, spec))?;
+    for e in &mut evaluated {
+        e.floor = floors.get(&e.number).cloned();
+    }
+    let claims = claims::Claims::load(&dissertation)?;
+    let judged: Vec<(claims::Claim, claims::Judged)> = claims
+        .claims
+        .iter()
+        .cloned()
+        .zip(claims::judge_all(
+            &dissertation,
+            &claims,
+            &evaluated,
+            &stated,
+        ))
+        .collect();
+    let (mut text, counts) = render::document(&dissertation, &evaluated, &stated, &judged, &header);
     if let Some(block) = ranking::block(&mut tables, &|spec| folders(runs, spec))? {
         text.push('\n');
         text.push_str(&block);

@@ -1,9 +1,11 @@
 //! The Markdown of `docs/reproduction.md`: the run's wall time and machine at the top, the
-//! count of verdicts and the largest differences, then one block per dissertation table (each
+//! text's claims judged, the count of verdicts by what an agreement can show and the largest
+//! differences, then one block per dissertation table (each
 //! cell's printed value, the tool's mean and spread, the difference and the verdict), and a
 //! line for every table the reproduction does not cover, saying why.
 
-use super::compare::{num, Verdict};
+use super::claims::{self, Claim, Judged};
+use super::compare::{evidence, num, printed_num, Evidence, Verdict, REPEATS};
 use super::reference::Dissertation;
 use super::{sections, Evaluated};
 use std::collections::BTreeMap;
@@ -63,46 +65,34 @@ fn not_covered(kind: &str) -> &'static str {
     }
 }
 
-/// The document and the count of verdicts in it.
-///
-/// Long because the document is written section by section in one pass.
+/// The document and the count of verdicts in it: the header, the summary (claims judged,
+/// cells by what their agreement can show, the largest differences), the text's claims, the
+/// constructions and calibration, then every table and the figures' statements.
 pub fn document(
     dissertation: &Dissertation,
     evaluated: &[Evaluated],
     stated: &[super::Stated],
+    judged: &[(Claim, Judged)],
     header: &Header,
 ) -> (String, BTreeMap<Verdict, usize>) {
-    let mut counts: BTreeMap<Verdict, usize> = BTreeMap::new();
-    let mut largest: Vec<(f64, u32, String, String, f64, f64, &str)> = Vec::new();
-    for e in evaluated {
-        let t = dissertation
-            .table(e.number)
-            .expect("evaluated from the reference");
-        for (r, row) in e.cells.iter().enumerate() {
-            for (c, cell) in row.iter().enumerate() {
-                let Some(v) = cell.verdict else { continue };
-                *counts.entry(v).or_default() += 1;
-                if v != Verdict::Matches {
-                    let (p, m) = (
-                        cell.printed.unwrap_or(0.0),
-                        cell.tool.map_or(0.0, |s| s.mean),
-                    );
-                    let rel = (m - p).abs() / p.abs().max(f64::MIN_POSITIVE);
-                    largest.push((
-                        rel,
-                        e.number,
-                        t.rows[r].clone(),
-                        t.columns[c].clone(),
-                        p,
-                        m,
-                        v.as_str(),
-                    ));
-                }
-            }
-        }
-    }
-    largest.sort_by(|a, b| b.0.total_cmp(&a.0));
     let mut s = String::new();
+    top(&mut s, header);
+    let _ = writeln!(s, "## Summary\n");
+    claims::summary(&mut s, judged);
+    let counts = cell_counts(&mut s, evaluated);
+    largest(&mut s, dissertation, evaluated);
+    claims::section(&mut s, judged);
+    sections::constructions(&mut s);
+    sections::calibration(&mut s);
+    for t in &dissertation.tables {
+        table_block(&mut s, t, evaluated);
+    }
+    figures(&mut s, dissertation, stated);
+    (s, counts)
+}
+
+/// The title, how to read the verdicts, and the run's machine, tool, builds and wall time.
+fn top(s: &mut String, header: &Header) {
     let _ = writeln!(s, "# Reproduction of the dissertation, number by number\n");
     let _ = writeln!(
         s,
@@ -111,8 +101,10 @@ pub fn document(
          verdict rules are in `src/reproduction/compare.rs`: a random statistic `matches` when \
          the printed value lies within `2 sd sqrt(1 + 1/n)` of the mean of the tool's `n` \
          repeats (`sd` of one repeat, the printed value being one draw) plus half a unit of \
-         the last printed digit; an exact one when it rounds to the printed value; a row whose \
-         cells do not match but rank as printed gets `ordering holds`, else `differs`.\n",
+         the last printed digit; an exact one when it rounds to the printed value; else it \
+         `differs`. Orderings are not judged cell by cell: the text's own claims are, across \
+         methods and with a tie margin from the spread (`reproduction/claims.yaml`, \
+         `src/reproduction/claims.rs`).\n",
         header.command
     );
     let _ = writeln!(s, "- Machine: {}", header.machine);
@@ -125,55 +117,91 @@ pub fn document(
             .collect();
         let _ = writeln!(s, "- Results computed by: {}", builds.join(", "));
     }
-    match header.wall_s {
-        Some(w) => {
-            let _ = writeln!(
-                s,
-                "- Wall time of the last `reproduce` that ran into the folders: {w:.0} s"
-            );
-        }
-        None => {
-            let _ = writeln!(s, "- Wall time of the runs: not recorded in the folders");
-        }
-    }
+    let _ = match header.wall_s {
+        Some(w) => writeln!(
+            s,
+            "- Wall time of the last `reproduce` that ran into the folders: {w:.0} s"
+        ),
+        None => writeln!(s, "- Wall time of the runs: not recorded in the folders"),
+    };
     let _ = writeln!(
         s,
         "- Repeats of each random statistic: {}\n",
         header.repeats
     );
-    let _ = writeln!(s, "## Summary\n");
+}
+
+/// The count of cells by verdict and by what their agreement can show ([`Evidence`]); the
+/// cells of tables that repeat another's ([`REPEATS`]) are counted once, at their source.
+fn cell_counts(s: &mut String, evaluated: &[Evaluated]) -> BTreeMap<Verdict, usize> {
+    let mut counts: BTreeMap<Verdict, usize> = BTreeMap::new();
+    let mut by: BTreeMap<Evidence, (usize, usize)> = BTreeMap::new();
+    for e in evaluated {
+        if REPEATS.iter().any(|(n, _)| *n == e.number) {
+            continue;
+        }
+        let kind = evidence(e.number, e.spread);
+        for v in e.cells.iter().flatten().filter_map(|c| c.verdict) {
+            *counts.entry(v).or_default() += 1;
+            let entry = by.entry(kind).or_default();
+            entry.1 += 1;
+            if v == Verdict::Matches {
+                entry.0 += 1;
+            }
+        }
+    }
     let mut covered: Vec<u32> = evaluated.iter().map(|e| e.number).collect();
     covered.dedup();
     let _ = writeln!(
         s,
-        "{} of the dissertation's 36 tables are compared cell by cell here: {} cell(s) \
-         `matches`, {} `ordering holds`, {} `differs`.\n",
+        "{} of the dissertation's 36 tables are compared cell by cell: {} cell(s) `matches`, \
+         {} `differs` (Tables {} repeat other tables' cells and are counted there). What an \
+         agreement shows depends on the cell:\n",
         covered.len(),
         counts.get(&Verdict::Matches).copied().unwrap_or(0),
-        counts.get(&Verdict::OrderingHolds).copied().unwrap_or(0),
-        counts.get(&Verdict::Differs).copied().unwrap_or(0)
+        counts.get(&Verdict::Differs).copied().unwrap_or(0),
+        REPEATS.map(|(n, _)| n.to_string()).join(" and ")
     );
-    if !largest.is_empty() {
-        let _ = writeln!(s, "The ten largest relative differences:\n");
-        let _ = writeln!(s, "| table | row | column | printed | tool | verdict |");
-        let _ = writeln!(s, "|---:|---|---|---:|---:|---|");
-        for (_, n, row, col, p, m, v) in largest.iter().take(10) {
-            let _ = writeln!(
-                s,
-                "| {n} | {row} | {col} | {} | {} | {v} |",
-                num(*p),
-                num(*m)
-            );
+    let _ = writeln!(s, "| cells | compared | matches |\n|---|---:|---:|");
+    for (kind, (m, n)) in &by {
+        let _ = writeln!(s, "| {} | {n} | {m} |", kind.as_str());
+    }
+    let _ = writeln!(s);
+    counts
+}
+
+/// The ten largest relative differences of the cells that do not match.
+fn largest(s: &mut String, dissertation: &Dissertation, evaluated: &[Evaluated]) {
+    let mut all: Vec<(f64, u32, String, String, f64, f64)> = Vec::new();
+    for e in evaluated {
+        let t = dissertation
+            .table(e.number)
+            .expect("evaluated from the reference");
+        for (r, row) in e.cells.iter().enumerate() {
+            for (c, cell) in row.iter().enumerate() {
+                if cell.verdict != Some(Verdict::Differs) {
+                    continue;
+                }
+                let (p, m) = (
+                    cell.printed.unwrap_or(0.0),
+                    cell.tool.map_or(0.0, |x| x.mean),
+                );
+                let rel = (m - p).abs() / p.abs().max(f64::MIN_POSITIVE);
+                all.push((rel, e.number, t.rows[r].clone(), t.columns[c].clone(), p, m));
+            }
         }
-        let _ = writeln!(s);
     }
-    sections::constructions(&mut s);
-    sections::calibration(&mut s);
-    for t in &dissertation.tables {
-        table_block(&mut s, t, evaluated);
+    if all.is_empty() {
+        return;
     }
-    figures(&mut s, dissertation, stated);
-    (s, counts)
+    all.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let _ = writeln!(s, "The ten largest relative differences:\n");
+    let _ = writeln!(s, "| table | row | column | printed | tool |");
+    let _ = writeln!(s, "|---:|---|---|---:|---:|");
+    for (_, n, row, col, p, m) in all.iter().take(10) {
+        let _ = writeln!(s, "| {n} | {row} | {col} | {} | {} |", num(*p), num(*m));
+    }
+    let _ = writeln!(s);
 }
 
 /// The block of table `t`: its setting, then each cell beside the tool's, or why it is not
@@ -181,6 +209,13 @@ pub fn document(
 fn table_block(s: &mut String, t: &super::reference::Table, evaluated: &[Evaluated]) {
     let _ = writeln!(s, "## Table {}: {}\n", t.number, t.title);
     let _ = writeln!(s, "Dissertation §{}. {}\n", t.section, t.setting.trim());
+    if let Some((_, source)) = REPEATS.iter().find(|(n, _)| *n == t.number) {
+        let _ = writeln!(
+            s,
+            "Its cells repeat those of {source}: the same numbers, compared there too and \
+             counted once in the summary.\n"
+        );
+    }
     let readings: Vec<&Evaluated> = evaluated.iter().filter(|e| e.number == t.number).collect();
     if readings.is_empty() {
         let _ = writeln!(s, "*{}.*\n", not_covered(&t.kind));
@@ -207,6 +242,9 @@ fn reading(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
     if !e.differs_because.is_empty() {
         let _ = writeln!(s, "Where it differs: {}.", e.differs_because);
     }
+    if let Some(floor) = &e.floor {
+        let _ = writeln!(s, "\n{floor}.");
+    }
     let _ = writeln!(s);
     let unit = if t.unit.is_empty() {
         String::new()
@@ -223,7 +261,7 @@ fn reading(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
             let conclusion = e.spread == super::compare::Spread::Conclusion;
             let printed = match cell.printed {
                 Some(p) if conclusion => if p > 0.5 { "verified" } else { "not verified" }.into(),
-                p => p.map_or("-".into(), num),
+                p => p.map_or("-".into(), |v| printed_num(v, t.decimals(c))),
             };
             let tool = match cell.tool {
                 Some(x) if conclusion => {
@@ -414,9 +452,11 @@ fn elsewhere(quantity: &str) -> Option<&'static str> {
         ),
         (
             "Ocean current multiscale analysis",
-            "the ocean-current data are not public: experiments/surface_winds.yaml runs the same \
-             four-level analysis on public NOAA surface winds (132 months of 73 x 144; \
-             docs/definitions.md section 11), a substitute, not a reproduction.",
+            "the ocean-current data are public (OSCAR third-degree, the DOI the table prints) \
+             but cannot be downloaded on the machine the reproduction runs on: \
+             experiments/surface_winds.yaml runs the same four-level analysis on NOAA surface \
+             winds that a Debian package ships (132 months of 73 x 144; docs/definitions.md \
+             section 11), a substitute, not a reproduction.",
         ),
         (
             "Target location grid",
@@ -573,6 +613,7 @@ mod tests {
             spread: Spread::Random,
             differs_because: "",
             protocol: Some("test"),
+            floor: None,
         };
         let mut s = String::new();
         headline(&mut s, t, &e);

@@ -46,8 +46,44 @@ pub struct MetricParams {
     pub symmetric: Option<bool>,
     /// KL: statistics in dB.
     pub db: Option<bool>,
+    /// KL: the sum over bins divided by their count.
+    pub mean_over_bins: Option<bool>,
+    /// KL: how the sampling floor is removed (`none`, `resplit`).
+    pub bias_correction: Option<crate::stats::metrics::BiasCorrection>,
     /// `kl_area`: block edge in pixels.
     pub block: Option<usize>,
+}
+
+/// The KL options of one entry at `at` (`block_ok`: the metric takes `block`).
+fn kl_options(
+    params: &MetricParams,
+    at: &str,
+    ctx: &Ctx,
+    block_ok: bool,
+) -> Result<crate::stats::metrics::KlOptions, SpecError> {
+    use crate::stats::metrics::KlOptions;
+    if params.block.is_some() && !block_ok {
+        return Err(ctx.err(format!("{at}.block"), "only kl_area takes `block`"));
+    }
+    let d = KlOptions::default();
+    let o = KlOptions {
+        bins: params.bins.unwrap_or(d.bins),
+        smoothing: params.smoothing.unwrap_or(d.smoothing),
+        symmetric: params.symmetric.unwrap_or(d.symmetric),
+        db: params.db.unwrap_or(d.db),
+        mean_over_bins: params.mean_over_bins.unwrap_or(d.mean_over_bins),
+        bias_correction: params.bias_correction.unwrap_or(d.bias_correction),
+    };
+    if o.bins == 0 {
+        return Err(ctx.err(format!("{at}.bins"), "bins must be at least 1"));
+    }
+    if !(o.smoothing >= 0.0 && o.smoothing.is_finite()) {
+        return Err(ctx.err(
+            format!("{at}.smoothing"),
+            format!("smoothing {} must be finite and >= 0", o.smoothing),
+        ));
+    }
+    Ok(o)
 }
 
 /// Validates the `metrics:` section into typed metrics.
@@ -60,7 +96,7 @@ pub fn check_metrics(
     spec: &RawSpec,
     ctx: &Ctx,
 ) -> Result<Vec<crate::stats::metrics::Metric>, SpecError> {
-    use crate::stats::metrics::{KlOptions, Metric};
+    use crate::stats::metrics::Metric;
     if !spec.metrics.is_empty() && spec.synthesis.is_none() {
         return Err(ctx.err(
             "metrics",
@@ -93,28 +129,7 @@ pub fn check_metrics(
             }
         };
         let at = format!("{at}.{name}");
-        let kl = |block_ok: bool| -> Result<KlOptions, SpecError> {
-            if params.block.is_some() && !block_ok {
-                return Err(ctx.err(format!("{at}.block"), "only kl_area takes `block`"));
-            }
-            let d = KlOptions::default();
-            let o = KlOptions {
-                bins: params.bins.unwrap_or(d.bins),
-                smoothing: params.smoothing.unwrap_or(d.smoothing),
-                symmetric: params.symmetric.unwrap_or(d.symmetric),
-                db: params.db.unwrap_or(d.db),
-            };
-            if o.bins == 0 {
-                return Err(ctx.err(format!("{at}.bins"), "bins must be at least 1"));
-            }
-            if !(o.smoothing >= 0.0 && o.smoothing.is_finite()) {
-                return Err(ctx.err(
-                    format!("{at}.smoothing"),
-                    format!("smoothing {} must be finite and >= 0", o.smoothing),
-                ));
-            }
-            Ok(o)
-        };
+        let kl = |block_ok: bool| kl_options(&params, &at, ctx, block_ok);
         let metric = match name.as_str() {
             "kl_pixel" => Metric::KlPixel(kl(false)?),
             "kl_area" => {

@@ -489,6 +489,8 @@ pub fn similarity<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> R
             ("smoothing", Kind::F),
             ("symmetric", Kind::B),
             ("db", Kind::B),
+            ("mean_over_bins", Kind::B),
+            ("bias_correction", Kind::S),
             ("block", Kind::I),
             ("cmd_form", Kind::S),
         ],
@@ -513,6 +515,11 @@ pub fn similarity<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> R
             t.f("smoothing", row.kl.map(|k| k.smoothing));
             t.b("symmetric", row.kl.map(|k| k.symmetric));
             t.b("db", row.kl.map(|k| k.db));
+            t.b("mean_over_bins", row.kl.map(|k| k.mean_over_bins));
+            t.s_opt(
+                "bias_correction",
+                row.kl.map(|k| k.bias_correction.as_str().into()),
+            );
             t.i_opt("block", row.block.map(|b| b as i64));
             t.s_opt("cmd_form", row.form.as_deref().map(Into::into));
             t.row(job);
@@ -542,6 +549,8 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
             ("bins", Kind::I),
             ("smoothing", Kind::F),
             ("symmetric", Kind::B),
+            ("mean_over_bins", Kind::B),
+            ("bias_correction", Kind::S),
         ],
     );
     for &(job, r) in results.iter().filter(|_| plan.model_orders) {
@@ -587,6 +596,8 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
             t.i("bins", kl.bins as i64);
             t.f("smoothing", Some(kl.smoothing));
             t.b("symmetric", Some(kl.symmetric));
+            t.b("mean_over_bins", Some(kl.mean_over_bins));
+            t.s("bias_correction", kl.bias_correction.as_str());
             t.row(job);
         }
     }

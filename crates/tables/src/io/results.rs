@@ -155,6 +155,10 @@ pub mod col {
     pub const SYMMETRIC: &str = "symmetric";
     /// `db`: the value in dB, where the metric has one.
     pub const DB: &str = "db";
+    /// `mean_over_bins`: whether the KL divergence's sum over bins is divided by their count.
+    pub const MEAN_OVER_BINS: &str = "mean_over_bins";
+    /// `bias_correction`: how the KL divergence's sampling floor is removed (`none`, `resplit`).
+    pub const BIAS_CORRECTION: &str = "bias_correction";
     /// `block`: the block of a blockwise metric.
     pub const BLOCK: &str = "block";
     /// `cmd_form`: the CMD term's form.
@@ -388,6 +392,8 @@ pub const SIMILARITY: Table = Table {
         col::SMOOTHING,
         col::SYMMETRIC,
         col::DB,
+        col::MEAN_OVER_BINS,
+        col::BIAS_CORRECTION,
         col::BLOCK,
         col::CMD_FORM,
     ],
@@ -409,6 +415,8 @@ pub const MODEL_ORDER: Table = Table {
         col::BINS,
         col::SMOOTHING,
         col::SYMMETRIC,
+        col::MEAN_OVER_BINS,
+        col::BIAS_CORRECTION,
     ],
 };
 
