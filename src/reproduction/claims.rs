@@ -234,44 +234,41 @@ pub fn locate(d: &Dissertation, cell: &CellRef) -> Result<(usize, usize)> {
     Ok((r, c))
 }
 
-/// A group of cells read on one side: mean, spread, repeats.
-#[derive(Debug, Clone, Copy)]
-struct Group {
-    mean: f64,
-    sd: f64,
-    n: usize,
+/// A group of cells read as one value: the mean of their means, the mean of their standard
+/// deviations, the fewest repeats.
+fn pooled(values: &[Summary]) -> Summary {
+    let k = values.len().max(1) as f64;
+    Summary {
+        mean: values.iter().map(|s| s.mean).sum::<f64>() / k,
+        sd: values.iter().map(|s| s.sd).sum::<f64>() / k,
+        n: values.iter().map(|s| s.n).min().unwrap_or(1).max(1),
+    }
 }
 
-impl Group {
-    fn of(values: &[Summary]) -> Group {
-        let k = values.len().max(1) as f64;
-        Group {
-            mean: values.iter().map(|s| s.mean).sum::<f64>() / k,
-            sd: values.iter().map(|s| s.sd).sum::<f64>() / k,
-            n: values.iter().map(|s| s.n).min().unwrap_or(1).max(1),
-        }
-    }
-
-    fn scaled(self, f: f64) -> Group {
-        Group {
-            mean: self.mean * f,
-            sd: self.sd * f.abs(),
-            n: self.n,
-        }
-    }
-
-    fn show(self) -> String {
-        if self.n > 1 {
-            format!("{} ± {}", num(self.mean), num(self.sd))
-        } else {
-            num(self.mean)
-        }
+/// `s` times `f`.
+fn scaled(s: Summary, f: f64) -> Summary {
+    Summary {
+        mean: s.mean * f,
+        sd: s.sd * f.abs(),
+        n: s.n,
     }
 }
 
 /// Two standard errors of the difference of two groups' means.
-fn tie(a: Group, b: Group) -> f64 {
-    2.0 * (a.sd.powi(2) / a.n as f64 + b.sd.powi(2) / b.n as f64).sqrt()
+fn tie(a: Summary, b: Summary) -> f64 {
+    2.0 * (a.sd.powi(2) / a.n.max(1) as f64 + b.sd.powi(2) / b.n.max(1) as f64).sqrt()
+}
+
+/// A difference `diff` with tie margin `tie` against the `allowed` one: within it beyond the
+/// margin, outside it beyond the margin, or a tie.
+fn within(diff: f64, tie: f64, allowed: f64) -> Outcome {
+    if diff + tie <= allowed {
+        Outcome::Holds
+    } else if diff - tie > allowed {
+        Outcome::Fails
+    } else {
+        Outcome::NotDecidable
+    }
 }
 
 /// Where a side's numbers come from.
@@ -327,7 +324,7 @@ fn value(d: &Dissertation, side: &Side, cell: &CellRef) -> std::result::Result<S
 }
 
 /// The group of `cells` on `side`.
-fn group(d: &Dissertation, side: &Side, cells: &[CellRef]) -> std::result::Result<Group, String> {
+fn group(d: &Dissertation, side: &Side, cells: &[CellRef]) -> std::result::Result<Summary, String> {
     let values = cells
         .iter()
         .map(|c| value(d, side, c))
@@ -335,11 +332,11 @@ fn group(d: &Dissertation, side: &Side, cells: &[CellRef]) -> std::result::Resul
     if values.is_empty() {
         return Err("a check with no cells".into());
     }
-    Ok(Group::of(&values))
+    Ok(pooled(&values))
 }
 
 /// `lower` below `higher` beyond the margin: holds, fails, or a tie.
-fn ordered(lower: Group, higher: Group) -> Outcome {
+fn ordered(lower: Summary, higher: Summary) -> Outcome {
     let m = tie(lower, higher);
     if higher.mean - lower.mean > m {
         Outcome::Holds
@@ -364,7 +361,7 @@ fn check(d: &Dissertation, side: &Side, ch: &Check) -> (Outcome, String) {
             } => {
                 let f = factor.unwrap_or(1.0);
                 let (lo, hi) = (group(d, side, lower)?, group(d, side, higher)?);
-                let scaled = lo.scaled(f);
+                let scaled = scaled(lo, f);
                 let label = if f == 1.0 {
                     format!("{} < {}", lo.show(), hi.show())
                 } else {
@@ -385,14 +382,7 @@ fn check(d: &Dissertation, side: &Side, ch: &Check) -> (Outcome, String) {
                     (None, None) => return Err("a `within` check without a margin".into()),
                 };
                 let diff = (x.mean - y.mean).abs();
-                let m = tie(x, y);
-                let outcome = if diff + m <= allowed {
-                    Outcome::Holds
-                } else if diff - m > allowed {
-                    Outcome::Fails
-                } else {
-                    Outcome::NotDecidable
-                };
+                let outcome = within(diff, tie(x, y), allowed);
                 (
                     outcome,
                     format!(
@@ -478,26 +468,10 @@ fn stated_check(
     if st.given == 0 {
         return Err(format!("{quantity:?}: no repeat gave a value"));
     }
-    let tool = Group {
-        mean: st.tool.mean,
-        sd: st.tool.sd,
-        n: st.tool.n.max(1),
-    };
-    let zero = Group {
-        mean: 0.0,
-        sd: 0.0,
-        n: 1,
-    };
+    let (tool, zero) = (st.tool, Summary::of(&[0.0]));
     Ok(match (st.printed, margin) {
         (Some(p), Some(m)) => {
-            let (diff, t) = ((tool.mean - p).abs(), tie(tool, zero));
-            let o = if diff + t <= m {
-                Outcome::Holds
-            } else if diff - t > m {
-                Outcome::Fails
-            } else {
-                Outcome::NotDecidable
-            };
+            let o = within((tool.mean - p).abs(), tie(tool, zero), m);
             (
                 o,
                 format!("{} against the stated {} ± {}", tool.show(), num(p), num(m)),

@@ -116,6 +116,15 @@ pub struct Summary {
 }
 
 impl Summary {
+    /// The document's form: `mean ± sd` over several repeats, the mean alone for one.
+    pub fn show(self) -> String {
+        if self.n > 1 {
+            format!("{} ± {}", num(self.mean), num(self.sd))
+        } else {
+            num(self.mean)
+        }
+    }
+
     /// The mean and spread of `values` (non-empty; NaN where any value is).
     pub fn of(values: &[f64]) -> Summary {
         let n = values.len();

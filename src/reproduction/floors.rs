@@ -70,7 +70,7 @@ pub fn kl_floors<'a>(
                     continue;
                 }
                 let (v, c) = (Summary::of(&values), Summary::of(&c));
-                cells.push(format!("{what} {} (c = {})", shown(v), num(c.mean)));
+                cells.push(format!("{what} {} (c = {})", v.show(), num(c.mean)));
             }
             if !cells.is_empty() {
                 parts.push(format!("{ds}: {}", cells.join(", ")));
@@ -89,13 +89,4 @@ pub fn kl_floors<'a>(
         }
     }
     Ok(out)
-}
-
-/// A mean with its spread over the repeats.
-fn shown(s: Summary) -> String {
-    if s.n > 1 {
-        format!("{} ± {}", num(s.mean), num(s.sd))
-    } else {
-        num(s.mean)
-    }
 }

@@ -268,8 +268,7 @@ fn reading(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
                     format!("verified in {} of {}", (x.mean * x.n as f64).round(), x.n)
                 }
                 None => "not computed".to_string(),
-                Some(x) if x.n > 1 => format!("{} ± {}", num(x.mean), num(x.sd)),
-                Some(x) => num(x.mean),
+                Some(x) => x.show(),
             };
             let diff = cell.difference.map_or("-".into(), num);
             let verdict = cell.verdict.map_or("-", Verdict::as_str);

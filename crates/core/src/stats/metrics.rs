@@ -582,24 +582,18 @@ mod tests {
             },
         );
         assert!((summed / pixel - 32.0).abs() < 1e-9, "{summed} / {pixel}");
-        let corrected = floor(
-            1,
-            KlOptions {
-                bias_correction: BiasCorrection::Resplit,
-                ..printed
-            },
-        );
-        eprintln!("c corrected: per pixel {corrected:.3}");
-        assert!(corrected.abs() < 0.1, "corrected per pixel c = {corrected}");
-        let corrected = floor(
-            8,
-            KlOptions {
-                bias_correction: BiasCorrection::Resplit,
-                ..printed
-            },
-        );
-        eprintln!("c corrected: per area {corrected:.3}");
-        assert!(corrected.abs() < 0.1, "corrected per area c = {corrected}");
+        let resplit = KlOptions {
+            bias_correction: BiasCorrection::Resplit,
+            ..printed
+        };
+        for (block, unit) in [(1, "pixel"), (8, "area")] {
+            let corrected = floor(block, resplit);
+            eprintln!("c corrected: per {unit} {corrected:.3}");
+            assert!(
+                corrected.abs() < 0.1,
+                "corrected per {unit} c = {corrected}"
+            );
+        }
     }
 
     #[test]
