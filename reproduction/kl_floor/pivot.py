@@ -1,3 +1,4 @@
+"""Pivot floor.csv: the implied c of every estimator at each sample size, one row an estimator."""
 import csv, collections
 rows=list(csv.DictReader(open('floor.csv')))
 d=collections.OrderedDict()
