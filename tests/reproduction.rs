@@ -13,6 +13,7 @@ fn header() -> render::Header {
         machine: "test".into(),
         tool: "test".into(),
         repeats: 2,
+        cnn_repeats: None,
         builds: vec![],
     }
 }
@@ -23,8 +24,10 @@ fn options(out: PathBuf, specs: PathBuf, repeats: usize) -> rep::Options {
         out,
         specs,
         repeats,
+        cnn_repeats: None,
         threads: 2,
         write_only: false,
+        only: Vec::new(),
         quiet: true,
     }
 }
@@ -214,17 +217,21 @@ fn every_covered_table_gives_the_numbers_the_document_records() {
     assert!(checked > 300, "only {checked} cells compared");
 }
 
-/// The CNN tables (20 and 22) read every repeat of a training as one draw, under both
+/// The CNN tables (20 and 22) read every repeat of a training as one draw, under the three
 /// protocols, from one run of each spec: here two small specs under the names the recipes
 /// read (two classes of filtered noise, 32 x 32, one epoch, 2 repeats), so that the reading
 /// and the document's blocks are checked in seconds; the numbers of the full specs are the
 /// document's (`make reproduce`).
 #[test]
-fn cnn_tables_read_every_repeat_under_both_protocols() {
+fn cnn_tables_read_every_repeat_under_every_protocol() {
     let dir = tempfile::tempdir().unwrap();
     let specs = dir.path().join("specs");
     std::fs::create_dir_all(&specs).unwrap();
-    for (name, holdout) in [(rep::cnn::HELD_OUT, "0.2"), (rep::cnn::DISSERTATION, "0")] {
+    for (name, holdout, protocol) in [
+        (rep::cnn::HELD_OUT, "0.2", "matlab"),
+        (rep::cnn::DISSERTATION, "0", "matlab"),
+        (rep::cnn::EQUAL_STEPS, "0", "equal_steps"),
+    ] {
         std::fs::write(
             specs.join(format!("{name}.yaml")),
             format!(
@@ -234,7 +241,7 @@ fn cnn_tables_read_every_repeat_under_both_protocols() {
                  classification:\n  classes: [a, b]\n  normalise: [zero_mean, zero_mean_unit_variance]\n\
                  \x20 holdout: {holdout}\n  methods: [original, method1, method2, full_covariance]\n\
                  \x20 train_sizes: [100, 250, 500, 1000]\n  repeats: 2\n\
-                 \x20 training: {{epochs: 1, batch_size: 128}}\n"
+                 \x20 training: {{epochs: 1, batch_size: 128, protocol: {protocol}}}\n"
             ),
         )
         .unwrap();
@@ -255,7 +262,7 @@ fn cnn_tables_read_every_repeat_under_both_protocols() {
         serde_json::from_str(&std::fs::read_to_string(doc.with_extension("json")).unwrap())
             .unwrap();
     let tables = values["tables"].as_array().unwrap();
-    assert_eq!(tables.len(), 4, "Tables 20 and 22, two protocols each");
+    assert_eq!(tables.len(), 6, "Tables 20 and 22, three protocols each");
     for t in tables {
         let cells = t["cells"].as_array().unwrap();
         assert_eq!(cells.len(), 4);
@@ -279,7 +286,8 @@ fn cnn_tables_read_every_repeat_under_both_protocols() {
     let text = std::fs::read_to_string(&doc).unwrap();
     assert_eq!(text.matches("### The dissertation's protocol").count(), 2);
     assert_eq!(text.matches("### Held-out testing").count(), 2);
-    assert_eq!(text.matches("Headline:").count(), 4);
+    assert_eq!(text.matches("### Equal optimisation steps").count(), 2);
+    assert_eq!(text.matches("Headline:").count(), 6);
 }
 
 /// Fig. 74's ordering statements read from small runs of a stochastic-target spec under the

@@ -108,12 +108,20 @@ pub struct ReproduceArgs {
     /// Runs of each spec with random statistics (the first with the spec's own seed).
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
+    /// Runs of each repeated spec that trains networks (`cnn_*`; default: --repeats): each
+    /// repeat trains dozens of networks, most of a reproduction's time.
+    #[arg(long)]
+    pub cnn_repeats: Option<usize>,
     /// Worker threads of each run (default: RAYON_NUM_THREADS, else all cores).
     #[arg(long)]
     pub jobs: Option<usize>,
     /// Write the document from the folders in OUT without running anything.
     #[arg(long)]
     pub write_only: bool,
+    /// Run only this spec (a file stem the document needs, e.g. `similarity_plants`; repeat
+    /// the option for several), with its repeats, and write no document.
+    #[arg(long, value_name = "SPEC", conflicts_with = "write_only")]
+    pub only: Vec<String>,
     /// No progress output.
     #[arg(short, long)]
     pub quiet: bool,

@@ -65,8 +65,10 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         specs,
         doc,
         repeats,
+        cnn_repeats,
         jobs,
         write_only,
+        only,
         quiet,
     } = a;
     use isar_clutter::reproduction::{self as rep, render};
@@ -74,18 +76,31 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         out,
         specs,
         repeats,
+        cnn_repeats,
         threads: jobs.unwrap_or_else(scheduler::default_threads),
         write_only,
+        only: only.clone(),
         quiet,
     };
     let start = std::time::Instant::now();
     let coverage = rep::Coverage::all();
     let runs = rep::run_all(&opts, &coverage)?;
+    if !only.is_empty() {
+        eprintln!(
+            "ran {} in {:.1} s; no document written (run without --only, or with --write-only)",
+            only.join(", "),
+            start.elapsed().as_secs_f64()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     if !write_only {
         rep::record_wall(&opts.out, start.elapsed().as_secs_f64(), repeats)?;
     }
     let header = render::Header {
-        command: format!("isar-clutter reproduce --repeats {repeats}"),
+        command: match cnn_repeats {
+            Some(c) => format!("isar-clutter reproduce --repeats {repeats} --cnn-repeats {c}"),
+            None => format!("isar-clutter reproduce --repeats {repeats}"),
+        },
         wall_s: rep::recorded_wall(&opts.out),
         machine: render::machine(),
         tool: format!(
@@ -94,6 +109,7 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
             isar_clutter::run::manifest::build_commit()
         ),
         repeats,
+        cnn_repeats,
         builds: vec![],
     };
     let counts = rep::write(&coverage, &runs, &doc, &header)?;

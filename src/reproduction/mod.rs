@@ -19,6 +19,7 @@ pub mod cnn;
 pub mod compare;
 pub mod extract;
 pub mod floors;
+pub mod held_out;
 pub mod ranking;
 pub mod reference;
 pub mod render;
@@ -42,10 +43,14 @@ pub struct Options {
     pub specs: PathBuf,
     /// Runs of each spec whose statistics are random (the first with the spec's own seed).
     pub repeats: usize,
+    /// Runs of each such spec that trains networks ([`trains_networks`]; `None`: `repeats`).
+    pub cnn_repeats: Option<usize>,
     /// Worker threads of each run.
     pub threads: usize,
     /// Only write the document from the folders there (run nothing).
     pub write_only: bool,
+    /// Run only these specs (file stems; empty: every spec the coverage needs).
+    pub only: Vec<String>,
     /// No progress output.
     pub quiet: bool,
 }
@@ -113,9 +118,32 @@ pub struct SpecRuns {
     pub runs: Vec<(u64, PathBuf)>,
 }
 
+/// Whether `spec` trains networks (the CNN specs, `cnn_*`): a repeat of one trains dozens,
+/// and they dominate a reproduction's time.
+pub fn trains_networks(spec: &str) -> bool {
+    spec.starts_with("cnn_")
+}
+
 /// The specs the recipes need, each with its number of repeats (1 where every table reading
-/// it is exact).
-pub fn needed(coverage: &Coverage, repeats: usize) -> BTreeMap<&'static str, usize> {
+/// it is exact; `cnn_repeats`, where given, for the specs that train networks and repeat).
+pub fn needed(
+    coverage: &Coverage,
+    repeats: usize,
+    cnn_repeats: Option<usize>,
+) -> BTreeMap<&'static str, usize> {
+    let mut specs = needed_at(coverage, repeats);
+    if let Some(c) = cnn_repeats {
+        for (spec, n) in specs.iter_mut() {
+            if trains_networks(spec) && *n > 1 {
+                *n = c.max(1);
+            }
+        }
+    }
+    specs
+}
+
+/// [`needed`] with one number of repeats for every spec that repeats.
+fn needed_at(coverage: &Coverage, repeats: usize) -> BTreeMap<&'static str, usize> {
     let mut specs = BTreeMap::new();
     for s in &coverage.statements {
         for (a, b) in &s.terms {
@@ -142,10 +170,22 @@ pub fn needed(coverage: &Coverage, repeats: usize) -> BTreeMap<&'static str, usi
 ///
 /// # Errors
 /// If a spec cannot be loaded or a run fails as a whole (a failed job is reported by the
-/// document writer, which refuses the folder).
+/// document writer, which refuses the folder), or `only` names a spec the coverage does not
+/// need.
 pub fn run_all(opts: &Options, coverage: &Coverage) -> Result<Vec<SpecRuns>> {
+    let needed = needed(coverage, opts.repeats, opts.cnn_repeats);
+    if let Some(o) = opts.only.iter().find(|o| !needed.contains_key(o.as_str())) {
+        let names: Vec<&str> = needed.keys().copied().collect();
+        anyhow::bail!(
+            "--only {o}: not a spec the document needs (it needs {})",
+            names.join(", ")
+        );
+    }
     let mut all = Vec::new();
-    for (spec, repeats) in needed(coverage, opts.repeats) {
+    for (spec, repeats) in needed {
+        if !opts.only.is_empty() && !opts.only.iter().any(|o| o == spec) {
+            continue;
+        }
         let file = opts.specs.join(format!("{spec}.yaml"));
         let base = plan::load(&file)?.spec.seed;
         let mut runs = Vec::new();
@@ -361,6 +401,10 @@ pub fn write(
         ))
         .collect();
     let (mut text, counts) = render::document(&dissertation, &evaluated, &stated, &judged, &header);
+    if let Some(block) = held_out::block(&mut tables, &|spec| folders(runs, spec))? {
+        text.push('\n');
+        text.push_str(&block);
+    }
     if let Some(block) = ranking::block(&mut tables, &|spec| folders(runs, spec))? {
         text.push('\n');
         text.push_str(&block);

@@ -25,6 +25,8 @@ pub struct Header {
     pub tool: String,
     /// Repeats of the random statistics.
     pub repeats: usize,
+    /// Repeats of the specs that train networks, where not `repeats`.
+    pub cnn_repeats: Option<usize>,
     /// The builds that computed the results the document reads, with their job counts (from
     /// the run folders' manifests, `computed_by`; filled by [`super::write`]): the job store
     /// reuses a result whatever the tool's version, so these can differ from `tool`.
@@ -124,9 +126,15 @@ fn top(s: &mut String, header: &Header) {
         ),
         None => writeln!(s, "- Wall time of the runs: not recorded in the folders"),
     };
+    let cnn = match header.cnn_repeats {
+        Some(c) if c != header.repeats => {
+            format!(" ({c} for the specs that train networks, `--cnn-repeats {c}`)")
+        }
+        _ => String::new(),
+    };
     let _ = writeln!(
         s,
-        "- Repeats of each random statistic: {}\n",
+        "- Repeats of each random statistic: {}{cnn}\n",
         header.repeats
     );
 }
@@ -453,9 +461,11 @@ fn elsewhere(quantity: &str) -> Option<&'static str> {
             "Ocean current multiscale analysis",
             "the ocean-current data are public (OSCAR third-degree, the DOI the table prints) \
              but cannot be downloaded on the machine the reproduction runs on: \
+             experiments/ocean_currents.yaml reads OSCAR's own file layout once a user has \
+             downloaded it (docs/definitions.md section 11), and \
              experiments/surface_winds.yaml runs the same four-level analysis on NOAA surface \
-             winds that a Debian package ships (132 months of 73 x 144; docs/definitions.md \
-             section 11), a substitute, not a reproduction.",
+             winds that a Debian package ships (132 months of 73 x 144), a substitute, not a \
+             reproduction.",
         ),
         (
             "Target location grid",

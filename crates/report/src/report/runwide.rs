@@ -109,7 +109,7 @@ pub(super) fn sweep_figures(dir: &Path) -> Result<Vec<Task>> {
         dir,
         results::SIMILARITY,
         col::VALUE,
-        &[col::STATISTIC, col::DATASET, col::METHOD],
+        &[col::STATISTIC, col::DATASET, col::METHOD, col::REFERENCE],
         &|r| {
             let what = match r.get(col::STATISTIC) {
                 "average_level_1" => "multiscale RMSE, average level 1",
@@ -117,10 +117,11 @@ pub(super) fn sweep_figures(dir: &Path) -> Result<Vec<Task>> {
                 "distance" => "correlation matrix distance",
                 _ => return None,
             };
-            Some((
-                format!("{}: {what}", r.get(col::DATASET)),
-                r.get(col::METHOD).to_string(),
-            ))
+            let series = match r.get(col::REFERENCE) {
+                "held_out" => format!("{} (held out)", r.get(col::METHOD)),
+                _ => r.get(col::METHOD).to_string(),
+            };
+            Some((format!("{}: {what}", r.get(col::DATASET)), series))
         },
     )?);
     Ok(out)

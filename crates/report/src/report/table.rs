@@ -46,15 +46,38 @@ pub struct TableDef {
     pub null_label: &'static str,
 }
 
+/// Row keys shown only where the kept rows hold more than one value: `reference` is
+/// `in_sample` on every row of a run without `synthesis.held_out`.
+const SHOWN_WHEN_VARIED: [&str; 1] = [col::REFERENCE];
+
+/// Whether the kept rows of `column` hold one value (or none).
+fn single_value(column: &StringChunked, keep: &[bool]) -> bool {
+    let mut seen = None;
+    for (v, _) in column.iter().zip(keep).filter(|(_, k)| **k) {
+        match seen {
+            None => seen = Some(v),
+            Some(s) if s != v => return false,
+            Some(_) => {}
+        }
+    }
+    true
+}
+
 /// The standard tables, in print order.
 pub fn standard() -> Vec<TableDef> {
     vec![
         TableDef {
             name: "rmse",
-            title: "Multiscale correlation RMSE, eq. 25 (Tables 6, 26, 28): original vs each method; noise_floor = two independent stacks of the original",
+            title: "Multiscale correlation RMSE, eq. 25 (Tables 6, 26, 28): original vs each method; noise_floor = two independent stacks of the original; reference held_out = against originals no fit saw",
             table: results::SIMILARITY,
             filters: vec![(col::METRIC, vec!["multiscale_rmse"])],
-            rows: vec![col::DATASET, col::STATISTIC, col::LEVEL, col::DIRECTION],
+            rows: vec![
+                col::DATASET,
+                col::REFERENCE,
+                col::STATISTIC,
+                col::LEVEL,
+                col::DIRECTION,
+            ],
             pivot: col::METHOD,
             values: vec![col::VALUE],
             value_labels: vec![],
@@ -66,7 +89,7 @@ pub fn standard() -> Vec<TableDef> {
             title: "Correlation matrix distance, eq. 24 (Tables 7, 25, 27)",
             table: results::SIMILARITY,
             filters: vec![(col::METRIC, vec!["cmd"])],
-            rows: vec![col::DATASET],
+            rows: vec![col::DATASET, col::REFERENCE],
             pivot: col::METHOD,
             values: vec![col::VALUE],
             value_labels: vec![],
@@ -81,7 +104,7 @@ pub fn standard() -> Vec<TableDef> {
                 (col::METRIC, vec!["kl_pixel", "kl_area"]),
                 (col::STATISTIC, vec!["mean"]),
             ],
-            rows: vec![col::DATASET, col::METRIC, col::COMPONENT],
+            rows: vec![col::DATASET, col::REFERENCE, col::METRIC, col::COMPONENT],
             pivot: col::METHOD,
             values: vec![col::VALUE],
             value_labels: vec![],
@@ -347,7 +370,15 @@ pub(super) fn render_limited(
             keys.push(n.clone());
         }
     }
-    let key_cols: Vec<StringChunked> = keys.iter().map(|k| texts(&df, k)).collect::<Result<_>>()?;
+    let mut key_cols: Vec<StringChunked> =
+        keys.iter().map(|k| texts(&df, k)).collect::<Result<_>>()?;
+    // A column that only some runs vary (`reference`) is a key where its kept rows differ.
+    for k in (0..keys.len()).rev() {
+        if SHOWN_WHEN_VARIED.contains(&keys[k].as_str()) && single_value(&key_cols[k], &keep) {
+            keys.remove(k);
+            key_cols.remove(k);
+        }
+    }
     let pivot_col = texts(&df, pivot)?;
     let value_cols: Vec<Vec<Option<f64>>> = def
         .values

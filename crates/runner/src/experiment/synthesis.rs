@@ -29,6 +29,12 @@ pub struct SynthesisSpec {
     /// Analyse the generated samples too (rows with `source` = the method; default true).
     #[serde(default = "yes")]
     pub analyse_generated: bool,
+    /// Also compare with originals no fit saw (default false; needs metrics): each method is
+    /// fitted again on a seeded half of the originals and its samples compared with the other
+    /// half, and the analysis job measures the floor of those two halves (`similarity` rows
+    /// with `reference` = `held_out`; docs/definitions.md section 6).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub held_out: bool,
 }
 
 fn default_half_width() -> usize {

@@ -30,6 +30,10 @@ pub struct JobResult {
     pub bytes: usize,
     /// The metrics: generated vs original (synthesis jobs) or the noise floor (analysis jobs).
     pub similarity: Option<SimilarityOutcome>,
+    /// With `synthesis.held_out`, the same metrics against originals no fit saw: a synthesis
+    /// job's samples from its method fitted on one seeded half of the originals against the
+    /// other half; an analysis job's floor of those two halves.
+    pub held_out: Option<SimilarityOutcome>,
     /// With `hypotheses`: the mean 2-D correlating function of the original and its pair counts.
     pub correlating: Option<crate::apps::hypotheses::Correlating>,
     /// Files and folders the job wrote (k-space samples, model folder, generated samples).

@@ -467,7 +467,8 @@ pub fn synthesis_params<'a>(
 /// `similarity`: one row per job, metric and statistic: each synthesis job's generated samples
 /// against the original (`method` = the method), and each analysis job's noise floor (`method`
 /// = `noise_floor`, `noise_floor` = `draws` or `halves`), with the metric's parameters (null
-/// where a metric has none).
+/// where a metric has none); `reference` = `in_sample`, or `held_out` for the comparisons with
+/// originals no fit saw (`synthesis.held_out`).
 pub fn similarity<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> Result<DataFrame> {
     let mut t = Table::new(
         plan,
@@ -485,6 +486,7 @@ pub fn similarity<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> R
             ("samples_original", Kind::I),
             ("samples_compared", Kind::I),
             ("noise_floor", Kind::S),
+            ("reference", Kind::S),
             ("bins", Kind::I),
             ("smoothing", Kind::F),
             ("symmetric", Kind::B),
@@ -495,8 +497,12 @@ pub fn similarity<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> R
             ("cmd_form", Kind::S),
         ],
     );
-    for &(job, r) in results {
-        let Some(sim) = &r.similarity else { continue };
+    let outcomes = results.iter().flat_map(|&(job, r)| {
+        [(&r.similarity, "in_sample"), (&r.held_out, "held_out")]
+            .into_iter()
+            .filter_map(move |(sim, reference)| Some((job, sim.as_ref()?, reference)))
+    });
+    for (job, sim, reference) in outcomes {
         for row in &sim.comparison.rows {
             t.s("job", &job.id);
             t.s("dataset", &job.dataset_id);
@@ -511,6 +517,7 @@ pub fn similarity<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> R
             t.i("samples_original", sim.comparison.samples.0 as i64);
             t.i("samples_compared", sim.comparison.samples.1 as i64);
             t.s_opt("noise_floor", sim.noise_floor.map(Into::into));
+            t.s("reference", reference);
             t.i_opt("bins", row.kl.map(|k| k.bins as i64));
             t.f("smoothing", row.kl.map(|k| k.smoothing));
             t.b("symmetric", row.kl.map(|k| k.symmetric));

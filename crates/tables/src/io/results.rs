@@ -147,6 +147,9 @@ pub mod col {
     pub const SAMPLES_COMPARED: &str = "samples_compared";
     /// `noise_floor`: the metric between two independent draws of the original.
     pub const NOISE_FLOOR: &str = "noise_floor";
+    /// `reference`: the originals a similarity row compares with: `in_sample` (all of them,
+    /// those the method was fitted on) or `held_out` (a half no fit saw).
+    pub const REFERENCE: &str = "reference";
     /// `bins`: histogram bins.
     pub const BINS: &str = "bins";
     /// `smoothing`: the histograms' smoothing.
@@ -388,6 +391,7 @@ pub const SIMILARITY: Table = Table {
         col::SAMPLES_ORIGINAL,
         col::SAMPLES_COMPARED,
         col::NOISE_FLOOR,
+        col::REFERENCE,
         col::BINS,
         col::SMOOTHING,
         col::SYMMETRIC,

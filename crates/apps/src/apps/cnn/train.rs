@@ -3,7 +3,9 @@
 //! 0.01, L2 1e-4, mini-batch 128 (or the training-set size if smaller), 30 epochs, the data
 //! shuffled once before training, the last partial mini-batch of an epoch left out (as MATLAB
 //! does), validation accuracy every 50 iterations and after the last, and the last epoch's
-//! network is the result. Prediction uses batch normalisation's running averages.
+//! network is the result. Prediction uses batch normalisation's running averages. The
+//! equal-steps protocol ([`Protocol::EqualSteps`]) gives every training of a section the same
+//! number of mini-batch steps instead of the same number of epochs.
 //!
 //! Everything random (initial weights, the shuffles) comes from ChaCha20 streams of the
 //! training's seed, so a training is a function of its seed and data.
@@ -62,8 +64,23 @@ pub enum Shuffle {
     EveryEpoch,
 }
 
+/// How many mini-batch steps a training takes (docs/definitions.md §12, protocols).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Protocol {
+    /// MATLAB's (the default): `epochs` passes over the set, the last partial mini-batch of
+    /// each left out, so `N` samples take `epochs * floor(N / batch)` steps and a small set
+    /// takes few (100 and 250 samples both take 30 at the defaults).
+    #[default]
+    Matlab,
+    /// Every training of a section the same number of steps (`steps`; by default what its
+    /// largest training set takes in `epochs` epochs): the set reshuffled before every epoch,
+    /// as many epochs as the steps need, the last one cut short.
+    EqualSteps,
+}
+
 /// Training settings (a spec's `training:` block).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrainingOptions {
     /// `sgdm` (default) or `adam`.
@@ -96,6 +113,36 @@ pub struct TrainingOptions {
     /// `cpu` (default) or `cuda`.
     #[serde(default)]
     pub device: Device,
+    /// `matlab` (default) or `equal_steps`.
+    #[serde(default)]
+    pub protocol: Protocol,
+    /// Mini-batch steps of every training under `equal_steps` (default: see
+    /// [`TrainingOptions::for_largest`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steps: Option<usize>,
+}
+
+/// The derived form, with `protocol` and `steps` shown only when they are not the defaults:
+/// a job's store key is made from this text, so the results of specs written before the
+/// protocols existed (what `matlab` computes) keep their keys.
+impl std::fmt::Debug for TrainingOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("TrainingOptions");
+        d.field("optimizer", &self.optimizer)
+            .field("learning_rate", &self.learning_rate)
+            .field("momentum", &self.momentum)
+            .field("l2", &self.l2)
+            .field("batch_size", &self.batch_size)
+            .field("epochs", &self.epochs)
+            .field("shuffle", &self.shuffle)
+            .field("validation_frequency", &self.validation_frequency)
+            .field("device", &self.device);
+        if self.protocol != Protocol::Matlab || self.steps.is_some() {
+            d.field("protocol", &self.protocol)
+                .field("steps", &self.steps);
+        }
+        d.finish()
+    }
 }
 
 fn validation_frequency() -> usize {
@@ -133,6 +180,8 @@ impl Default for TrainingOptions {
             shuffle: Shuffle::Once,
             validation_frequency: validation_frequency(),
             device: Device::Cpu,
+            protocol: Protocol::Matlab,
+            steps: None,
         }
     }
 }
@@ -169,6 +218,19 @@ impl TrainingOptions {
                 format!("must be in 1..=10000, got {}", self.epochs),
             ));
         }
+        match (self.protocol, self.steps) {
+            (Protocol::Matlab, Some(_)) => {
+                return Err((
+                    "steps",
+                    "applies to `protocol: equal_steps` only (MATLAB's protocol counts epochs)"
+                        .into(),
+                ))
+            }
+            (Protocol::EqualSteps, Some(s)) if s == 0 || s > 10_000_000 => {
+                return Err(("steps", format!("must be in 1..=10000000, got {s}")))
+            }
+            _ => {}
+        }
         if self.validation_frequency == 0 {
             return Err(("validation_frequency", "must be at least 1".into()));
         }
@@ -180,6 +242,34 @@ impl TrainingOptions {
         }
         Ok(())
     }
+}
+
+impl TrainingOptions {
+    /// The options of a section whose largest training set has `largest` samples: under
+    /// `equal_steps` without `steps`, the steps that set takes in `epochs` epochs
+    /// (`epochs * floor(largest / batch)`, at least 1); otherwise as written.
+    pub fn for_largest(&self, largest: usize) -> TrainingOptions {
+        let mut t = *self;
+        if t.protocol == Protocol::EqualSteps && t.steps.is_none() {
+            t.steps = Some((t.epochs * per_epoch(largest, t.batch_size)).max(1));
+        }
+        t
+    }
+
+    /// Mini-batch steps a training on `n` samples takes.
+    pub fn steps_for(&self, n: usize) -> usize {
+        let per_epoch = per_epoch(n, self.batch_size);
+        match self.protocol {
+            Protocol::Matlab => per_epoch * self.epochs,
+            Protocol::EqualSteps => self.steps.unwrap_or(per_epoch * self.epochs),
+        }
+    }
+}
+
+/// Full mini-batches in one pass over `n` samples (the mini-batch is the set when it is
+/// smaller): at least 1 for a set that is not empty.
+fn per_epoch(n: usize, batch_size: usize) -> usize {
+    n / batch_size.min(n).max(1)
 }
 
 /// Labelled complex images of one size.
@@ -423,21 +513,24 @@ pub fn train_on<B: AutodiffBackend>(
         }))
         .init::<B, Net<B>>();
     let mut order: Vec<usize> = (0..train.len()).collect();
-    let mut epochs = Vec::with_capacity(opts.epochs);
+    let per_epoch = per_epoch(train.len(), opts.batch_size);
+    let last_iteration = opts.steps_for(train.len());
+    let n_epochs = last_iteration.div_ceil(per_epoch.max(1));
+    let reshuffle = opts.shuffle == Shuffle::EveryEpoch || opts.protocol == Protocol::EqualSteps;
+    let mut epochs = Vec::with_capacity(n_epochs);
     let mut step_seconds = 0.0;
     let mut stepped = 0usize;
-    let per_epoch = train.len() / batch;
-    let last_iteration = per_epoch * opts.epochs;
     let mut iteration = 0usize;
-    for epoch in 1..=opts.epochs {
-        if epoch == 1 || opts.shuffle == Shuffle::EveryEpoch {
+    for epoch in 1..=n_epochs {
+        if epoch == 1 || reshuffle {
             let mut rng = ChaCha20Rng::seed_from_u64(seed);
             rng.set_stream(epoch as u64);
             order.shuffle(&mut rng);
         }
         let (mut loss_sum, mut right, mut seen, mut batches) = (0.0, 0usize, 0usize, 0usize);
         let mut validation_accuracy = None;
-        for idx in order.chunks_exact(batch) {
+        let left = last_iteration - iteration;
+        for idx in order.chunks_exact(batch).take(left) {
             let t = Instant::now();
             let x = prepared.batch::<B>(cfg, idx, device);
             let labels: Vec<usize> = idx.iter().map(|&i| prepared.labels[i]).collect();

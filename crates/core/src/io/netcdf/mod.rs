@@ -11,13 +11,19 @@
 //! dimension is the unlimited one) are de-interleaved record by record.
 //! CDF-5 (64-bit data, "CDF\x05") files are refused with
 //! [`NcError::UnsupportedVersion`]; HDF5-based NetCDF-4 files are refused with
-//! [`NcError::BadMagic`]. Malformed or truncated files give an [`NcError`]
-//! naming the file, never a panic.
+//! [`NcError::BadMagic`], whose message says how to convert them (`nccopy -k
+//! classic`), as it says to decompress a gzip-compressed file. Malformed or
+//! truncated files give an [`NcError`] naming the file, never a panic.
+//!
+//! [`NcFile::read_stack`] reads a variable as a stack of images `[samples,
+//! rows, cols]`: the first dimension is the samples (time), the last two the
+//! image, and dimensions of length 1 between them are dropped, so OSCAR's
+//! `u(time, depth, latitude, longitude)` with its single depth is a stack.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use ndarray::{ArrayD, IxDyn};
+use ndarray::{Array3, ArrayD, IxDyn};
 use thiserror::Error;
 
 mod header;
@@ -37,9 +43,11 @@ pub enum NcError {
         /// with `{:#}` says it once).
         cause: std::io::Error,
     },
-    /// The file does not start with "CDF" followed by a version byte.
+    /// The file does not start with "CDF" followed by a version byte. The message says what
+    /// to do with an HDF5-based NetCDF-4 file (convert it) or a gzip-compressed one.
     #[error(
-        "{path}: not a NetCDF-3 file (bad magic bytes {found:02x?}, expected \"CDF\\x01\" or \"CDF\\x02\")"
+        "{path}: not a NetCDF-3 file (bad magic bytes {found:02x?}, expected \"CDF\\x01\" or \"CDF\\x02\"){}",
+        magic_hint(.found)
     )]
     BadMagic {
         /// File concerned.
@@ -115,6 +123,35 @@ pub enum NcError {
         /// Total file length.
         file_len: u64,
     },
+    /// A variable read as an image stack has fewer than 3 dimensions.
+    #[error(
+        "{path}: variable {var:?} has shape {shape:?}; a stack is 3-D [time, rows, cols] (dimensions of length 1 between time and rows are dropped)"
+    )]
+    NotAStack {
+        /// File concerned.
+        path: PathBuf,
+        /// Variable concerned.
+        var: String,
+        /// Its shape.
+        shape: Vec<usize>,
+    },
+    /// A variable read as an image stack has a dimension of length other than 1 between its
+    /// first (time) and its last two (rows, cols).
+    #[error(
+        "{path}: variable {var:?} (shape {shape:?}) has dimension {dim:?} of length {len} between its time (first) and image (last two) dimensions; only dimensions of length 1 are dropped, so keep one {dim} in a copy of the file (e.g. `ncks -d {dim},0 IN.nc OUT.nc`)"
+    )]
+    ExtraDimension {
+        /// File concerned.
+        path: PathBuf,
+        /// Variable concerned.
+        var: String,
+        /// Name of the offending dimension.
+        dim: String,
+        /// Its length.
+        len: usize,
+        /// The variable's shape.
+        shape: Vec<usize>,
+    },
     /// The variable is of type NC_CHAR and cannot be read as numbers.
     #[error("{path}: variable {var:?} is of type NC_CHAR, not numeric")]
     NotNumeric {
@@ -123,6 +160,18 @@ pub enum NcError {
         /// Variable concerned.
         var: String,
     },
+}
+
+/// What to do with a file whose first bytes are not a NetCDF-3 magic number, for the
+/// formats recognisable from them (empty for others).
+fn magic_hint(found: &[u8]) -> &'static str {
+    if found.starts_with(b"\x89HDF") {
+        "; it is an HDF5 file (NetCDF-4): convert it to the classic format with `nccopy -k classic IN.nc OUT.nc`"
+    } else if found.starts_with(&[0x1f, 0x8b]) {
+        "; it is gzip-compressed: decompress it first (`gunzip FILE.nc.gz`)"
+    } else {
+        ""
+    }
 }
 
 /// External data types of NetCDF-3 (`nc_type`).
@@ -473,6 +522,63 @@ impl NcFile {
         })
     }
 
+    /// The shape `(samples, rows, cols)` of variable `name` read as an image stack by
+    /// [`NcFile::read_stack`]: its first dimension gives the samples (time), its last two the
+    /// rows and columns, and every dimension between them must have length 1 (it is dropped:
+    /// OSCAR's `u(time, depth, latitude, longitude)` with one depth is `(time, latitude,
+    /// longitude)`).
+    ///
+    /// # Errors
+    /// [`NcError::VariableNotFound`]; [`NcError::NotAStack`] for fewer than 3 dimensions;
+    /// [`NcError::ExtraDimension`] naming the first dimension between the first and the last
+    /// two whose length is not 1.
+    pub fn stack_shape(&self, name: &str) -> Result<(usize, usize, usize), NcError> {
+        let var = self
+            .variable(name)
+            .ok_or_else(|| NcError::VariableNotFound {
+                path: self.path.clone(),
+                name: name.to_string(),
+            })?;
+        let shape = self.shape(var);
+        let k = shape.len();
+        if k < 3 {
+            return Err(NcError::NotAStack {
+                path: self.path.clone(),
+                var: name.to_string(),
+                shape,
+            });
+        }
+        if let Some(m) = (1..k - 2).find(|&m| shape[m] != 1) {
+            return Err(NcError::ExtraDimension {
+                path: self.path.clone(),
+                var: name.to_string(),
+                dim: self.dims[var.dims[m]].name.clone(),
+                len: shape[m],
+                shape,
+            });
+        }
+        Ok((shape[0], shape[k - 2], shape[k - 1]))
+    }
+
+    /// Variable `name` as an image stack `[samples, rows, cols]`, decoded as by
+    /// [`NcFile::read_f64`] (packing applied, fill and missing values NaN, NaN kept) with the
+    /// dimensions of length 1 between the first and the last two dropped
+    /// ([`NcFile::stack_shape`]).
+    ///
+    /// # Errors
+    /// Those of [`NcFile::stack_shape`] and [`NcFile::read_f64`].
+    pub fn read_stack(&self, name: &str) -> Result<Array3<f64>, NcError> {
+        let (n, h, w) = self.stack_shape(name)?;
+        let a = self.read_f64(name)?;
+        let shape = a.shape().to_vec();
+        a.into_shape_with_order((n, h, w))
+            .map_err(|e| NcError::BadHeader {
+                path: self.path.clone(),
+                offset: 0,
+                msg: format!("variable {name:?}: shape {shape:?} is not a stack: {e}"),
+            })
+    }
+
     /// Number of values in one record (record variables) or in the whole
     /// variable (fixed variables), computed from the dimensions.
     fn slab_len(&self, var: &Variable) -> Option<u64> {
@@ -556,5 +662,7 @@ impl NcFile {
         })
     }
 }
+#[cfg(test)]
+mod oscar_tests;
 #[cfg(test)]
 mod tests;

@@ -11,21 +11,21 @@ use std::path::PathBuf;
 // ------------------------------------------------------------------
 
 /// A variable to write: its data (all records, C order) in its type.
-struct WVar {
-    name: &'static str,
-    dims: Vec<usize>,
-    attrs: Vec<(String, AttrValue)>,
-    data: AttrValue,
+pub(super) struct WVar {
+    pub(super) name: &'static str,
+    pub(super) dims: Vec<usize>,
+    pub(super) attrs: Vec<(String, AttrValue)>,
+    pub(super) data: AttrValue,
 }
 
 /// A file to write. A dimension of length 0 is the unlimited one.
-struct WFile {
-    version: u8,
-    dims: Vec<(&'static str, usize)>,
-    numrecs: usize,
-    streaming: bool,
-    gattrs: Vec<(String, AttrValue)>,
-    vars: Vec<WVar>,
+pub(super) struct WFile {
+    pub(super) version: u8,
+    pub(super) dims: Vec<(&'static str, usize)>,
+    pub(super) numrecs: usize,
+    pub(super) streaming: bool,
+    pub(super) gattrs: Vec<(String, AttrValue)>,
+    pub(super) vars: Vec<WVar>,
 }
 
 fn be_values(v: &AttrValue) -> Vec<u8> {
@@ -133,7 +133,7 @@ impl WFile {
         out
     }
 
-    fn encode(&self) -> Vec<u8> {
+    pub(super) fn encode(&self) -> Vec<u8> {
         let header_len = self.header(&vec![0; self.vars.len()]).len() as u64;
         let mut begins = vec![0u64; self.vars.len()];
         let mut off = header_len;
@@ -173,17 +173,17 @@ impl WFile {
     }
 }
 
-fn write_tmp(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> PathBuf {
+pub(super) fn write_tmp(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> PathBuf {
     let p = dir.path().join(name);
     std::fs::write(&p, bytes).unwrap();
     p
 }
 
-fn s(x: &str) -> String {
+pub(super) fn s(x: &str) -> String {
     x.to_string()
 }
 
-fn text(x: &str) -> AttrValue {
+pub(super) fn text(x: &str) -> AttrValue {
     AttrValue::Text(x.to_string())
 }
 

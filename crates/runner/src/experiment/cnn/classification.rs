@@ -57,6 +57,9 @@ pub struct ClassificationPlan {
     pub sources: Vec<Source>,
     /// The network's geometry.
     pub net: NetConfig,
+    /// The training settings every training runs under (`training` with the steps of
+    /// `equal_steps` resolved from the largest training size).
+    pub training: TrainingOptions,
 }
 
 impl ClassificationSpec {
@@ -193,7 +196,9 @@ impl ClassificationSpec {
         if trainings > MAX_TRAININGS {
             return Err(too_many_trainings(ctx, at, trainings, self.repeats));
         }
+        let largest = self.train_sizes.iter().copied().max().unwrap_or(0);
         Ok(ClassificationPlan {
+            training: self.training.for_largest(largest),
             spec: self.clone(),
             classes,
             normalise,

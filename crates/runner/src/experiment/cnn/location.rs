@@ -14,7 +14,9 @@ pub struct LocationSpec {
     #[serde(default = "fit_samples")]
     pub fit_samples: usize,
     /// Originals the `original` network trains (half) and validates (half) on, the fit part
-    /// first (default: `fit_samples`, the originals the methods see). The test set is the
+    /// first (default: `fit_samples`, the originals the methods see); under
+    /// `training.protocol: equal_steps` it trains on all of them (the validation is a record,
+    /// it does not pick the network). The test set is the
     /// samples after both, the same for every method: a larger number (the dissertation's
     /// 5.3.9.1 compares with "500 samples of the original data") shrinks it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -65,6 +67,9 @@ pub struct LocationPlan {
     pub sources: Vec<Source>,
     /// The network's geometry.
     pub net: NetConfig,
+    /// The training settings every training runs under (`training` with the steps of
+    /// `equal_steps` resolved from the largest training set).
+    pub training: TrainingOptions,
 }
 
 impl LocationSpec {
@@ -97,6 +102,16 @@ impl LocationSpec {
     /// else [`LocationSpec::fit_samples`]); the test set starts after them.
     pub fn originals(&self) -> usize {
         self.original_samples.unwrap_or(self.fit_samples)
+    }
+
+    /// The originals `original`'s network trains on: all of [`LocationSpec::originals`] under
+    /// `equal_steps` (validating on none), half of them otherwise (validating on the other
+    /// half).
+    pub fn original_training(&self) -> usize {
+        match self.training.protocol {
+            Protocol::EqualSteps => self.originals(),
+            Protocol::Matlab => self.originals() / 2,
+        }
     }
 
     /// Validates the section against the stacks of the plan's analysis jobs (`stacks`: one per
@@ -195,7 +210,9 @@ impl LocationSpec {
         if trainings > MAX_TRAININGS {
             return Err(too_many_trainings(ctx, at, trainings, self.repeats));
         }
+        let largest = (self.generated_samples / 2).max(self.original_training());
         Ok(LocationPlan {
+            training: self.training.for_largest(largest),
             spec: self.clone(),
             clutter,
             sources,

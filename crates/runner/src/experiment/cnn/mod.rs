@@ -12,7 +12,7 @@ mod location;
 use crate::apps::cnn::classification::{held_out, Normalise, Source};
 use crate::apps::cnn::location::{TargetKind, MIN_SIDE};
 use crate::apps::cnn::net::{Arch, NetConfig};
-use crate::apps::cnn::train::TrainingOptions;
+use crate::apps::cnn::train::{Protocol, TrainingOptions};
 pub use classification::{ClassificationPlan, ClassificationSpec};
 pub use location::{LocationPlan, LocationSpec};
 

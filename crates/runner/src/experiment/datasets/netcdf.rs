@@ -2,7 +2,10 @@
 //! as `u + i v` (fill and missing values are NaN, so masked pixels such as land are excluded
 //! by the analysis), optionally with each pixel's per-calendar-month mean removed (anomalies,
 //! the usual treatment of monthly geophysical fields), calendar months from
-//! [`crate::io::netcdf::time`].
+//! [`crate::io::netcdf::time`]. A variable may have more dimensions when those between the
+//! first (time) and the last two (rows, cols) have length 1, as OSCAR's
+//! `u(time, depth, latitude, longitude)` with its single depth
+//! ([`NcFile::read_stack`]).
 
 use super::cost::{file_sizes, Cost, Sizes, C128};
 use super::{DataError, DatasetKind, Materialised};
@@ -10,7 +13,7 @@ use crate::experiment::{Ctx, SpecError};
 use crate::io::netcdf::time::months;
 use crate::io::netcdf::{NcError, NcFile};
 use crate::io::npy::{NpyError, Stack};
-use ndarray::{Array3, Ix3};
+use ndarray::Array3;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -22,7 +25,8 @@ pub struct Spec {
     /// Path of the file, relative to the spec file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path: Option<PathBuf>,
-    /// The variable giving the real part, `[time, rows, cols]`.
+    /// The variable giving the real part, `[time, rows, cols]` (or with dimensions of length 1
+    /// between time and rows, such as a single depth).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub u: Option<String>,
     /// The variable giving the imaginary part (absent: 0).
@@ -83,13 +87,8 @@ impl DatasetKind for NetcdfDataset {
                     ),
                 )
             })?;
-            match file.shape(var)[..] {
-                [n, h, w] => Ok((n, h, w)),
-                ref s => Err(ctx.err(
-                    format!("{at}.{field}"),
-                    format!("variable {name:?} has shape {s:?}; a stack is 3-D [time, rows, cols]"),
-                )),
-            }
+            file.stack_shape(&var.name)
+                .map_err(|e| ctx.err(format!("{at}.{field}"), e.to_string()))
         };
         let shape = shape_of(&u, "u")?;
         if let Some(v) = &spec.v {
@@ -176,33 +175,47 @@ impl DatasetKind for NetcdfDataset {
     }
 }
 
-/// Loads the stack `[N, H, W]` of a `netcdf` dataset.
+/// Loads the stack `[N, H, W]` of a `netcdf` dataset: `u` is read (dimensions of length 1
+/// between time and rows dropped) into the real parts, then `v` into the imaginary parts, one
+/// variable alive at a time beside the stack.
 ///
 /// # Errors
 /// [`NcError`] if the file or a variable cannot be read; a months error as a message.
 pub fn load(d: &NetcdfDataset) -> Result<Array3<Complex64>, anyhow::Error> {
     let file = NcFile::open(&d.path)?;
-    let read = |name: &str| -> Result<Array3<f64>, NcError> {
-        Ok(file
-            .read_f64(name)?
-            .into_dimensionality::<Ix3>()
-            .expect("3-D, checked at validation"))
+    let months = if d.remove_monthly_mean {
+        Some(months(&file, &d.u).map_err(anyhow::Error::msg)?)
+    } else {
+        None
     };
-    let u = read(&d.u)?;
-    let v = d.v.as_deref().map(read).transpose()?;
+    let u = file.read_stack(&d.u)?;
     let mut x: Array3<Complex64> = crate::alloc::try_zeros(u.raw_dim(), "the NetCDF stack")?;
-    match &v {
-        Some(v) => ndarray::Zip::from(&mut x)
-            .and(&u)
-            .and(v)
-            .for_each(|x, &a, &b| *x = Complex64::new(a, b)),
-        None => ndarray::Zip::from(&mut x)
-            .and(&u)
-            .for_each(|x, &a| *x = Complex64::new(a, 0.0)),
+    ndarray::Zip::from(&mut x)
+        .and(&u)
+        .for_each(|x, &a| *x = Complex64::new(a, 0.0));
+    drop(u);
+    if let Some(name) = &d.v {
+        let v = file.read_stack(name)?;
+        if v.dim() != x.dim() {
+            // Only if the file changed since validation, which compared the shapes.
+            return Err(NcError::BadHeader {
+                path: d.path.clone(),
+                offset: 0,
+                msg: format!(
+                    "{name:?} has shape {:?}, {:?} has {:?}",
+                    v.dim(),
+                    d.u,
+                    x.dim()
+                ),
+            }
+            .into());
+        }
+        ndarray::Zip::from(&mut x)
+            .and(&v)
+            .for_each(|x, &b| x.im = b);
     }
-    drop((u, v));
-    if d.remove_monthly_mean {
-        let months = months(&file, &d.u).map_err(anyhow::Error::msg)?;
+    drop(file);
+    if let Some(months) = months {
         remove_monthly_mean(&mut x, &months);
     }
     Ok(x)

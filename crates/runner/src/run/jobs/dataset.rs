@@ -10,15 +10,19 @@ use crate::experiment::SynthesisSpec;
 use crate::io::atomic::write_npy;
 use crate::run::plan::{Job, NoiseFloorPlan, Plan};
 use crate::run::tables::{self, FilterRow, JobResult, SimilarityOutcome, SynthesisOutcome};
-use crate::stats::analysis::{Analysis, Direction};
+use crate::seeds::derive_seed;
+use crate::stats::analysis::{Analysis, Direction, Sample};
 use crate::stats::filters::{expected_maps, expected_maps_are_cheap, lag_correlation};
-use crate::stats::metrics::Metric;
-use crate::stats::similarity::{compare, Side};
+use crate::stats::metrics::{Metric, Parts};
+use crate::stats::similarity::{compare, Comparison, Side};
 use crate::synthesis::{fit, FitOptions, Method};
 use anyhow::{Context, Result};
-use ndarray::{s, Array3, ArrayView3};
+use ndarray::{s, Array3, ArrayView3, Axis};
 use num_complex::Complex64;
 use polars::prelude::DataFrame;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha20Rng;
 use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
@@ -57,9 +61,16 @@ impl JobKind for Job {
 
     fn key_material(&self, plan: &Plan) -> String {
         // The job in full (dataset with any maps read from files, analysis, synthesis, seeds)
-        // and the plan-wide settings its rows read.
+        // and the plan-wide settings its rows read; `held_out` only when set (an analysis job
+        // measures the held-out floor then), so that the keys of plans without it stay as they
+        // were.
+        let held_out = if held_out_wanted(plan) {
+            "\nheld_out"
+        } else {
+            ""
+        };
         format!(
-            "{self:?}\nmetrics={:?}\nhypotheses={}\noutputs={:?}\nparam_keys={:?}",
+            "{self:?}\nmetrics={:?}\nhypotheses={}\noutputs={:?}\nparam_keys={:?}{held_out}",
             plan.metrics,
             plan.spec.hypotheses.is_some(),
             plan.spec.outputs,
@@ -197,7 +208,8 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
         }
     }
     // The complex128 copy of the stack, made once for the noise floor and the hypotheses.
-    let original = (job.noise_floor.is_some() || plan.spec.hypotheses.is_some())
+    let held_out = held_out_wanted(plan);
+    let original = (job.noise_floor.is_some() || plan.spec.hypotheses.is_some() || held_out)
         .then(|| data.stack.try_to_complex128(data.hwn))
         .transpose()?;
     let similarity = match (job.noise_floor, &original) {
@@ -205,6 +217,12 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
             noise_floor(plan, job, nf, data, original, &analysis)
                 .with_context(|| format!("noise floor ({})", nf.as_str()))?,
         ),
+        _ => None,
+    };
+    let held_out = match (held_out, &original) {
+        (true, Some(original)) => {
+            Some(held_out_floor(plan, job, original).context("held-out floor (halves)")?)
+        }
         _ => None,
     };
     let mut files = vec![];
@@ -247,6 +265,7 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
         analysis_s,
         bytes: data.stack.bytes(),
         similarity,
+        held_out,
         files,
     };
     Ok(result)
@@ -265,14 +284,7 @@ fn noise_floor(
 ) -> Result<SimilarityOutcome> {
     let t = Instant::now();
     let levels = job.analysis.levels;
-    let rmse = plan.metrics.contains(&Metric::MultiscaleRmse);
-    let analyse = |x: ArrayView3<Complex64>| -> Result<Option<Analysis>> {
-        Ok(if rmse {
-            Some(crate::stats::analysis::analyse(x, levels)?)
-        } else {
-            None
-        })
-    };
+    let analyse = |x: ArrayView3<Complex64>| analysed_for(plan, x, levels);
     let comparison = match nf {
         NoiseFloorPlan::Draws { samples, seed } => {
             let draw = job
@@ -294,21 +306,121 @@ fn noise_floor(
             let half = original.dim().0 / 2;
             let first = original.slice(s![..half, .., ..]);
             let second = original.slice(s![half..2 * half, .., ..]);
-            let (fa, sa) = (analyse(first)?, analyse(second)?);
-            let a = Side {
-                stack: first,
-                analysis: fa.as_ref(),
-            };
-            let b = Side {
-                stack: second,
-                analysis: sa.as_ref(),
-            };
-            compare(a, b, &plan.metrics)
+            compare_stacks(plan, levels, first, second)?
         }
     };
     Ok(SimilarityOutcome {
         compared: "noise_floor",
         noise_floor: Some(nf.as_str()),
+        comparison,
+        seconds: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// The analysis `compare` needs of `x` (the multiscale RMSE reads one; other metrics none).
+fn analysed_for<T: Sample>(
+    plan: &Plan,
+    x: ArrayView3<T>,
+    levels: usize,
+) -> Result<Option<Analysis>> {
+    Ok(if plan.metrics.contains(&Metric::MultiscaleRmse) {
+        Some(crate::stats::analysis::analyse(x, levels)?)
+    } else {
+        None
+    })
+}
+
+/// The plan's metrics between stacks `a` (the reference) and `b`, each analysed to `levels`
+/// where a metric needs it.
+fn compare_stacks<A: Sample + Parts, B: Sample + Parts>(
+    plan: &Plan,
+    levels: usize,
+    a: ArrayView3<A>,
+    b: ArrayView3<B>,
+) -> Result<Comparison> {
+    let (aa, ba) = (
+        analysed_for(plan, a, levels)?,
+        analysed_for(plan, b, levels)?,
+    );
+    let a = Side {
+        stack: a,
+        analysis: aa.as_ref(),
+    };
+    let b = Side {
+        stack: b,
+        analysis: ba.as_ref(),
+    };
+    Ok(compare(a, b, &plan.metrics))
+}
+
+/// Whether the plan compares with held-out originals (`synthesis.held_out` with metrics).
+fn held_out_wanted(plan: &Plan) -> bool {
+    plan.spec.synthesis.as_ref().is_some_and(|s| s.held_out) && !plan.metrics.is_empty()
+}
+
+/// The seeded split of `n` originals for `synthesis.held_out`: a half to fit on and another
+/// half, as large and disjoint, that no fit sees (one sample of an odd `n` in neither), each in
+/// index order. Seeded by the job's data seed, so every method of a dataset and its floor split
+/// alike.
+pub fn held_out_split(data_seed: u64, n: usize) -> (Vec<usize>, Vec<usize>) {
+    let mut p: Vec<usize> = (0..n).collect();
+    p.shuffle(&mut ChaCha20Rng::seed_from_u64(derive_seed(
+        data_seed, "held_out", "",
+    )));
+    let half = n / 2;
+    let (mut fit, mut held) = (p[..half].to_vec(), p[half..2 * half].to_vec());
+    fit.sort_unstable();
+    held.sort_unstable();
+    (fit, held)
+}
+
+/// The floor of the held-out comparisons: the metrics between the two halves of
+/// [`held_out_split`] (`noise_floor` = `halves`, `reference` = `held_out`).
+fn held_out_floor(
+    plan: &Plan,
+    job: &Job,
+    original: &Array3<Complex64>,
+) -> Result<SimilarityOutcome> {
+    let t = Instant::now();
+    let (fit, held) = held_out_split(job.data_seed, original.dim().0);
+    let (fit, held) = (
+        original.select(Axis(0), &fit),
+        original.select(Axis(0), &held),
+    );
+    let comparison = compare_stacks(plan, job.analysis.levels, held.view(), fit.view())?;
+    Ok(SimilarityOutcome {
+        compared: "noise_floor",
+        noise_floor: Some("halves"),
+        comparison,
+        seconds: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// `method` fitted on the fit half of [`held_out_split`] (analysed to `levels`), its samples
+/// (the job's generation seed, as many as in sample) against the held-out half.
+fn held_out_similarity(
+    plan: &Plan,
+    job: &Job,
+    method: Method,
+    samples: usize,
+    opts: FitOptions,
+    stack: &Array3<Complex64>,
+) -> Result<SimilarityOutcome> {
+    let t = Instant::now();
+    let (fit_idx, held_idx) = held_out_split(job.data_seed, stack.dim().0);
+    let (fit_part, held) = (
+        stack.select(Axis(0), &fit_idx),
+        stack.select(Axis(0), &held_idx),
+    );
+    let analysis = crate::stats::analysis::analyse(fit_part.view(), opts.levels)
+        .context("analysing the fit half")?;
+    let model = fit(method, &analysis, Some(fit_part.view()), opts)
+        .with_context(|| format!("fitting {} on the fit half", method.as_str()))?;
+    let generated = model.try_generate_c64(job.generation_seed, 0, samples)?;
+    let comparison = compare_stacks(plan, job.analysis.levels, held.view(), generated.view())?;
+    Ok(SimilarityOutcome {
+        compared: method.as_str(),
+        noise_floor: None,
         comparison,
         seconds: t.elapsed().as_secs_f64(),
     })
@@ -333,11 +445,9 @@ fn run_synthesis_job(
         Method::Method2 => syn.dyadic_levels(&job.analysis),
         _ => 1,
     };
-    let rmse = plan.metrics.contains(&Metric::MultiscaleRmse);
-    let analysed = if rmse {
-        levels.max(job.analysis.levels)
-    } else {
-        levels
+    let analysed = match plan.metrics.contains(&Metric::MultiscaleRmse) {
+        true => levels.max(job.analysis.levels),
+        false => levels,
     };
     let original = data
         .stack
@@ -369,33 +479,34 @@ fn run_synthesis_job(
         files.push(path);
     }
     let t = Instant::now();
-    let analysis = if syn.analyse_generated {
-        Some(
-            crate::stats::analysis::analyse(generated.view(), job.analysis.levels)
-                .context("analysing the generated samples")?,
-        )
-    } else {
-        None
-    };
+    let analysis = (syn.analyse_generated)
+        .then(|| crate::stats::analysis::analyse(generated.view(), job.analysis.levels))
+        .transpose()
+        .context("analysing the generated samples")?;
     let analysis_s = t.elapsed().as_secs_f64();
-    let similarity = stack.filter(|_| !plan.metrics.is_empty()).map(|stack| {
+    let stack = stack.filter(|_| !plan.metrics.is_empty());
+    let similarity = stack.as_ref().map(|stack| {
         let t = Instant::now();
-        let a = Side {
+        let original = Side {
             stack: stack.view(),
             analysis: Some(&original),
         };
-        let b = Side {
+        let generated = Side {
             stack: generated.view(),
             analysis: analysis.as_ref(),
         };
-        let comparison = compare(a, b, &plan.metrics);
         SimilarityOutcome {
             compared: method.as_str(),
             noise_floor: None,
-            comparison,
+            comparison: compare(original, generated, &plan.metrics),
             seconds: t.elapsed().as_secs_f64(),
         }
     });
+    let held_out = (stack.as_ref())
+        .filter(|_| held_out_wanted(plan))
+        .map(|stack| held_out_similarity(plan, job, method, syn.samples, opts, stack))
+        .transpose()
+        .context("held-out comparison")?;
     let (_, h, w) = job.dataset.shape();
     Ok(JobResult {
         source: method.as_str(),
@@ -413,7 +524,25 @@ fn run_synthesis_job(
         analysis_s,
         bytes: syn.samples * h * w * 8,
         similarity,
+        held_out,
         correlating: None,
         files,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::held_out_split;
+
+    /// The two halves are disjoint, equally large, sorted, and the same for the same seed;
+    /// another seed splits otherwise.
+    #[test]
+    fn held_out_halves_are_disjoint_and_seeded() {
+        let (fit, held) = held_out_split(7, 101);
+        assert_eq!((fit.len(), held.len()), (50, 50));
+        assert!(fit.windows(2).all(|w| w[0] < w[1]) && held.windows(2).all(|w| w[0] < w[1]));
+        assert!(fit.iter().all(|i| !held.contains(i) && *i < 101));
+        assert_eq!(held_out_split(7, 101), (fit.clone(), held));
+        assert_ne!(held_out_split(8, 101).0, fit);
+    }
 }

@@ -202,13 +202,7 @@ impl JobKind for ClassificationJob {
             reused |= composition.reused;
             labelled(data.test.view(), c, &mut test);
         }
-        let trained = train_on_device(
-            &cp.net,
-            &cp.spec.training,
-            &train_set,
-            &validation,
-            self.seed,
-        )?;
+        let trained = train_on_device(&cp.net, &cp.training, &train_set, &validation, self.seed)?;
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];
         if cp.spec.save_networks {
@@ -329,13 +323,8 @@ fn estimate(plan: &Plan, job: &ClassificationJob) -> Estimate {
         Source::Original => size.min(originals),
         Source::Generated(_) => size,
     };
-    training_sizes(
-        "classification.training",
-        &spec.training,
-        train_n,
-        &mut sizes,
-    );
-    let (bytes, flops) = training(&cp.net, &spec.training, train_n, originals);
+    training_sizes("classification.training", &cp.training, train_n, &mut sizes);
+    let (bytes, flops) = training(&cp.net, &cp.training, train_n, originals);
     Estimate::new(
         stacks.bytes + per_class + bytes,
         stacks.flops + fit_flops + flops,

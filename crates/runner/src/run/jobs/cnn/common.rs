@@ -179,7 +179,7 @@ pub(super) fn training_status(
 /// Bytes and work of one training on `train_n` samples with `other_n` more kept (validation
 /// and test): the sets as complex64 and prepared float32 (the training set twice, as composed
 /// and as shuffled batches), a mini-batch's activations with their gradients, and `6 x` the
-/// forward multiply-adds per trained sample and epoch.
+/// forward multiply-adds per sample of each mini-batch step.
 pub(super) fn training(
     net: &NetConfig,
     t: &TrainingOptions,
@@ -191,6 +191,7 @@ pub(super) fn training(
     let sets = (2.0 * train_n + other_n) * (pixels * C64 + prepared);
     let f = net.arch.filters().map(|x| x as f64);
     let batch = (t.batch_size as f64).min(train_n).max(1.0);
+    let steps = t.steps_for(train_n as usize) as f64;
     let activations = batch * pixels * f[0] * 8.0;
     let macs = pixels / 4.0 * f[0] * 2.0 * 64.0
         + pixels / 64.0 * f[1] * f[0] * 16.0
@@ -202,13 +203,16 @@ pub(super) fn training(
     };
     (
         sets + activations + (64u64 << 20) as f64,
-        6.0 * macs * train_n * t.epochs as f64 * device,
+        6.0 * macs * steps * batch * device,
     )
 }
 
 /// Records a training block's sizes at `at` (`classification.training`).
 pub(super) fn training_sizes(at: &str, t: &TrainingOptions, train_n: f64, s: &mut Sizes) {
-    s.add(format!("{at}.epochs"), t.epochs, t.epochs as f64 / 30.0);
+    match t.steps {
+        Some(steps) => s.add(format!("{at}.steps"), steps, steps as f64 / 210.0),
+        None => s.add(format!("{at}.epochs"), t.epochs, t.epochs as f64 / 30.0),
+    }
     let batch = t.batch_size as f64;
     s.add(
         format!("{at}.batch_size"),

@@ -194,10 +194,10 @@ impl JobKind for LocationJob {
         let (train_clutter, val_clutter, generated) = match self.source {
             Source::Original => {
                 let originals = all.select(Axis(0), &perm[..pool]);
-                let half = pool / 2;
+                let t = lp.spec.original_training();
                 (
-                    c32(originals.slice(s![..half, .., ..])),
-                    c32(originals.slice(s![half.., .., ..])),
+                    c32(originals.slice(s![..t, .., ..])),
+                    c32(originals.slice(s![t.., .., ..])),
                     0,
                 )
             }
@@ -237,13 +237,7 @@ impl JobKind for LocationJob {
             &format!("{}/{}", self.target.as_str(), self.scr_db),
         );
         let test = targets(&c32(test_clutter.view()), test_seed);
-        let trained = train_on_device(
-            &lp.net,
-            &lp.spec.training,
-            &train_set,
-            &validation,
-            self.seed,
-        )?;
+        let trained = train_on_device(&lp.net, &lp.training, &train_set, &validation, self.seed)?;
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];
         if lp.spec.save_networks {
@@ -321,7 +315,7 @@ impl JobKind for LocationJob {
                 method: self.source.as_str(),
                 seed: self.seed,
                 samples: match self.source {
-                    Source::Original => lp.spec.originals() / 2,
+                    Source::Original => lp.spec.original_training(),
                     Source::Generated(_) => lp.spec.generated_samples / 2,
                 },
             },
@@ -516,7 +510,7 @@ fn estimate(plan: &Plan, job: &LocationJob) -> Estimate {
     let fit = spec.fit_samples as f64;
     sizes.add("location.fit_samples", spec.fit_samples, fit / 100.0);
     let (train_n, model_bytes, fit_flops) = match job.source {
-        Source::Original => (fit / 2.0, 0.0, 0.0),
+        Source::Original => (spec.original_training() as f64, 0.0, 0.0),
         Source::Generated(m) => {
             let g = spec.generated_samples as f64;
             sizes.add(
@@ -530,9 +524,9 @@ fn estimate(plan: &Plan, job: &LocationJob) -> Estimate {
             (g / 2.0, b + C64 * g * pixels, f + generate)
         }
     };
-    training_sizes("location.training", &spec.training, train_n, &mut sizes);
+    training_sizes("location.training", &lp.training, train_n, &mut sizes);
     // The fit and test clutter as complex128 selections, the training sets with targets.
-    let (bytes, flops) = training(&lp.net, &spec.training, train_n, n);
+    let (bytes, flops) = training(&lp.net, &lp.training, train_n, n);
     Estimate::new(
         stacks.bytes + C128 * n * pixels + model_bytes + bytes,
         stacks.flops + fit_flops + flops,
