@@ -3,7 +3,7 @@
 //! the run, the rows' filter and the column) that yields the tool's value of that cell. The
 //! map from a printed table to the tool's columns lives here and nowhere else.
 
-use super::compare::Spread;
+use super::compare::{Spread, Summary};
 use crate::io::results::{self, col, Table};
 use anyhow::{bail, Context, Result};
 use polars::prelude::{
@@ -536,6 +536,19 @@ impl Tables {
             );
         }
         Ok(column_values(&picked, query)?[0])
+    }
+
+    /// The mean and spread of `query` over the runs in `dirs`: every value
+    /// [`Tables::values`] gives in each.
+    ///
+    /// # Errors
+    /// As [`Tables::values`].
+    pub fn summary_over(&mut self, dirs: &[&Path], query: &Query) -> Result<Summary> {
+        let mut values = Vec::new();
+        for dir in dirs {
+            values.extend(self.values(dir, query)?);
+        }
+        Ok(Summary::of(&values))
     }
 
     /// The values of `query` in the run in `dir`: every selected row's where the rows are

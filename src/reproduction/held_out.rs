@@ -6,7 +6,6 @@
 //! covariance of the very originals it is compared with) looks far better in sample than held
 //! out; one that only estimates a few correlations per cell looks alike both ways.
 
-use super::compare::Summary;
 use super::extract::{cmd, held_out, kl, rmse_average, Query, Tables};
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -55,15 +54,6 @@ fn measures() -> [(&'static str, Measure); 3] {
     ]
 }
 
-/// The mean and spread of `query` over `dirs`.
-fn over(tables: &mut Tables, dirs: &[&Path], query: &Query) -> Result<Summary> {
-    let values = dirs
-        .iter()
-        .map(|dir| tables.value(dir, query))
-        .collect::<Result<Vec<f64>>>()?;
-    Ok(Summary::of(&values))
-}
-
 /// The document's section, or `None` where the runs lack the similarity specs.
 /// `folders` gives a spec's run folders (every repeat).
 ///
@@ -103,8 +93,8 @@ pub fn block<'a>(
                 let mut cells = Vec::new();
                 for (_, query) in measures() {
                     let q = query(ds, m);
-                    cells.push(over(tables, &dirs, &q)?.show());
-                    cells.push(over(tables, &dirs, &held_out(&q))?.show());
+                    cells.push(tables.summary_over(&dirs, &q)?.show());
+                    cells.push(tables.summary_over(&dirs, &held_out(&q))?.show());
                 }
                 let _ = writeln!(s, "| {ds} | {m} | {} |", cells.join(" | "));
             }

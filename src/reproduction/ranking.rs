@@ -43,15 +43,6 @@ fn measures() -> [Measure; 4] {
     ]
 }
 
-/// The mean of `query`'s values over `dirs` (every repeat).
-fn mean_over(tables: &mut Tables, dirs: &[&Path], query: &Query) -> Result<f64> {
-    let mut values = Vec::new();
-    for d in dirs {
-        values.extend(tables.values(d, query)?);
-    }
-    Ok(super::compare::Summary::of(&values).mean)
-}
-
 /// Spearman's rank correlation of `a` and `b` (no ties expected; ties take their first rank).
 pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
     let rank = |v: &[f64]| -> Vec<f64> {
@@ -100,7 +91,7 @@ fn distances(tables: &mut Tables, dirs: &[&Path]) -> Result<Vec<Vec<f64>>> {
         for m in METHODS {
             let mut sum = 0.0;
             for c in CLASSES {
-                sum += mean_over(tables, dirs, &query(c, m))?;
+                sum += tables.summary_over(dirs, &query(c, m))?.mean;
             }
             row.push(sum / CLASSES.len() as f64);
         }
@@ -120,7 +111,7 @@ fn accuracies<'a>(
         let mut row = Vec::new();
         for m in METHODS {
             let q = super::cnn::accuracy(spec, normalise, m, None);
-            row.push(mean_over(tables, &dirs, &q)?);
+            row.push(tables.summary_over(&dirs, &q)?.mean);
         }
         accuracy.push(row);
     }

@@ -418,6 +418,15 @@ impl NcFile {
         self.vars.iter().find(|v| v.name == name)
     }
 
+    /// The variable `name`, or [`NcError::VariableNotFound`] naming the file.
+    fn required(&self, name: &str) -> Result<&Variable, NcError> {
+        self.variable(name)
+            .ok_or_else(|| NcError::VariableNotFound {
+                path: self.path.clone(),
+                name: name.to_string(),
+            })
+    }
+
     /// Shape of a variable, slowest-varying first; the record dimension has
     /// length [`NcFile::numrecs`]. A scalar variable has an empty shape.
     pub fn shape(&self, var: &Variable) -> Vec<usize> {
@@ -455,12 +464,7 @@ impl NcFile {
     /// (each defaulting to 1 and 0). NC_CHAR variables give
     /// [`NcError::NotNumeric`].
     pub fn read_f64(&self, name: &str) -> Result<ArrayD<f64>, NcError> {
-        let var = self
-            .variable(name)
-            .ok_or_else(|| NcError::VariableNotFound {
-                path: self.path.clone(),
-                name: name.to_string(),
-            })?;
+        let var = self.required(name)?;
         let shape = self.shape(var);
         let raw = self.read_raw(var)?;
 
@@ -533,12 +537,7 @@ impl NcFile {
     /// [`NcError::ExtraDimension`] naming the first dimension between the first and the last
     /// two whose length is not 1.
     pub fn stack_shape(&self, name: &str) -> Result<(usize, usize, usize), NcError> {
-        let var = self
-            .variable(name)
-            .ok_or_else(|| NcError::VariableNotFound {
-                path: self.path.clone(),
-                name: name.to_string(),
-            })?;
+        let var = self.required(name)?;
         let shape = self.shape(var);
         let k = shape.len();
         if k < 3 {

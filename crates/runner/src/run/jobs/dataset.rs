@@ -374,6 +374,15 @@ pub fn held_out_split(data_seed: u64, n: usize) -> (Vec<usize>, Vec<usize>) {
     (fit, held)
 }
 
+/// The two halves of [`held_out_split`] of `stack`'s samples: (fit half, held-out half).
+fn held_out_halves(
+    data_seed: u64,
+    stack: &Array3<Complex64>,
+) -> (Array3<Complex64>, Array3<Complex64>) {
+    let (fit, held) = held_out_split(data_seed, stack.dim().0);
+    (stack.select(Axis(0), &fit), stack.select(Axis(0), &held))
+}
+
 /// The floor of the held-out comparisons: the metrics between the two halves of
 /// [`held_out_split`] (`noise_floor` = `halves`, `reference` = `held_out`).
 fn held_out_floor(
@@ -382,11 +391,7 @@ fn held_out_floor(
     original: &Array3<Complex64>,
 ) -> Result<SimilarityOutcome> {
     let t = Instant::now();
-    let (fit, held) = held_out_split(job.data_seed, original.dim().0);
-    let (fit, held) = (
-        original.select(Axis(0), &fit),
-        original.select(Axis(0), &held),
-    );
+    let (fit, held) = held_out_halves(job.data_seed, original);
     let comparison = compare_stacks(plan, job.analysis.levels, held.view(), fit.view())?;
     Ok(SimilarityOutcome {
         compared: "noise_floor",
@@ -407,11 +412,7 @@ fn held_out_similarity(
     stack: &Array3<Complex64>,
 ) -> Result<SimilarityOutcome> {
     let t = Instant::now();
-    let (fit_idx, held_idx) = held_out_split(job.data_seed, stack.dim().0);
-    let (fit_part, held) = (
-        stack.select(Axis(0), &fit_idx),
-        stack.select(Axis(0), &held_idx),
-    );
+    let (fit_part, held) = held_out_halves(job.data_seed, stack);
     let analysis = crate::stats::analysis::analyse(fit_part.view(), opts.levels)
         .context("analysing the fit half")?;
     let model = fit(method, &analysis, Some(fit_part.view()), opts)
