@@ -80,7 +80,7 @@ fn main() {
         let stack = generate(&d, &bank, 2).unwrap();
         let a1 = analyse(stack.view(), 1).unwrap();
         let m1 = fit(Method::Method1, &a1, None, FitOptions::default()).unwrap();
-        let cell_bank = &m1.filter.as_ref().unwrap().bank;
+        let cell_bank = &m1.filter().unwrap().bank;
         let seeds: Vec<_> = (0..64).map(|s| white_seed(1, s, 80, 80)).collect();
         let reps: Vec<f64> = (0..5)
             .map(|_| {

@@ -648,10 +648,21 @@ fn every_path_and_item_the_architecture_document_cites_exists() {
     );
 }
 
-/// The functions of `text` over `limit` lines (from the `fn` line to its closing brace at the
-/// same indentation) whose doc comment gives no reason (a line starting `Long because`), with
-/// their first line numbers. Unit-test modules (after `#[cfg(test)]`) are left out.
+/// The functions of `text` over `limit` lines whose doc comment gives no reason (a line
+/// starting `Long because`), with their first line numbers (see [`long_functions`]).
 fn long_functions_without_reason(text: &str, limit: usize) -> Vec<(usize, String)> {
+    long_functions(text, limit)
+        .into_iter()
+        .filter(|(_, _, reasoned)| !reasoned)
+        .map(|(line, name, _)| (line, name))
+        .collect()
+}
+
+/// The functions of `text` over `limit` lines (from the `fn` line to its closing brace at the
+/// same indentation), with their first line numbers and whether their doc comment gives a
+/// reason (a line starting `Long because`). Unit-test modules (after `#[cfg(test)]`) are
+/// left out.
+fn long_functions(text: &str, limit: usize) -> Vec<(usize, String, bool)> {
     let text = text.split("#[cfg(test)]").next().unwrap();
     let lines: Vec<&str> = text.lines().collect();
     let mut out = Vec::new();
@@ -689,31 +700,43 @@ fn long_functions_without_reason(text: &str, limit: usize) -> Vec<(usize, String
                     .trim_start()
                     .starts_with("Long because")
             });
-        if !docs {
-            let name = rest.split(['(', '<']).next().unwrap_or(rest).to_string();
-            out.push((i + 1, name));
-        }
+        let name = rest.split(['(', '<']).next().unwrap_or(rest).to_string();
+        out.push((i + 1, name, docs));
     }
     out
 }
 
+/// Functions over 100 lines in the tree, reasoned or not: the count only goes down (lower it
+/// when a long function is split; issue 47 found 24).
+const LONG_FUNCTIONS_AT_MOST: usize = 22;
+
 #[test]
 fn no_function_over_100_lines_without_a_reason() {
-    let mut bare = Vec::new();
+    let (mut bare, mut long) = (Vec::new(), Vec::new());
     for (_, src) in crates() {
         for f in rust_files(&src) {
             if f.file_name().is_some_and(|n| n == "tests.rs") {
                 continue;
             }
             let text = fs::read_to_string(&f).unwrap();
-            for (line, name) in long_functions_without_reason(&text, 100) {
-                bare.push(format!("{}:{line} {name}", f.display()));
+            for (line, name, reasoned) in long_functions(&text, 100) {
+                let at = format!("{}:{line} {name}", f.display());
+                long.push(at.clone());
+                if !reasoned {
+                    bare.push(at);
+                }
             }
         }
     }
     assert!(
         bare.is_empty(),
         "functions over 100 lines without `Long because`: {bare:#?}"
+    );
+    assert!(
+        long.len() <= LONG_FUNCTIONS_AT_MOST,
+        "{} functions over 100 lines, at most {LONG_FUNCTIONS_AT_MOST} allowed (split one rather \
+         than raise the bound): {long:#?}",
+        long.len()
     );
     // The reader finds a long function, and accepts it with a reason.
     let body = "    let x = 1;\n".repeat(101);

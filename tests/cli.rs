@@ -737,7 +737,7 @@ fn model_folders_carry_their_sample_format() {
     assert!(err.contains("format 1"), "{err}");
     assert_eq!(one, forced_one, "an old model generates format 1");
     let (loaded, _) = isar_clutter::io::model::load(&model).unwrap();
-    assert_eq!(loaded.sample_format, 1);
+    assert_eq!(loaded.moments().sample_format, 1);
     let (ok, _, forced_two) = gen("forced2.npy", &["--sample-format", "2"]);
     assert!(ok);
     assert_eq!(forced_two, two);

@@ -139,21 +139,24 @@ fn a_fit_signs_its_filters_as_asked_and_the_model_folder_keeps_it() {
         let model = fit(Method::Method1, &a, None, opts).unwrap();
         let Some(CellParams::Exponential {
             alpha_h, signs: s, ..
-        }) = model.filter.as_ref().map(|f| &f.params)
+        }) = model.filter().map(|f| &f.params)
         else {
             panic!("a Method 1 model")
         };
         assert_eq!(*s, signs);
         assert!(alpha_h.iter().all(|&x| x < 0.0), "{alpha_h}");
         // Each fitted filter reaches its cell's level-1 correlation under its own signs.
-        let residual = &model.filter.as_ref().unwrap().residual_h;
+        let residual = &model.filter().unwrap().residual_h;
         assert!(residual.iter().all(|&r| r < 1e-9), "{residual}");
         let folder = dir.path().join(signs.as_str());
         let info = isar_clutter::io::model::ModelInfo::new(&model, &a, 8, 1, "test".into());
         isar_clutter::io::model::save(&model, &info, &folder).unwrap();
         let (back, info) = isar_clutter::io::model::load(&folder).unwrap();
         assert_eq!(info.negative_signs, Some(signs));
-        assert_eq!(back.filter.unwrap().params, model.filter.unwrap().params);
+        assert_eq!(
+            back.filter().unwrap().params,
+            model.filter().unwrap().params
+        );
     }
     // A Method 1 folder written before the scheme was recorded is alternating.
     let folder = dir.path().join("multiscale");
@@ -163,8 +166,8 @@ fn a_fit_signs_its_filters_as_asked_and_the_model_folder_keeps_it() {
     v.as_object_mut().unwrap().remove("negative_signs");
     std::fs::write(&json, serde_json::to_string(&v).unwrap()).unwrap();
     let (old, _) = isar_clutter::io::model::load(&folder).unwrap();
-    let Some(CellParams::Exponential { signs, .. }) = old.filter.map(|f| f.params) else {
+    let Some(CellParams::Exponential { signs, .. }) = old.filter().map(|f| &f.params) else {
         panic!("a Method 1 model")
     };
-    assert_eq!(signs, NegativeSigns::Alternating);
+    assert_eq!(*signs, NegativeSigns::Alternating);
 }

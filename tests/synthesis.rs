@@ -110,7 +110,7 @@ fn method1_recovers_spatially_varying_alpha() {
         },
         clamped,
         ..
-    }) = &model.filter
+    }) = model.filter()
     else {
         panic!("method1 model")
     };
@@ -406,7 +406,9 @@ fn fourth_order_model_reproduces_per_pixel_moments() {
     )
     .unwrap();
     let generated = model.generate(4, 0, 40_000);
-    let f = model.fourth.as_ref().unwrap();
+    let Model::FourthOrder(FourthOrder { fourth: f, .. }) = &model else {
+        panic!("a fourth-order model")
+    };
     assert_eq!(
         f.infeasible.sum(),
         0,
@@ -431,7 +433,7 @@ fn fourth_order_model_reproduces_per_pixel_moments() {
                 assert!((m1 - m0).abs() < 0.03 * sd && (v1 / v0 - 1.0).abs() < 0.05, "pixel {i},{j} comp {comp}: mean {m1} vs {m0}, variance {v1} vs {v0}, kurtosis {k0}");
                 // Targets are the original's sample moments; 40,000 generated draws of
                 // heavy-tailed data: skewness within 0.15, kurtosis within 15 % + 0.3.
-                if model.fourth.as_ref().unwrap().infeasible[[comp, i, j]] == 0 {
+                if f.infeasible[[comp, i, j]] == 0 {
                     assert!(
                         (s1 - s0).abs() < 0.15,
                         "pixel {i},{j} comp {comp}: skewness {s1} vs {s0}"
@@ -493,12 +495,12 @@ fn sample_formats_1_and_2_are_each_their_own_definition() {
     let a = analyse(stack.view(), 3).unwrap();
     for method in [Method::Method1, Method::Method2] {
         let mut model = fit(method, &a, Some(stack.view()), FitOptions::default()).unwrap();
-        assert_eq!(model.sample_format, SAMPLE_FORMAT);
+        assert_eq!(model.moments().sample_format, SAMPLE_FORMAT);
         assert_eq!(SAMPLE_FORMAT, 2);
         let two = model.generate_c64(9, 0, 8);
-        model.sample_format = 1;
+        model.set_sample_format(1);
         let one = model.generate(9, 0, 8);
-        let f = model.filter.as_ref().unwrap();
+        let f = model.filter().unwrap();
         let (h, w, k) = (16, 12, f.bank.half_width);
         for s in [0, 3, 7] {
             let white = white_seed(9, s, h + 2 * k, w + 2 * k);
@@ -506,14 +508,15 @@ fn sample_formats_1_and_2_are_each_their_own_definition() {
             filter_seed(&f.bank, white.view(), &mut y);
             for (p, y) in y.iter().enumerate() {
                 let (i, j) = (p / w, p % w);
-                let want = model.mean[[i, j]] + *y * (model.std[[i, j]] / f.bank.output_sd(p));
+                let m = model.moments();
+                let want = m.mean[[i, j]] + *y * (m.std[[i, j]] / f.bank.output_sd(p));
                 assert_eq!(one[[s, i, j]], want, "{method:?} format 1, sample {s}");
             }
         }
         // Format 2 differs (another stream) but agrees with itself alone and in a batch.
         let one32 = one.mapv(|z| num_complex::Complex::new(z.re as f32, z.im as f32));
         assert_ne!(two, one32, "{method:?}");
-        model.sample_format = 2;
+        model.set_sample_format(2);
         assert_eq!(
             model.generate_c64(9, 3, 2),
             two.slice(ndarray::s![3..5, .., ..]),

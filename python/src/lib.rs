@@ -100,9 +100,9 @@ fn fit(
     }
     let hwn = input::is_hwn(layout)?;
     let s = input::stack(stack, "stack")?;
-    let depth = workflow::depth(method, levels);
+    let depth = method.needs().depth(levels);
     let analysis = s.analyse(py, hwn, depth, "stack")?;
-    let full = if workflow::needs_stack(method) {
+    let full = if method.needs().stack {
         Some(s.to_complex128(hwn, "stack")?)
     } else {
         None
@@ -141,7 +141,7 @@ impl Model {
     /// The method's name.
     #[getter]
     fn method(&self) -> &'static str {
-        self.model.method.as_str()
+        self.model.method().as_str()
     }
 
     /// The image shape `(height, width)`.
@@ -153,7 +153,7 @@ impl Model {
     /// The sample format of generated samples (1 or 2).
     #[getter]
     fn sample_format(&self) -> u32 {
-        self.model.sample_format
+        self.model.moments().sample_format
     }
 
     /// The model folder's record (`model.json`) as a JSON string.
@@ -258,8 +258,8 @@ impl Model {
         let (h, w) = self.model.shape();
         format!(
             "Model(method={:?}, shape=({h}, {w}), sample_format={})",
-            self.model.method.as_str(),
-            self.model.sample_format
+            self.model.method().as_str(),
+            self.model.moments().sample_format
         )
     }
 }

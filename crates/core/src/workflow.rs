@@ -152,7 +152,7 @@ pub fn generate(
     let removed = crate::io::outdir::remove_dead_temporaries_of(out)?;
     let (mut m, _) = crate::io::model::load(model)?;
     if let Some(format) = run.sample_format {
-        m.sample_format = format;
+        m.set_sample_format(format);
     }
     let record = GenerationRecord::new(model, &m, run.seed, run.samples, out);
     match mat {
@@ -188,7 +188,7 @@ pub fn generate(
         }
     }
     Ok(Generated {
-        sample_format: m.sample_format,
+        sample_format: m.moments().sample_format,
         record: mat.is_none().then(|| record_path(out)),
         removed,
     })
@@ -200,11 +200,7 @@ pub fn generate(
 /// # Errors
 /// Listing the names, for an unknown one.
 pub fn method_named(name: &str) -> Result<Method> {
-    serde_json::from_value(serde_json::Value::String(name.into())).map_err(|_| {
-        anyhow::anyhow!(
-            "unknown method {name:?}: method1, method2, full_covariance, uncorrelated or fourth_order"
-        )
-    })
+    Ok(name.parse()?)
 }
 
 /// The sign scheme of its name (`multiscale`, `alternating`).
@@ -240,33 +236,18 @@ pub fn fit_folder(
     // Held until the model folder is in place: a second `fit` into `out` is refused.
     let _lock = crate::io::outdir::lock_output(out, "fit")?;
     let Loaded { stack, hwn, source } = input.load()?;
-    let depth = depth(method, options.levels);
+    let depth = method.needs().depth(options.levels);
     let analysis = stack
         .analyse(hwn, depth)
         .with_context(|| format!("analysing {source}"))?;
-    let full = needs_stack(method).then(|| stack.to_complex128(hwn));
+    let full = method.needs().stack.then(|| stack.to_complex128(hwn));
     let (model, info) = fit_analysed(method, &analysis, full.as_ref(), options, source)?;
     let removed = save_model(&model, &info, out)?;
     Ok(Fitted { info, removed })
 }
 
-/// The analysis depth `method` fits from: `levels` for Method 2, one level otherwise.
-pub fn depth(method: Method, levels: usize) -> usize {
-    if method == Method::Method2 {
-        levels
-    } else {
-        1
-    }
-}
-
-/// Whether `method` needs the stack itself besides its analysis (full covariance, fourth
-/// order).
-pub fn needs_stack(method: Method) -> bool {
-    matches!(method, Method::FullCovariance | Method::FourthOrder)
-}
-
-/// Fits `method` to a stack's `analysis` (at [`depth`]; `full`: the stack as complex128
-/// `[N, H, W]` where [`needs_stack`]) and makes the model folder's record, `source` naming
+/// Fits `method` to a stack's `analysis` (at [`crate::synthesis::Needs::depth`]; `full`: the
+/// stack as complex128 `[N, H, W]` where [`crate::synthesis::Needs::stack`]) and makes the model folder's record, `source` naming
 /// the stack: what `fit` does between reading the input and saving the folder, shared with
 /// the Python bindings so that both give the same model.
 ///
@@ -279,7 +260,7 @@ pub fn fit_analysed(
     options: FitOptions,
     source: String,
 ) -> Result<(Model, ModelInfo)> {
-    let depth = depth(method, options.levels);
+    let depth = method.needs().depth(options.levels);
     let model = fit(
         method,
         analysis,
@@ -326,7 +307,7 @@ fn save_model(model: &Model, info: &ModelInfo, out: &Path) -> Result<Vec<String>
             .iter()
             .filter(|e| {
                 let name = e.file_name();
-                !(e.path().is_file() && crate::io::model::FILES.iter().any(|f| name == **f))
+                !(e.path().is_file() && crate::io::model::is_model_file(&name.to_string_lossy()))
             })
             .map(|e| e.file_name().to_string_lossy().into_owned())
             .collect();

@@ -15,9 +15,8 @@
 
 use crate::io::atomic::{atomic_write, write_npy};
 use crate::stats::analysis::{Analysis, Direction};
-use crate::synthesis::{CellParams, FilterModel, Method, Model, NegativeSigns};
+use crate::synthesis::{ArrayStore, Layout, Method, Model, Moments, NegativeSigns, ValueCheck};
 use anyhow::{bail, Context, Result};
-use ndarray::{Array2, Array3, Axis};
 use ndarray_npy::ReadNpyExt;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -75,25 +74,20 @@ impl ModelInfo {
         source: String,
     ) -> Self {
         let (height, width) = model.shape();
+        let recorded = model.recorded();
         ModelInfo {
             format: FORMAT.into(),
-            method: model.method,
+            method: model.method(),
             height,
             width,
             half_width,
             levels,
             samples_fitted: analysis.samples,
-            clamped: model
-                .filter
-                .as_ref()
-                .map_or(0, |f| f.clamped.iter().map(|&c| c as u64).sum()),
+            clamped: recorded.clamped,
             source,
             analysis: analysis_summary(analysis),
-            sample_format: model.sample_format,
-            negative_signs: match model.filter.as_ref().map(|f| &f.params) {
-                Some(CellParams::Exponential { signs, .. }) => Some(*signs),
-                _ => None,
-            },
+            sample_format: model.moments().sample_format,
+            negative_signs: recorded.negative_signs,
         }
     }
 }
@@ -113,23 +107,40 @@ pub fn analysis_summary(a: &Analysis) -> serde_json::Value {
     serde_json::Value::Array(rows)
 }
 
-/// Every file a model folder may hold: what [`save`] writes for some method.
-pub const FILES: &[&str] = &[
-    "model.json",
-    "mean.npy",
-    "std.npy",
-    "alpha_h.npy",
-    "alpha_v.npy",
-    "r_h.npy",
-    "r_v.npy",
-    "residual_h.npy",
-    "residual_v.npy",
-    "clamped.npy",
-    "deviations.npy",
-    "fleishman.npy",
-    "component_sd.npy",
-    "infeasible.npy",
-];
+/// The files every model folder holds: its description and the moments (each method adds
+/// its own, [`Method::files`]).
+pub const FILES: &[&str] = &["model.json", "mean.npy", "std.npy"];
+
+/// Whether `name` is a file some model folder holds: what [`save`] writes for some method.
+pub fn is_model_file(name: &str) -> bool {
+    FILES
+        .iter()
+        .chain(Method::ALL.iter().flat_map(|m| m.files()))
+        .any(|f| *f == name)
+}
+
+/// A model folder as its method's [`ArrayStore`]: arrays written atomically, read back with
+/// their shapes and values checked.
+struct Folder<'a>(&'a Path);
+
+impl ArrayStore for Folder<'_> {
+    fn write<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
+        &mut self,
+        name: &'static str,
+        array: &ndarray::Array<A, D>,
+    ) -> Result<()> {
+        write_npy(&self.0.join(name), array)
+    }
+
+    fn read<A: ndarray_npy::ReadableElement + std::fmt::Debug, D: ndarray::Dimension>(
+        &self,
+        name: &'static str,
+        (shape, why): (Vec<usize>, &'static str),
+        (ok, rule): ValueCheck<'_, A>,
+    ) -> Result<ndarray::Array<A, D>> {
+        expect(self.0, name, shape, why).read_checked(ok, rule)
+    }
+}
 
 /// Saves `model` into the folder `dir` (created; files written atomically).
 ///
@@ -137,46 +148,14 @@ pub const FILES: &[&str] = &[
 /// If a file cannot be written.
 pub fn save(model: &Model, info: &ModelInfo, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    write_npy(&dir.join("mean.npy"), &model.mean)?;
-    write_npy(&dir.join("std.npy"), &model.std)?;
-    if let Some(f) = &model.filter {
-        match &f.params {
-            CellParams::Exponential {
-                alpha_h, alpha_v, ..
-            } => {
-                write_npy(&dir.join("alpha_h.npy"), alpha_h)?;
-                write_npy(&dir.join("alpha_v.npy"), alpha_v)?;
-            }
-            CellParams::Dyadic { r_h, r_v } => {
-                let stack = |p: &[Array2<f64>]| {
-                    ndarray::stack(Axis(0), &p.iter().map(|m| m.view()).collect::<Vec<_>>())
-                        .expect("equal cell grids")
-                };
-                write_npy(&dir.join("r_h.npy"), &stack(r_h))?;
-                write_npy(&dir.join("r_v.npy"), &stack(r_v))?;
-            }
-        }
-        write_npy(&dir.join("residual_h.npy"), &f.residual_h)?;
-        write_npy(&dir.join("residual_v.npy"), &f.residual_v)?;
-        write_npy(&dir.join("clamped.npy"), &f.clamped)?;
-    }
-    if let Some(d) = &model.deviations {
-        write_npy(&dir.join("deviations.npy"), d)?;
-    }
-    if let Some(f) = &model.fourth {
-        write_npy(&dir.join("fleishman.npy"), &f.coefficients)?;
-        write_npy(&dir.join("component_sd.npy"), &f.component_sd)?;
-        write_npy(&dir.join("infeasible.npy"), &f.infeasible)?;
-    }
+    write_npy(&dir.join("mean.npy"), &model.moments().mean)?;
+    write_npy(&dir.join("std.npy"), &model.moments().std)?;
+    model.save(&mut Folder(dir))?;
     atomic_write(&dir.join("model.json"), |w| {
         serde_json::to_writer_pretty(&mut *w, info)?;
         Ok(())
     })
 }
-
-/// Largest filter bank or padded white seed (bytes) a loaded model may ask for: a forged
-/// `half_width` or image size is refused before anything is allocated.
-pub const MAX_WORK_BYTES: u64 = 1 << 36;
 
 /// What one array of a model folder must be: its file, its shape and why.
 struct Expect<'a> {
@@ -284,7 +263,7 @@ fn read_info(dir: &Path) -> Result<ModelInfo> {
 /// pixel (2x2 for the filter methods, which need a level-1 cell), Method 2's levels within the
 /// image and the half-width, and a filter bank and padded seed of bounded size.
 fn check_info(info: &ModelInfo) -> Result<()> {
-    let (h, w, k) = (info.height, info.width, info.half_width);
+    let (h, w) = (info.height, info.width);
     if h == 0 || w == 0 {
         bail!("height {h} and width {w} must be at least 1");
     }
@@ -295,43 +274,19 @@ fn check_info(info: &ModelInfo) -> Result<()> {
             crate::synthesis::SAMPLE_FORMATS
         );
     }
-    if !matches!(info.method, Method::Method1 | Method::Method2) {
-        return Ok(());
+    info.method.check(&layout(info))
+}
+
+/// The sizes of `model.json` a method's arrays are checked against.
+fn layout(info: &ModelInfo) -> Layout {
+    Layout {
+        height: info.height,
+        width: info.width,
+        half_width: info.half_width,
+        levels: info.levels,
+        samples_fitted: info.samples_fitted,
+        negative_signs: info.negative_signs,
     }
-    if h < 2 || w < 2 {
-        bail!(
-            "{} needs an image of at least 2x2 pixels (one level-1 cell), this one is {h}x{w}",
-            info.method.as_str()
-        );
-    }
-    if info.method == Method::Method2 {
-        crate::stats::analysis::check_levels(info.levels, h, w)
-            .with_context(|| format!("levels {}", info.levels))?;
-        let reach = crate::stats::filters::dyadic_reach(info.levels);
-        if k < reach {
-            bail!(
-                "half_width {k} truncates a {}-level dyadic filter (needs {reach})",
-                info.levels
-            );
-        }
-    }
-    let taps = k.checked_mul(2).and_then(|t| t.checked_add(1));
-    let bank = taps.and_then(|t| t.checked_mul(h)?.checked_mul(w)?.checked_mul(2 * 8));
-    let seed = k.checked_mul(2).and_then(|p| {
-        h.checked_add(p)?
-            .checked_mul(w.checked_add(p)?)?
-            .checked_mul(16)
-    });
-    for (what, bytes) in [("filter bank", bank), ("padded white seed", seed)] {
-        match bytes {
-            Some(b) if b as u64 <= MAX_WORK_BYTES => {}
-            _ => bail!(
-                "half_width {k} on a {h}x{w} image needs a {what} of {} bytes; at most {MAX_WORK_BYTES} are allowed",
-                bytes.map_or("more than 2^64".to_string(), |b| b.to_string())
-            ),
-        }
-    }
-    Ok(())
 }
 
 /// Loads a model folder written by [`save`], validating it as a whole: `model.json`'s sizes,
@@ -355,110 +310,13 @@ pub fn load(dir: &Path) -> Result<(Model, ModelInfo)> {
         |s: &f64| s.is_finite() && *s >= 0.0,
         "the standard deviation must be finite and >= 0",
     )?;
-    let filter = match info.method {
-        Method::Method1 | Method::Method2 => Some(load_filter(&info, dir)?),
-        _ => None,
+    let moments = Moments {
+        mean,
+        std,
+        sample_format: info.sample_format,
     };
-    let deviations = match info.method {
-        Method::FullCovariance => Some(
-            at(
-                "deviations.npy",
-                vec![info.samples_fitted, h, w],
-                "samples_fitted, height and width of model.json",
-            )
-            .read_checked(
-                |z: &num_complex::Complex64| z.is_finite(),
-                "deviations must be finite",
-            )?,
-        ),
-        _ => None,
-    };
-    let fourth = match info.method {
-        Method::FourthOrder => Some(load_fourth(&info, dir)?),
-        _ => None,
-    };
-    Ok((
-        Model {
-            method: info.method,
-            mean,
-            std,
-            filter,
-            deviations,
-            fourth,
-            sample_format: info.sample_format,
-            packed: Default::default(),
-            fast: Default::default(),
-            fourth_f32: Default::default(),
-        },
-        info,
-    ))
-}
-
-/// Methods 1 and 2: the cell parameters, residuals and clamped counts on the level-1 cell grid.
-fn load_filter(info: &ModelInfo, dir: &Path) -> Result<FilterModel> {
-    let at = |name, shape, why| expect(dir, name, shape, why);
-    const CELLS: &str = "cell grid of model.json: [height / 2, width / 2]";
-    let cells = vec![info.height / 2, info.width / 2];
-    let params = if info.method == Method::Method1 {
-        let alpha = |name| {
-            at(name, cells.clone(), CELLS)
-                .read_checked(|a: &f64| !a.is_nan(), "alpha must not be NaN")
-        };
-        CellParams::Exponential {
-            alpha_h: alpha("alpha_h.npy")?,
-            alpha_v: alpha("alpha_v.npy")?,
-            signs: info.negative_signs.unwrap_or(NegativeSigns::Alternating),
-        }
-    } else {
-        let shape = vec![info.levels, cells[0], cells[1]];
-        let r = |name| -> Result<Vec<Array2<f64>>> {
-            let a: Array3<f64> = at(
-                name,
-                shape.clone(),
-                "levels and cell grid of model.json: [levels, height / 2, width / 2]",
-            )
-            .read_checked(|r: &f64| r.is_finite(), "r must be finite")?;
-            Ok(a.outer_iter().map(|m| m.to_owned()).collect())
-        };
-        CellParams::Dyadic {
-            r_h: r("r_h.npy")?,
-            r_v: r("r_v.npy")?,
-        }
-    };
-    let residual = |name| {
-        at(name, cells.clone(), CELLS).read_checked(
-            |e: &f64| !e.is_infinite(),
-            "a residual is finite (NaN for masked cells)",
-        )
-    };
-    let residuals = (residual("residual_h.npy")?, residual("residual_v.npy")?);
-    let clamped = at("clamped.npy", cells.clone(), CELLS).read_checked(
-        |c: &u8| *c <= 2,
-        "a clamped count is 0, 1 or 2 (one per direction)",
-    )?;
-    let shape = (info.half_width, info.height, info.width);
-    Ok(FilterModel::new(params, residuals, clamped, shape))
-}
-
-/// Fourth order: Fleishman coefficients, component standard deviations and infeasible flags.
-fn load_fourth(info: &ModelInfo, dir: &Path) -> Result<crate::synthesis::FourthOrderModel> {
-    let at = |name, shape, why| expect(dir, name, shape, why);
-    const PER_COMPONENT: &str = "[component, height, width] of model.json";
-    let (h, w) = (info.height, info.width);
-    Ok(crate::synthesis::FourthOrderModel {
-        coefficients: at(
-            "fleishman.npy",
-            vec![2, 4, h, w],
-            "[component, coefficient, height, width] of model.json",
-        )
-        .read_checked(|c: &f64| c.is_finite(), "coefficients must be finite")?,
-        component_sd: at("component_sd.npy", vec![2, h, w], PER_COMPONENT).read_checked(
-            |s: &f64| s.is_finite() && *s >= 0.0,
-            "a standard deviation must be finite and >= 0",
-        )?,
-        infeasible: at("infeasible.npy", vec![2, h, w], PER_COMPONENT)
-            .read_checked(|f: &u8| *f <= 1, "an infeasible flag is 0 or 1")?,
-    })
+    let model = info.method.load(moments, &layout(&info), &Folder(dir))?;
+    Ok((model, info))
 }
 
 /// The header of a version-1.0 `.npy` file of complex64 `[m, h, w]`, padded to 64 bytes.
@@ -525,9 +383,9 @@ impl GenerationRecord {
             model_json_sha256: std::fs::read(dir.join("model.json"))
                 .map(|b| crate::seeds::sha256_hex(&b))
                 .unwrap_or_default(),
-            method: model.method,
+            method: model.method(),
             seed,
-            sample_format: model.sample_format,
+            sample_format: model.moments().sample_format,
             version: env!("CARGO_PKG_VERSION").into(),
         }
     }

@@ -55,7 +55,6 @@ impl SynthesisSpec {
         h: usize,
         w: usize,
     ) -> Result<(), SpecError> {
-        use crate::synthesis::Method;
         if self.methods.is_empty() {
             return Err(ctx.err("synthesis.methods", "name at least one method"));
         }
@@ -71,14 +70,13 @@ impl SynthesisSpec {
         if self.samples < min {
             return Err(ctx.err("synthesis.samples", format!("{} sample(s) requested; at least {min} (2 when the generated samples are analysed)", self.samples)));
         }
-        if self.methods.contains(&Method::Method2) {
+        if let Some(m) = self.methods.iter().find(|m| m.needs().levels) {
             let l = self.dyadic_levels(analysis);
             // The levels first: an absurd `levels` is named as such, not as a short half-width.
-            check_levels(l, h, w)
-                .map_err(|e| ctx.err("synthesis.levels", format!("method2: {e}")))?;
+            check_levels(l, h, w).map_err(|e| ctx.err("synthesis.levels", format!("{m}: {e}")))?;
             let need = crate::stats::filters::dyadic_reach(l);
             if self.half_width < need {
-                return Err(ctx.err("synthesis.half_width", format!("method2 with {l} level(s) reaches offset {need}; half_width {} would truncate it", self.half_width)));
+                return Err(ctx.err("synthesis.half_width", format!("{m} with {l} level(s) reaches offset {need}; half_width {} would truncate it", self.half_width)));
             }
         }
         Ok(())

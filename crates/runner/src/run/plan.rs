@@ -312,12 +312,9 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
                 .all(Json::is_number)
         })
         .collect();
-    let model_orders = jobs.iter().any(|j| {
-        matches!(
-            j.method,
-            Some(crate::synthesis::Method::Uncorrelated | crate::synthesis::Method::FourthOrder)
-        )
-    });
+    let model_orders = jobs
+        .iter()
+        .any(|j| j.method.and_then(Method::model_order).is_some());
     Ok(Plan {
         seed_override: seed,
         file: file.to_path_buf(),

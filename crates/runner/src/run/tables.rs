@@ -562,11 +562,9 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
     );
     for &(job, r) in results.iter().filter(|_| plan.model_orders) {
         let Some(sim) = &r.similarity else { continue };
-        let order = match job.method {
-            Some(Method::Uncorrelated) => Some(2),
-            Some(Method::FourthOrder) => Some(4),
-            None => None,
-            Some(_) => continue,
+        let order = match job.method.map(Method::model_order) {
+            Some(None) => continue,
+            order => order.flatten(),
         };
         for component in ["re", "im"] {
             let stat = |name: &str| {

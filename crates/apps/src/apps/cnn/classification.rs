@@ -58,12 +58,7 @@ impl Source {
     pub fn parse(s: &str) -> Option<Source> {
         match s {
             "original" => Some(Source::Original),
-            "method1" => Some(Source::Generated(Method::Method1)),
-            "method2" => Some(Source::Generated(Method::Method2)),
-            "full_covariance" => Some(Source::Generated(Method::FullCovariance)),
-            "uncorrelated" => Some(Source::Generated(Method::Uncorrelated)),
-            "fourth_order" => Some(Source::Generated(Method::FourthOrder)),
-            _ => None,
+            name => name.parse().ok().map(Source::Generated),
         }
     }
 }
@@ -144,13 +139,10 @@ pub fn fit_model(
     method: Method,
     opts: FitOptions,
 ) -> Result<Model> {
-    let levels = match method {
-        Method::Method2 => opts.levels,
-        _ => 1,
-    };
+    let levels = method.needs().depth(opts.levels);
     let analysis = crate::stats::analysis::analyse(fit_part, levels)
         .with_context(|| format!("analysing the fit part for {}", method.as_str()))?;
-    let stack = matches!(method, Method::FullCovariance | Method::FourthOrder).then_some(fit_part);
+    let stack = method.needs().stack.then_some(fit_part);
     fit(method, &analysis, stack, FitOptions { levels, ..opts })
         .with_context(|| format!("fitting {}", method.as_str()))
 }

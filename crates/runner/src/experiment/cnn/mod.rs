@@ -89,7 +89,8 @@ fn check_methods(ctx: &Ctx, at: &str, methods: &[String]) -> Result<Vec<Source>,
             ctx.err(
                 format!("{at}.methods[{i}]"),
                 format!(
-                    "unknown method {m:?}: use original, method1, method2, full_covariance, uncorrelated or fourth_order"
+                    "unknown method {m:?}: use original, {}",
+                    crate::synthesis::Method::listed()
                 ),
             )
         })?;
@@ -120,7 +121,8 @@ fn check_common(
     if !(1..=64).contains(&half_width) {
         return Err(ctx.err(format!("{at}.half_width"), "must be in 1..=64"));
     }
-    if sources.contains(&Source::Generated(crate::synthesis::Method::Method2)) {
+    let reads_levels = |s: &Source| matches!(s, Source::Generated(m) if m.needs().levels);
+    if sources.iter().any(reads_levels) {
         if !(1..=6).contains(&levels) {
             return Err(ctx.err(format!("{at}.levels"), "must be in 1..=6"));
         }

@@ -151,24 +151,6 @@ pub fn scene_sizes(at: &str, scene: &SceneParams, s: &mut Sizes) {
     );
 }
 
-/// Bytes of a per-pixel filter bank: two tap vectors of `2K + 1` per pixel (with their
-/// headers), plus the planar copy a spatially varying bank builds for its kernel.
-pub fn bank_bytes(p: f64, k: f64, varying: bool) -> f64 {
-    let taps = 8.0 * (2.0 * k + 1.0);
-    2.0 * p * (taps + 48.0) + if varying { 2.0 * p * taps } else { 0.0 }
-}
-
-/// Operations per output pixel of the separable filter: two passes of `2K + 1` complex
-/// multiply-adds (uniform), or `(2K + 1)^2` for a spatially varying bank.
-pub fn filter_flops(k: f64, varying: bool) -> f64 {
-    let taps = 2.0 * k + 1.0;
-    if varying {
-        8.0 * taps * taps
-    } else {
-        16.0 * taps
-    }
-}
-
 /// Operations to image one measurement of `k` points into `s2` pixels (polar reformatting and
 /// a 2-D FFT).
 pub fn imaging_flops(k: f64, s2: f64) -> f64 {

@@ -8,15 +8,14 @@
 //! stream `2^40 + s`. The stack is allocated fallibly: one the memory cannot hold fails its
 //! job.
 
-use super::cost::{
-    bank_bytes, filter_flops, Cost, Sizes, C128, USUAL_HALF_WIDTH, USUAL_PIXELS, USUAL_SAMPLES,
-};
+use super::cost::{Cost, Sizes, C128, USUAL_HALF_WIDTH, USUAL_PIXELS, USUAL_SAMPLES};
 use super::{DataError, DatasetKind, Materialised};
 use crate::alloc::{try_zeros, AllocError};
 use crate::experiment::maps::check_range;
 use crate::experiment::{Ctx, Map, ParamMap, SpecError};
 use crate::io::npy::Stack;
 use crate::seeds::{texture, white_seed_into};
+use crate::stats::filters::{bank_bytes, filter_flops};
 use crate::stats::filters::{dyadic_taps, exponential_taps, filter_seed, FilterBank};
 use ndarray::{Array2, Array3};
 use num_complex::Complex64;

@@ -4,13 +4,11 @@
 //! sizes of the spec these terms read, each with its usual value, for the blame.
 
 use super::{Estimate, Sizes};
-use crate::experiment::datasets::{
-    bank_bytes, filter_flops, C128, C64, USUAL_HALF_WIDTH, USUAL_SAMPLES,
-};
+use crate::experiment::datasets::{C128, C64, USUAL_HALF_WIDTH, USUAL_SAMPLES};
 use crate::run::plan::{Job, NoiseFloorPlan, Plan};
 use crate::stats::cmd::{choose_forms, Form};
 use crate::stats::metrics::{KlOptions, Metric};
-use crate::synthesis::Method;
+use crate::synthesis::CostSize;
 
 /// KL histogram bands counted in flight at once (one per worker thread of a large machine).
 const KL_BANDS: f64 = 16.0;
@@ -31,25 +29,29 @@ pub fn dataset_job(plan: &Plan, job: &Job) -> Estimate {
             let m = syn.samples as f64;
             let k = syn.half_width as f64;
             sizes.add("synthesis.samples", syn.samples, m / USUAL_SAMPLES);
-            if matches!(method, Method::Method1 | Method::Method2) {
+            if method.needs().half_width {
                 sizes.add("synthesis.half_width", syn.half_width, k / USUAL_HALF_WIDTH);
             }
             metric_sizes(plan, &mut sizes);
-            let needs_copy = matches!(method, Method::FullCovariance | Method::FourthOrder)
-                || !plan.metrics.is_empty();
-            let (model, fit_flops) = model(method, n, p, k);
+            let needs_copy = method.needs().stack || !plan.metrics.is_empty();
+            let cost = method.cost(&CostSize {
+                fitted: n,
+                generated: m,
+                pixels: p,
+                half_width: k,
+            });
             let generated = C64 * m * p;
             let (cmp, cmp_flops) = compare(&plan.metrics, n, m, h, w);
             let bytes = data.kept
                 + maps * 2.0
                 + if needs_copy { copy } else { 0.0 }
-                + model
+                + cost.model_bytes
                 + generated
                 + cmp;
             let flops = data.flops
                 + analysis_flops * 2.0
-                + fit_flops
-                + generate_flops(method, n, m, p, k)
+                + cost.fit_flops
+                + cost.generate_flops
                 + cmp_flops;
             (bytes.max(data.peak), flops)
         }
@@ -132,33 +134,6 @@ fn correlating(plan: &Plan, n: f64, h: usize, w: usize, s: &mut Sizes) -> (f64, 
         100.0 * cells,
         cells * h * w * 3.0 + inside * h * w * 8.0 * n,
     )
-}
-
-/// Bytes and fitting work of a model of `method` fitted to `n` samples of `p` pixels.
-pub fn model(method: Method, n: f64, p: f64, k: f64) -> (f64, f64) {
-    let base = 24.0 * p;
-    match method {
-        Method::Uncorrelated => (base, 4.0 * n * p),
-        Method::FourthOrder => (base + 82.0 * p, 30.0 * n * p),
-        // The centred samples, and their f32 packing (16-column panels) for the sampler.
-        Method::FullCovariance => (
-            base + C128 * n * p + 4.0 * n * (2.0 * p / 16.0).ceil() * 16.0,
-            4.0 * n * p,
-        ),
-        // Per level-1 cell (P / 4) and direction, the inversion or the dyadic solve.
-        Method::Method1 => (base + bank_bytes(p, k, true), p / 4.0 * 2.0 * 2e4),
-        Method::Method2 => (base + bank_bytes(p, k, true), p / 4.0 * 2.0 * 5e6),
-    }
-}
-
-/// Work of generating `m` samples of `p` pixels.
-pub fn generate_flops(method: Method, n: f64, m: f64, p: f64, k: f64) -> f64 {
-    match method {
-        Method::Method1 | Method::Method2 => m * p * filter_flops(k, true),
-        Method::FullCovariance => 4.0 * n * m * p,
-        Method::FourthOrder => 60.0 * m * p,
-        Method::Uncorrelated => 20.0 * m * p,
-    }
 }
 
 /// Bytes and work of comparing `n1` with `n2` samples of `h x w` under `metrics`.

@@ -60,7 +60,7 @@
 mod dataset;
 mod outputs;
 
-pub use dataset::{dataset_at, dataset_job, generate_flops, model};
+pub use dataset::{dataset_at, dataset_job};
 pub use outputs::{footprint, Footprint};
 
 use std::fmt;

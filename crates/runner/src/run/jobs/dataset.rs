@@ -442,10 +442,7 @@ fn run_synthesis_job(
     let mut owned = None;
     let data = data_of(job, shared, &mut owned)?;
     let data_s = t.elapsed().as_secs_f64();
-    let levels = match method {
-        Method::Method2 => syn.dyadic_levels(&job.analysis),
-        _ => 1,
-    };
+    let levels = method.needs().depth(syn.dyadic_levels(&job.analysis));
     let analysed = match plan.metrics.contains(&Metric::MultiscaleRmse) {
         true => levels.max(job.analysis.levels),
         false => levels,
@@ -455,10 +452,9 @@ fn run_synthesis_job(
         .analyse(data.hwn, analysed)
         .with_context(|| format!("analysing dataset {}", job.dataset_id))?;
     let t = Instant::now();
-    let stack = (matches!(method, Method::FullCovariance | Method::FourthOrder)
-        || !plan.metrics.is_empty())
-    .then(|| data.stack.try_to_complex128(data.hwn))
-    .transpose()?;
+    let stack = (method.needs().stack || !plan.metrics.is_empty())
+        .then(|| data.stack.try_to_complex128(data.hwn))
+        .transpose()?;
     let opts = FitOptions {
         half_width: syn.half_width,
         levels,
@@ -513,7 +509,7 @@ fn run_synthesis_job(
         source: method.as_str(),
         analysis,
         synthesis: Some(SynthesisOutcome {
-            filter: model.filter,
+            filter: model.filter().cloned(),
             samples: syn.samples,
             fit_s,
             generate_s,

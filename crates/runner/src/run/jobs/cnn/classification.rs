@@ -13,10 +13,11 @@ use crate::experiment::datasets::{C128, C64, USUAL_SAMPLES};
 use crate::experiment::DataRef;
 use crate::experiment::Materialised;
 use crate::run::estimate::Estimate;
-use crate::run::estimate::{generate_flops, model, Sizes};
+use crate::run::estimate::Sizes;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::run::plan::Plan;
 use crate::seeds::derive_seed;
+use crate::synthesis::CostSize;
 use crate::synthesis::FitOptions;
 use anyhow::{Context, Result};
 use ndarray::s;
@@ -306,10 +307,17 @@ fn estimate(plan: &Plan, job: &ClassificationJob) -> Estimate {
         let (model_bytes, flops) = match job.source {
             Source::Original => (0.0, 0.0),
             Source::Generated(m) => {
-                let (b, f) = model(m, fit, pixels, spec.half_width as f64);
                 let generated = (size / k).ceil();
-                let g = generate_flops(m, fit, generated, pixels, spec.half_width as f64);
-                (b + C64 * generated * pixels, f + g)
+                let cost = m.cost(&CostSize {
+                    fitted: fit,
+                    generated,
+                    pixels,
+                    half_width: spec.half_width as f64,
+                });
+                (
+                    cost.model_bytes + C64 * generated * pixels,
+                    cost.fit_flops + cost.generate_flops,
+                )
             }
         };
         per_class = per_class.max(C128 * n * pixels + model_bytes);

@@ -251,7 +251,7 @@ pub(super) fn stacks(plan: &Plan, data_refs: &[DataRef], s: &mut Sizes) -> Stack
 
 /// Records the fit settings of a section at `at` when `method` reads them.
 pub(super) fn fit_sizes(at: &str, method: Method, half_width: usize, s: &mut Sizes) {
-    if matches!(method, Method::Method1 | Method::Method2) {
+    if method.needs().half_width {
         s.add(
             format!("{at}.half_width"),
             half_width,

@@ -14,10 +14,11 @@ use crate::experiment::datasets::{C128, C64};
 use crate::experiment::DataRef;
 use crate::experiment::Materialised;
 use crate::run::estimate::Estimate;
-use crate::run::estimate::{generate_flops, model, Sizes};
+use crate::run::estimate::Sizes;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::run::plan::Plan;
 use crate::seeds::derive_seed;
+use crate::synthesis::CostSize;
 use crate::synthesis::FitOptions;
 use anyhow::Result;
 use ndarray::{s, Array3, Axis};
@@ -519,9 +520,17 @@ fn estimate(plan: &Plan, job: &LocationJob) -> Estimate {
                 g / 5000.0,
             );
             fit_sizes("location", m, spec.half_width, &mut sizes);
-            let (b, f) = model(m, fit, pixels, spec.half_width as f64);
-            let generate = generate_flops(m, fit, g, pixels, spec.half_width as f64);
-            (g / 2.0, b + C64 * g * pixels, f + generate)
+            let cost = m.cost(&CostSize {
+                fitted: fit,
+                generated: g,
+                pixels,
+                half_width: spec.half_width as f64,
+            });
+            (
+                g / 2.0,
+                cost.model_bytes + C64 * g * pixels,
+                cost.fit_flops + cost.generate_flops,
+            )
         }
     };
     training_sizes("location.training", &lp.training, train_n, &mut sizes);
