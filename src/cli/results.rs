@@ -43,6 +43,7 @@ pub fn calibrate_plants(a: CalibratePlantsArgs) -> Result<ExitCode> {
     let CalibratePlantsArgs {
         samples,
         seed,
+        seeds,
         part,
         out,
     } = a;
@@ -51,7 +52,7 @@ pub fn calibrate_plants(a: CalibratePlantsArgs) -> Result<ExitCode> {
         "similarity" => Part::Similarity,
         _ => Part::All,
     };
-    calibrate_plants(samples, seed, part, &out)?;
+    calibrate_plants(samples, (seed, seeds), part, &out)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -9,7 +9,7 @@
 
 use super::{extract, reference};
 use crate::physics::vegetation::calibration::{
-    fit_variance, FitRecord, PlantFit, SimilarityFit, TableResidual,
+    fit_seeds, fit_variance, FitRecord, PlantFit, SimilarityFit, TableResidual,
 };
 use crate::physics::vegetation::PlantParams;
 use crate::run::{driver, plan, scheduler::RunOptions};
@@ -33,14 +33,24 @@ pub enum Part {
     All,
 }
 
-/// Fits the plants of `part` with `samples` images per simulation from `seed` (the other
+/// Fits the plants of `part` with `samples` images per simulation from `seed` (plants A-C:
+/// the mean over the simulations of `seeds` seeds, `calibration::fit_seeds`; the other
 /// part's fits are kept from the record at `out`, if any), writes the record to `out`
 /// atomically and prints each plant's result.
 ///
 /// # Errors
 /// If a table is missing from the reference, a simulation or a run fails, or `out` cannot be
 /// read or written.
-pub fn calibrate_plants(samples: usize, seed: u64, part: Part, out: &Path) -> Result<()> {
+pub fn calibrate_plants(
+    samples: usize,
+    (seed, seeds): (u64, usize),
+    part: Part,
+    out: &Path,
+) -> Result<()> {
+    anyhow::ensure!(
+        seeds >= 1,
+        "--seeds {seeds}: at least one simulation per evaluation"
+    );
     let old: Option<FitRecord> = match std::fs::read(out) {
         Ok(bytes) => Some(
             serde_json::from_slice(&bytes)
@@ -51,7 +61,7 @@ pub fn calibrate_plants(samples: usize, seed: u64, part: Part, out: &Path) -> Re
     };
     let fits = match (part, &old) {
         (Part::Similarity, Some(r)) => r.fits.clone(),
-        _ => variance_fits(samples, seed)?,
+        _ => variance_fits(samples, &fit_seeds(seed, seeds))?,
     };
     let similarity = match (part, &old) {
         (Part::Variance, Some(r)) => r.similarity.clone(),
@@ -66,8 +76,14 @@ pub fn calibrate_plants(samples: usize, seed: u64, part: Part, out: &Path) -> Re
                  medium wind); simulations as the spec's default vegetation_isar dataset (64 x \
                  64, default measurement grid)"
             .into(),
-        command: format!("isar-clutter calibrate-plants --samples {samples} --seed {seed}"),
+        command: format!(
+            "isar-clutter calibrate-plants --samples {samples} --seed {seed} --seeds {seeds}"
+        ),
         seed,
+        seeds: match (part, &old) {
+            (Part::Similarity, Some(r)) => r.seeds,
+            _ => seeds,
+        },
         samples,
         image_size: 64,
         fits,
@@ -82,7 +98,7 @@ pub fn calibrate_plants(samples: usize, seed: u64, part: Part, out: &Path) -> Re
 }
 
 /// Plants A-C fitted to Table 16.
-fn variance_fits(samples: usize, seed: u64) -> Result<Vec<PlantFit>> {
+fn variance_fits(samples: usize, seeds: &[u64]) -> Result<Vec<PlantFit>> {
     let d = reference::Dissertation::load()?;
     let t16 = d.table(16).context("Table 16 is not in the reference")?;
     let targets: Vec<(String, [f64; 2])> = ["A", "B", "C"]
@@ -98,7 +114,7 @@ fn variance_fits(samples: usize, seed: u64) -> Result<Vec<PlantFit>> {
         size: 64,
         ..Default::default()
     };
-    let fits = fit_variance(&targets, (&grid, &opts), samples, seed)?;
+    let fits = fit_variance(&targets, (&grid, &opts), samples, seeds)?;
     for f in &fits {
         eprintln!(
             "plant {}: gain {:.4}, motion {:.4}; variance none {:.4} (target {}), light {:.4} \

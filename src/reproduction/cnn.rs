@@ -118,8 +118,8 @@ fn stochastic_accuracy(method: &'static str) -> Query {
 }
 
 const WHY_STOCHASTIC: &str = "The clutter is the tool's simulation of 5.3.8.2's construction \
-    (as for Fig. 73), the networks train with MATLAB's sgdm defaults on 1000 generated samples \
-    (the dissertation: 2500) and `original` on 50 of the 100 originals (validating on the \
+    (as for Fig. 73), the networks train with MATLAB's sgdm defaults on 2500 generated samples \
+    (as the dissertation's) and `original` on 50 of the 100 originals (validating on the \
     other 50), and every network is tested on the 900 originals none of them saw";
 
 /// Fig. 74's ordering (5.3.9.3): the 100 originals lowest, then the uncorrelated variance

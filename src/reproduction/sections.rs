@@ -58,22 +58,14 @@ const CONSTRUCTIONS: &[(&str, &str, &str, &str)] = &[
         "the per-level rows of levels 2 and 3 in `hypotheses.parquet`",
     ),
     (
-        "5.3.8.2",
-        "each location network trains on 2500 generated samples and validates on 2500 more",
-        "1000 and 1000 (`generated_samples: 2000` in the location specs): a network's \
-         training time grows with its set, and the reproduction trains 97 location networks \
-         a repeat of its four location specs; `original` still leaves chance, so Fig. 73's \
-         gain is a number",
-        "`location.generated_samples: 5000`",
-    ),
-    (
         "5.3.4",
         "the networks' training settings are not given (MATLAB's `trainNetwork`)",
         "MATLAB's `sgdm` defaults: 30 epochs, mini-batch 128, shuffled once, the last partial \
          batch left out, so 100 and 250 training samples both take 30 steps and 1000 take 210 \
          (and in the location experiment `original` trains 30 steps on 128 of its 250 \
-         samples, the generated sets 210)",
-        "`training.protocol: equal_steps` (every network 210 steps, reshuffled every epoch, \
+         samples, the 2500 generated training samples 570)",
+        "`training.protocol: equal_steps` (every network of a section as many steps as its \
+         largest set takes: 210 in classification, 570 in location; reshuffled every epoch, \
          `original` on all its originals): the third reading of Tables 20 and 22 and of \
          Fig. 73's gain",
     ),

@@ -25,6 +25,11 @@ use super::{PlantParams, SceneParams};
 use crate::physics::isar::{ImagingOptions, Measurement};
 use serde::{Deserialize, Serialize};
 
+/// The seeds of a record that does not say: one.
+fn one_seed() -> usize {
+    1
+}
+
 /// The committed fit record.
 pub const RECORD: &str = include_str!("../../../../../reproduction/plant_calibration.json");
 
@@ -39,9 +44,9 @@ pub struct PlantFit {
     pub motion: f64,
     /// The printed no-wind and light-wind variances (Table 16).
     pub target: [f64; 2],
-    /// The simulated ones with the fitted factors (same seed and samples as the fit).
+    /// The simulated ones with the fitted factors (mean over the fit's seeds and samples).
     pub achieved: [f64; 2],
-    /// Simulations the fit ran.
+    /// Simulations the fit ran (each of `samples` images).
     pub evaluations: usize,
 }
 
@@ -54,6 +59,10 @@ pub struct FitRecord {
     pub command: String,
     /// Seed of the simulations.
     pub seed: u64,
+    /// Simulations averaged per evaluation of plants A-C (their seeds: [`fit_seeds`]);
+    /// absent in records fitted at one seed.
+    #[serde(default = "one_seed")]
+    pub seeds: usize,
     /// Samples per simulation.
     pub samples: usize,
     /// Image size of the simulations.
@@ -145,9 +154,37 @@ pub fn apply(mut p: PlantParams, gain: f64, motion: f64) -> PlantParams {
     p
 }
 
+/// The seeds of a fit from `seed` with `count` simulations per evaluation: `seed` itself
+/// first (so a one-seed fit is the fit of earlier records), then seeds derived from it.
+pub fn fit_seeds(seed: u64, count: usize) -> Vec<u64> {
+    (0..count)
+        .map(|k| match k {
+            0 => seed,
+            k => crate::seeds::derive_seed(seed, "plant-calibration", &k.to_string()),
+        })
+        .collect()
+}
+
 /// The mean pixel variance of `samples` simulated images of `plant` under `wind`, with the
-/// uncalibrated preset scaled by `(gain, motion)`.
+/// uncalibrated preset scaled by `(gain, motion)`, averaged over the simulations of `seeds`
+/// (the fit's objective is the expectation over seeds, not one draw).
 fn variance(
+    plant: &str,
+    wind: &str,
+    factors: (f64, f64),
+    at: (&Measurement, &ImagingOptions),
+    samples: usize,
+    seeds: &[u64],
+) -> Result<f64, super::VegError> {
+    let mut sum = 0.0;
+    for &seed in seeds {
+        sum += variance_at(plant, wind, factors, at, samples, seed)?;
+    }
+    Ok(sum / seeds.len().max(1) as f64)
+}
+
+/// [`variance`] of one simulation.
+fn variance_at(
     plant: &str,
     wind: &str,
     (gain, motion): (f64, f64),
@@ -171,7 +208,8 @@ fn variance(
 
 /// Fits `(gain, motion)` of each `(plant, [none, light])` target: `motion` by bisection of
 /// `ln motion` in `[ln 1/64, ln 64]` (40 halvings at most, stopping when the ratio is within
-/// 0.1 % of its target), then `gain = sqrt(target_none / variance_none)`.
+/// 0.1 % of its target), then `gain = sqrt(target_none / variance_none)`; every variance is
+/// the mean over the simulations of `seeds` ([`fit_seeds`]), the same seeds at every step.
 ///
 /// # Errors
 /// If a simulation fails (an unknown plant).
@@ -179,15 +217,15 @@ pub fn fit_variance(
     targets: &[(String, [f64; 2])],
     (grid, opts): (&Measurement, &ImagingOptions),
     samples: usize,
-    seed: u64,
+    seeds: &[u64],
 ) -> Result<Vec<PlantFit>, super::VegError> {
     let mut fits = Vec::new();
     for (plant, [none, light]) in targets {
         let at = (grid, opts);
-        let base_none = variance(plant, "none", (1.0, 1.0), at, samples, seed)?;
+        let base_none = variance(plant, "none", (1.0, 1.0), at, samples, seeds)?;
         let want = light / none;
         let ratio = |m: f64| -> Result<f64, super::VegError> {
-            Ok(variance(plant, "light", (1.0, m), at, samples, seed)? / base_none)
+            Ok(variance(plant, "light", (1.0, m), at, samples, seeds)? / base_none)
         };
         let (mut lo, mut hi) = ((1.0f64 / 64.0).ln(), 64f64.ln());
         let mut evaluations = 1;
@@ -207,8 +245,8 @@ pub fn fit_variance(
         }
         let gain = (none / base_none).sqrt();
         let achieved = [
-            variance(plant, "none", (gain, motion), at, samples, seed)?,
-            variance(plant, "light", (gain, motion), at, samples, seed)?,
+            variance(plant, "none", (gain, motion), at, samples, seeds)?,
+            variance(plant, "light", (gain, motion), at, samples, seeds)?,
         ];
         fits.push(PlantFit {
             plant: plant.clone(),
@@ -216,7 +254,7 @@ pub fn fit_variance(
             motion,
             target: [*none, *light],
             achieved,
-            evaluations: evaluations + 2,
+            evaluations: (evaluations + 2) * seeds.len(),
         });
     }
     Ok(fits)
@@ -225,6 +263,18 @@ pub fn fit_variance(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_fit_starts_from_its_seed_and_derives_distinct_others() {
+        assert_eq!(fit_seeds(16, 1), [16]);
+        let five = fit_seeds(16, 5);
+        assert_eq!(five[0], 16);
+        assert_eq!(five[..3], fit_seeds(16, 3)[..]);
+        let mut sorted = five.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), 5);
+    }
 
     #[test]
     fn the_committed_record_parses_and_plants_without_a_fit_keep_factors_one() {
