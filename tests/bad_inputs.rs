@@ -189,7 +189,7 @@ fn every_saved_model_loads_back() {
         for e in std::fs::read_dir(&m).unwrap().flatten() {
             let name = e.file_name().to_string_lossy().into_owned();
             assert!(model::is_model_file(&name), "{name} is not a model file");
-            if !model::FILES.contains(&name.as_str()) {
+            if !model::SHARED_FILES.contains(&name.as_str()) {
                 own.push(name);
             }
         }

@@ -240,7 +240,7 @@ impl Model {
                 let dir = scratch("unpickle")?;
                 let loaded = (|| {
                     for (name, bytes) in &files {
-                        if !isar_clutter_core::io::model::FILES.contains(&name.as_str()) {
+                        if !isar_clutter_core::io::model::is_model_file(name) {
                             anyhow::bail!("{name:?} is not a file of a model folder");
                         }
                         std::fs::write(dir.join(name), bytes)?;

@@ -109,11 +109,11 @@ pub fn analysis_summary(a: &Analysis) -> serde_json::Value {
 
 /// The files every model folder holds: its description and the moments (each method adds
 /// its own, [`Method::files`]).
-pub const FILES: &[&str] = &["model.json", "mean.npy", "std.npy"];
+pub const SHARED_FILES: &[&str] = &["model.json", "mean.npy", "std.npy"];
 
 /// Whether `name` is a file some model folder holds: what [`save`] writes for some method.
 pub fn is_model_file(name: &str) -> bool {
-    FILES
+    SHARED_FILES
         .iter()
         .chain(Method::ALL.iter().flat_map(|m| m.files()))
         .any(|f| *f == name)
