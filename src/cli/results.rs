@@ -112,7 +112,16 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         repeats,
         cnn_repeats,
         builds: vec![],
+        missing: vec![],
     };
+    let (_, missing) = rep::complete_folders(&runs)?;
+    for m in &missing {
+        eprintln!(
+            "warning: {}: {}: the document names it; its cells and claims use the other repeats",
+            m.dir.display(),
+            m.why
+        );
+    }
     let counts = rep::write(&coverage, &runs, &doc, &header)?;
     let n = |v| counts.get(&v).copied().unwrap_or(0);
     eprintln!(

@@ -311,8 +311,13 @@ fn value(d: &Dissertation, side: &Side, cell: &CellRef) -> std::result::Result<S
                         .iter()
                         .map(|(s, _)| format!("experiments/{s}.yaml"))
                         .collect();
+                    let missing = if e.missing.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; missing or incomplete: {}", e.missing.join("; "))
+                    };
                     format!(
-                        "Table {}'s cell {:?} / {:?} is not computed (read from {})",
+                        "Table {}'s cell {:?} / {:?} is not computed (read from {}{missing})",
                         cell.table,
                         cell.row,
                         cell.column,
@@ -465,11 +470,36 @@ fn stated_check(
         .ok_or_else(|| {
             format!("no computed statement {nth} of {quantity:?} (its runs are not in the folders)")
         })?;
+    if st.given == 0 && !st.missing.is_empty() {
+        return Err(format!(
+            "{quantity:?}: no complete run folder (missing or incomplete: {})",
+            st.missing.join("; ")
+        ));
+    }
     if st.given == 0 {
         return Err(format!("{quantity:?}: no repeat gave a value"));
     }
     let (tool, zero) = (st.tool, Summary::of(&[0.0]));
     Ok(match (st.printed, margin) {
+        // A lower bound: above the stated number plus the margin it fails; below, it cannot
+        // tell.
+        (Some(p), Some(m)) if st.bounded > 0 => {
+            let o = match within((tool.mean - p).abs(), tie(tool, zero), m) {
+                Outcome::Fails if tool.mean > p => Outcome::Fails,
+                _ => Outcome::NotDecidable,
+            };
+            (
+                o,
+                format!(
+                    "≥ {} (a lower bound in {} of {} repeats) against the stated {} ± {}",
+                    tool.show(),
+                    st.bounded,
+                    st.given,
+                    num(p),
+                    num(m)
+                ),
+            )
+        }
         (Some(p), Some(m)) => {
             let o = within((tool.mean - p).abs(), tie(tool, zero), m);
             (

@@ -71,8 +71,9 @@ impl Coverage {
     pub fn all() -> Coverage {
         Coverage {
             recipes: all_recipes(),
-            statements: extract::statements()
+            statements: cnn::gain_statements()
                 .into_iter()
+                .chain(extract::statements())
                 .chain(cnn::stochastic_location())
                 .collect(),
             solver: true,
@@ -250,6 +251,9 @@ pub struct Evaluated {
     pub protocol: Option<&'static str>,
     /// The KL estimator's floor at the table's sizes, in words ([`floors`]; KL tables only).
     pub floor: Option<String>,
+    /// The folders of its specs that are missing or incomplete ([`Missing::show`]): its
+    /// cells read the others, and are not computed where none is left.
+    pub missing: Vec<String>,
 }
 
 /// Evaluates `recipe` against the printed `table` over the runs in `runs`.
@@ -321,6 +325,7 @@ pub fn evaluate(
         spread: recipe.spread,
         protocol: recipe.protocol,
         floor: None,
+        missing: Vec::new(),
     })
 }
 
@@ -332,22 +337,76 @@ fn folders<'a>(runs: &'a [SpecRuns], spec: &str) -> Vec<&'a Path> {
         .collect()
 }
 
-/// Checks every run folder the document reads: a complete run, unchanged since.
+/// A run folder the document would read but cannot: not run yet, or its run incomplete.
+#[derive(Debug, Clone)]
+pub struct Missing {
+    /// The spec (file stem).
+    pub spec: &'static str,
+    /// The folder.
+    pub dir: PathBuf,
+    /// Why it cannot be read, in words.
+    pub why: String,
+}
+
+impl Missing {
+    /// `OUT/spec/seed-N (why)`, for the document.
+    pub fn show(&self) -> String {
+        format!("{} ({})", self.dir.display(), self.why)
+    }
+}
+
+/// Splits `runs` into the complete folders and the missing ones: a folder that does not exist,
+/// has no manifest or holds a run in progress is missing (its cells and claims are then not
+/// decidable, naming it); a finished folder whose files changed since is damaged, and refused.
 ///
 /// # Errors
-/// Naming the first folder that is not.
-pub fn check_folders(runs: &[SpecRuns]) -> Result<()> {
+/// Naming the first damaged folder.
+pub fn complete_folders(runs: &[SpecRuns]) -> Result<(Vec<SpecRuns>, Vec<Missing>)> {
+    let mut complete = Vec::new();
+    let mut missing = Vec::new();
     for r in runs {
-        for (_, dir) in &r.runs {
-            crate::io::outdir::check_complete(dir).with_context(|| {
-                format!(
-                    "the reproduction reads {}: run `isar-clutter reproduce` again to redo it",
-                    dir.display()
-                )
-            })?;
+        let mut kept = Vec::new();
+        for (seed, dir) in &r.runs {
+            let Err(e) = crate::io::outdir::check_complete(dir) else {
+                kept.push((*seed, dir.clone()));
+                continue;
+            };
+            let absent = !dir.is_dir()
+                || !dir.join("manifest.json").is_file()
+                || dir
+                    .join(crate::io::outdir::STATE)
+                    .join("in-progress")
+                    .exists();
+            if !absent {
+                return Err(e).with_context(|| {
+                    format!(
+                        "the reproduction reads {}: run `isar-clutter reproduce` again to redo it",
+                        dir.display()
+                    )
+                });
+            }
+            let why = if dir.is_dir() {
+                let text = format!("{e:#}");
+                let text = text
+                    .strip_prefix(&format!("{} ", dir.display()))
+                    .unwrap_or(&text)
+                    .to_string();
+                text.split("; ").next().unwrap_or_default().to_string()
+            } else {
+                "not run".to_string()
+            };
+            missing.push(Missing {
+                spec: r.spec,
+                dir: dir.clone(),
+                why,
+            });
         }
+        complete.push(SpecRuns {
+            spec: r.spec,
+            runs: kept,
+        });
     }
-    Ok(())
+    Ok((complete, missing))
 }
 
 /// Evaluates every recipe and writes the document to `doc` (atomically); the counts of
@@ -362,7 +421,8 @@ pub fn write(
     doc: &Path,
     header: &render::Header,
 ) -> Result<BTreeMap<Verdict, usize>> {
-    check_folders(runs)?;
+    let (complete, missing) = complete_folders(runs)?;
+    let runs = complete.as_slice();
     let dissertation = reference::Dissertation::load()?;
     let mut tables = Tables::default();
     let mut evaluated = Vec::new();
@@ -370,18 +430,39 @@ pub fn write(
         let table = dissertation
             .table(recipe.number)
             .with_context(|| format!("Table {} is not in the reference", recipe.number))?;
-        evaluated.push(evaluate(recipe, table, runs, &mut tables)?);
+        let mut e = evaluate(recipe, table, runs, &mut tables)?;
+        e.missing = missing_of(&missing, extract::specs_of(recipe));
+        evaluated.push(e);
     }
     let mut stated = coverage
         .statements
         .iter()
-        .map(|st| evaluate_statement(st, &dissertation, runs, &mut tables))
+        .map(|st| {
+            let mut specs: Vec<&str> = st
+                .terms
+                .iter()
+                .flat_map(|(a, b)| [a.spec, b.spec])
+                .collect();
+            specs.sort_unstable();
+            specs.dedup();
+            let absent = missing_of(&missing, specs.iter().copied());
+            if absent.is_empty() || specs.len() == 1 {
+                let mut out = evaluate_statement(st, &dissertation, runs, &mut tables)?;
+                out.missing = absent;
+                Ok(out)
+            } else {
+                // Repeats of several specs pair by their order: with a folder missing the
+                // pairs would shift, so the statement waits for every folder.
+                unpaired_statement(st, &dissertation, absent)
+            }
+        })
         .collect::<Result<Vec<_>>>()?;
     if coverage.solver {
         stated.extend(solver::method2_example(&dissertation)?);
     }
     let header = render::Header {
         builds: builds(runs),
+        missing: missing.iter().map(Missing::show).collect(),
         ..header.clone()
     };
     let floors = floors::kl_floors(&mut tables, &|spec| folders(runs, spec))?;
@@ -511,6 +592,12 @@ pub struct Stated {
     pub repeats: usize,
     /// Repeats that gave a value (those `tool` summarises).
     pub given: usize,
+    /// Of those, the repeats whose value is a lower bound ([`extract::Statement::censor`]).
+    pub bounded: usize,
+    /// One exact computation (no repeats, no spread).
+    pub exact: bool,
+    /// The folders it reads that are missing or incomplete ([`Missing::show`]).
+    pub missing: Vec<String>,
 }
 
 /// Evaluates `st`: per repeat `k`, the mean over its terms of `a - b`, each read from repeat
@@ -530,20 +617,25 @@ pub fn evaluate_statement(
         .flat_map(|(a, b)| [folders(runs, a.spec).len(), folders(runs, b.spec).len()])
         .min()
         .unwrap_or(0);
+    if repeats == 0 {
+        return unpaired_statement(st, dissertation, Vec::new());
+    }
     let mut values = Vec::new();
+    let mut bounded = 0;
     for k in 0..repeats {
         let mut sum = 0.0;
-        for (a, b) in &st.terms {
-            sum += tables.value(folders(runs, a.spec)[k], a)?
-                - tables.value(folders(runs, b.spec)[k], b)?;
+        let mut bound = false;
+        for (i, (a, b)) in st.terms.iter().enumerate() {
+            let low = tables.value(folders(runs, b.spec)[k], b)?;
+            sum += tables.value(folders(runs, a.spec)[k], a)? - low;
+            if let Some(c) = st.censor.get(i) {
+                bound |= low == tables.value(folders(runs, c.spec)[k], c)?;
+            }
         }
-        values.push(sum / st.terms.len() as f64);
+        let v = sum / st.terms.len() as f64;
+        bounded += usize::from(bound && v.is_finite());
+        values.push(v);
     }
-    anyhow::ensure!(
-        !values.is_empty(),
-        "no runs for the statement {:?}",
-        st.quantity
-    );
     // A repeat without a value (a level never reached in the range swept) is counted, not
     // averaged.
     let repeats = values.len();
@@ -552,15 +644,8 @@ pub fn evaluate_statement(
     if values.is_empty() {
         values.push(f64::NAN);
     }
-    let reference = dissertation
-        .figures
-        .iter()
-        .find(|f| f.quantity.starts_with(st.quantity))
-        .with_context(|| format!("no statement {:?} in the reference", st.quantity))?;
-    let printed = reference
-        .value
-        .as_ref()
-        .and_then(serde_yaml_ng::Value::as_f64);
+    let reference = stated_reference(st, dissertation)?;
+    let (quantity, printed) = (reference.quantity.clone(), reference.number());
     // A bound (`< 1`): the tool's mean below it matches.
     let bound = reference
         .value
@@ -570,6 +655,8 @@ pub fn evaluate_statement(
         .and_then(|b| b.trim().parse::<f64>().ok());
     let tool = Summary::of(&values);
     let verdict = match (printed, bound) {
+        // A lower bound below the stated number does not tell.
+        (Some(p), _) if bounded > 0 && tool.mean < p => None,
         (Some(p), _) => {
             let tol =
                 compare::tolerance(Spread::Random, &tool, compare::decimals_of(&format!("{p}")));
@@ -582,7 +669,7 @@ pub fn evaluate_statement(
         (None, None) => None,
     };
     Ok(Stated {
-        quantity: reference.quantity.clone(),
+        quantity,
         tool,
         printed,
         verdict,
@@ -591,5 +678,53 @@ pub fn evaluate_statement(
         unit: st.unit,
         repeats,
         given,
+        bounded,
+        exact: false,
+        missing: Vec::new(),
     })
+}
+
+/// The reference's statement of `st`'s quantity.
+fn stated_reference<'a>(
+    st: &extract::Statement,
+    dissertation: &'a reference::Dissertation,
+) -> Result<&'a reference::FigureStatement> {
+    dissertation
+        .figures
+        .iter()
+        .find(|f| f.quantity.starts_with(st.quantity))
+        .with_context(|| format!("no statement {:?} in the reference", st.quantity))
+}
+
+/// `st` without a value: the folders in `missing` that it reads are not complete runs.
+fn unpaired_statement(
+    st: &extract::Statement,
+    dissertation: &reference::Dissertation,
+    missing: Vec<String>,
+) -> Result<Stated> {
+    let reference = stated_reference(st, dissertation)?;
+    Ok(Stated {
+        quantity: reference.quantity.clone(),
+        tool: Summary::of(&[f64::NAN]),
+        printed: reference.number(),
+        verdict: None,
+        computed: st.computed.to_string(),
+        differs_because: st.differs_because.to_string(),
+        unit: st.unit,
+        repeats: 0,
+        given: 0,
+        bounded: 0,
+        exact: false,
+        missing,
+    })
+}
+
+/// The folders of `missing` that belong to one of `specs`, as the document names them.
+fn missing_of<'a>(missing: &[Missing], specs: impl IntoIterator<Item = &'a str>) -> Vec<String> {
+    let specs: Vec<&str> = specs.into_iter().collect();
+    missing
+        .iter()
+        .filter(|m| specs.contains(&m.spec))
+        .map(Missing::show)
+        .collect()
 }

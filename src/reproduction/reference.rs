@@ -99,6 +99,13 @@ pub struct FigureStatement {
     pub quote: String,
 }
 
+impl FigureStatement {
+    /// The stated number, where the value is one (not a bound such as `< 1`, nor absent).
+    pub fn number(&self) -> Option<f64> {
+        self.value.as_ref().and_then(serde_yaml_ng::Value::as_f64)
+    }
+}
+
 /// The whole file.
 #[derive(Debug, Clone, Deserialize)]
 pub struct Dissertation {

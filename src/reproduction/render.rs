@@ -31,6 +31,10 @@ pub struct Header {
     /// the run folders' manifests, `computed_by`; filled by [`super::write`]): the job store
     /// reuses a result whatever the tool's version, so these can differ from `tool`.
     pub builds: Vec<(String, usize)>,
+    /// The run folders the document would read that are missing or incomplete, each with
+    /// why (filled by [`super::write`]): the cells and claims that need them are not
+    /// decidable.
+    pub missing: Vec<String>,
 }
 
 /// The machine this process runs on: CPU model, cores and memory (Linux; else the
@@ -118,6 +122,15 @@ fn top(s: &mut String, header: &Header) {
             .map(|(b, n)| format!("{b} ({n} job(s))"))
             .collect();
         let _ = writeln!(s, "- Results computed by: {}", builds.join(", "));
+    }
+    if !header.missing.is_empty() {
+        let _ = writeln!(
+            s,
+            "- Run folders missing or incomplete ({}; the cells and claims that read them use \
+             the other repeats, and are not decidable where none is left): {}",
+            header.missing.len(),
+            header.missing.join("; ")
+        );
     }
     let _ = match header.wall_s {
         Some(w) => writeln!(
@@ -247,6 +260,13 @@ fn reading(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
         .map(|(spec, n)| format!("`experiments/{spec}.yaml` ({n} run(s))"))
         .collect();
     let _ = writeln!(s, "Tool: {}.", sources.join(", "));
+    if !e.missing.is_empty() {
+        let _ = writeln!(
+            s,
+            "Not read (missing or incomplete): {}.",
+            e.missing.join("; ")
+        );
+    }
     if !e.differs_because.is_empty() {
         let _ = writeln!(s, "Where it differs: {}.", e.differs_because);
     }
@@ -510,19 +530,43 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
             let tools: Vec<String> = mine
                 .iter()
                 .map(|st| {
-                    let over = if st.given == st.repeats {
-                        format!("{} repeats", st.repeats)
+                    if st.repeats == 0 {
+                        return format!(
+                            "the tool: not decidable: no complete run folder ({}; {}).",
+                            if st.missing.is_empty() {
+                                "none was given".to_string()
+                            } else {
+                                st.missing.join("; ")
+                            },
+                            st.computed
+                        );
+                    }
+                    let mut over = if st.given == st.repeats {
+                        format!("{} repeat(s)", st.repeats)
                     } else {
                         format!(
                             "the {} of {} repeats that give a value",
                             st.given, st.repeats
                         )
                     };
-                    let verdict = st
-                        .verdict
-                        .map_or("no stated number to compare", Verdict::as_str);
+                    if st.bounded > 0 {
+                        over = format!(
+                            "{over}; a lower bound in {} of them: the level was already \
+                             reached at the lowest point swept",
+                            st.bounded
+                        );
+                    }
+                    let verdict = st.verdict.map_or(
+                        if st.printed.is_some() {
+                            "not decidable (a lower bound below the stated number)"
+                        } else {
+                            "no stated number to compare"
+                        },
+                        Verdict::as_str,
+                    );
                     // A computed number (one evaluation, no spread) has no repeats to name.
-                    let mut t = if st.repeats == 1 && st.tool.sd == 0.0 {
+                    let at_least = if st.bounded > 0 { "≥ " } else { "" };
+                    let mut t = if st.exact {
                         let value = format!("{} {}", num(st.tool.mean), st.unit.unwrap_or(unit));
                         format!(
                             "the tool: {} (exact: {}): {verdict}.",
@@ -530,10 +574,14 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
                             st.computed,
                         )
                     } else {
+                        let spread = if st.given == 1 {
+                            " (one value: no spread yet)".to_string()
+                        } else {
+                            format!(" ± {}", num(st.tool.sd))
+                        };
                         format!(
-                            "the tool: {} ± {} {} over {over} ({}): {verdict}.",
+                            "the tool: {at_least}{}{spread} {} over {over} ({}): {verdict}.",
                             num(st.tool.mean),
-                            num(st.tool.sd),
                             st.unit.unwrap_or(unit),
                             st.computed,
                         )
@@ -623,6 +671,7 @@ mod tests {
             differs_because: "",
             protocol: Some("test"),
             floor: None,
+            missing: Vec::new(),
         };
         let mut s = String::new();
         headline(&mut s, t, &e);

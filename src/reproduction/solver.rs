@@ -76,6 +76,9 @@ fn exact(quantity: &str, printed: f64, tool: f64, computed: String, why: String)
         unit: None,
         repeats: 1,
         given: 1,
+        bounded: 0,
+        exact: true,
+        missing: Vec::new(),
     }
 }
 

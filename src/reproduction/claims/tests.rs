@@ -30,6 +30,7 @@ fn table(number: u32, rows: &[&[(f64, f64)]]) -> Evaluated {
         differs_because: "",
         protocol: None,
         floor: None,
+        missing: Vec::new(),
     }
 }
 
@@ -221,6 +222,9 @@ fn stated(quantity: &str, printed: Option<f64>, mean: f64, sd: f64) -> Stated {
         unit: None,
         repeats: 5,
         given: 5,
+        bounded: 0,
+        exact: false,
+        missing: Vec::new(),
     }
 }
 
@@ -262,5 +266,47 @@ fn stated_numbers_and_orderings() {
     assert_eq!(
         judge(&d, &Side::Printed, &claim(s, 0, None)).0,
         Outcome::NotDecidable
+    );
+}
+
+/// A stated number the tool only bounds from below (the level reached at the lowest SCR
+/// swept): a bound above the stated number fails the claim, one below it cannot tell; a
+/// statement whose run folders are missing is not decidable, naming them.
+#[test]
+fn lower_bounds_and_missing_folders() {
+    let d = Dissertation::load().unwrap();
+    let q = "Constant target location: target sensitivity improvement";
+    let claim = Claim {
+        checks: vec![Check::Stated {
+            quantity: q.into(),
+            nth: 0,
+            margin: Some(1.5),
+        }],
+        ..order_of_magnitude()
+    };
+    let bounded = |mean: f64| Stated {
+        bounded: 2,
+        ..stated(q, Some(3.0), mean, 0.5)
+    };
+    let above = [bounded(16.5)];
+    let (o, why) = judge(&d, &Side::Tool(&[], &above), &claim);
+    assert_eq!(o, Outcome::Fails);
+    assert!(why.contains("a lower bound in 2 of 5"), "{why}");
+    let below = [bounded(1.0)];
+    assert_eq!(
+        judge(&d, &Side::Tool(&[], &below), &claim).0,
+        Outcome::NotDecidable
+    );
+    let missing = [Stated {
+        repeats: 0,
+        given: 0,
+        missing: vec!["out/cnn_location_gain/seed-1 (not run)".into()],
+        ..stated(q, Some(3.0), f64::NAN, 0.0)
+    }];
+    let (o, why) = judge(&d, &Side::Tool(&[], &missing), &claim);
+    assert_eq!(o, Outcome::NotDecidable);
+    assert!(
+        why.contains("out/cnn_location_gain/seed-1 (not run)"),
+        "{why}"
     );
 }
