@@ -9,7 +9,7 @@
 
 use super::{extract, reference};
 use crate::physics::vegetation::calibration::{
-    fit_seeds, fit_variance, FitRecord, PlantFit, SimilarityFit, TableResidual,
+    fit_seeds, fit_variance, FitRecord, MotionScales, PlantFit, SimilarityFit, TableResidual,
 };
 use crate::physics::vegetation::PlantParams;
 use crate::run::{driver, plan, scheduler::RunOptions};
@@ -193,17 +193,16 @@ fn residual(table: u32, tool: f64, printed: f64) -> f64 {
     }
 }
 
-/// The spec of one evaluation: `plant` in light and medium wind with the wind response times
+/// The spec of one evaluation: `plant` in light and medium wind with the wind response ([`MotionScales::for_plant`]) times
 /// `motion` and `noise_db` of receiver noise, otherwise `experiments/similarity_plants.yaml`'s
 /// construction with [`GENERATED`] samples per method.
 fn spec_text(plant: &str, motion: f64, noise_db: f64, seed: u64) -> Result<String> {
     let p = PlantParams::uncalibrated(plant).context("no such plant preset")?;
+    let p = MotionScales::for_plant(plant).apply(p, motion);
     let overrides = format!(
         "{{noise_db: {noise_db}, plant: {{stem_flexibility: {}, branch_flexibility: {}, \
          leaf_flutter_scale: {}}}}}",
-        p.stem_flexibility * motion,
-        p.branch_flexibility * motion,
-        p.leaf_flutter_scale * motion
+        p.stem_flexibility, p.branch_flexibility, p.leaf_flutter_scale
     );
     let ds = |wind: &str| {
         format!(
@@ -334,6 +333,7 @@ fn fit_similarity(plant: &str, seed: u64) -> Result<SimilarityFit> {
         tables,
         evaluations: best.evaluations + 2,
         generated_samples: GENERATED,
+        scales: MotionScales::for_plant(plant),
     })
 }
 

@@ -18,11 +18,18 @@ mod maps;
 mod metrics;
 mod synthesis;
 
-pub use cnn::*;
-pub use datasets::*;
-pub use maps::*;
-pub use metrics::*;
-pub use synthesis::*;
+pub use cnn::{
+    ClassificationPlan, ClassificationSpec, DataRef, LocationPlan, LocationSpec, OneOrMany,
+    MAX_TRAININGS,
+};
+pub use datasets::{
+    filter_bank, generate, DataError, Dataset, DatasetKind, DatasetSpec, Family, FilterParams,
+    FilteredNoise, KspaceDataset, Layout, MatDataset, Materialised, MeasurementSpec, NetcdfDataset,
+    NpyDataset, RawDataset, SavedKspace, Vector, VegetationDataset,
+};
+pub use maps::{Map, ParamMap, PatternKind, PatternSpec, RampAxis};
+pub use metrics::{check_metrics, HypothesesSpec, MetricParams, NoiseFloor};
+pub use synthesis::SynthesisSpec;
 
 /// A spec problem, located in the file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -4,7 +4,9 @@
 //! out so that it compiles without polars, the job store's fragments ([`frame`]), big tables written a row group at a time ([`groups`]), and the results
 //! folder's contract: its tables ([`results`]) and its manifest ([`manifest`]).
 
-pub use isar_clutter_core::io::*;
+pub use isar_clutter_core::io::{
+    atomic, file_id, journal, mat, model, netcdf, npy, outdir, stream, strip_bom, FileId,
+};
 
 pub mod frame;
 pub mod groups;

@@ -5,9 +5,10 @@
 //! - `gain` multiplies every scatterer's amplitude (stems, branches, leaves; the double bounce,
 //!   the receiver noise and the background follow, being set relative to the clutter power),
 //!   so every image, and so the pixel variance, scales by `gain^2` exactly.
-//! - `motion` multiplies the plant's response to wind (stem and branch flexibility, leaf
-//!   flutter), so the light-wind variance grows with it while the no-wind variance does not
-//!   (without wind only the residual jitter moves the scatterers).
+//! - `motion` multiplies the plant's response to wind (stem and branch flexibility and leaf
+//!   flutter; for plant D leaf flutter alone, [`MotionScales`]),
+//!   so the light-wind variance grows with it while the no-wind variance does not (without
+//!   wind only the residual jitter moves the scatterers).
 //! - `noise_db` (plants D and E) is the receiver noise relative to the static clutter power
 //!   (the preset's -40 dB where the record has none).
 //!
@@ -109,6 +110,43 @@ pub struct SimilarityFit {
     pub evaluations: usize,
     /// Samples each generation method drew per run.
     pub generated_samples: usize,
+    /// What `motion` multiplies (absent: everything, as records before it).
+    #[serde(default)]
+    pub scales: MotionScales,
+}
+
+/// What the wind-response factor of a similarity fit multiplies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MotionScales {
+    /// Stem and branch flexibility and leaf flutter ([`apply`]).
+    #[default]
+    All,
+    /// Leaf flutter alone ([`apply_leaf_motion`]).
+    Leaves,
+}
+
+impl MotionScales {
+    /// The similarity fit's choice for `plant`: the leaves alone for plant D, whose stems swept
+    /// over many pixels at the factor fitted with everything scaled (heavy-tailed medium-wind
+    /// pixels where the measured plant's are not); everything for plant E, whose few large
+    /// leaves did the same at the factor fitted with the leaves alone (docs/definitions.md
+    /// section 10).
+    pub fn for_plant(plant: &str) -> MotionScales {
+        if plant == "D" {
+            MotionScales::Leaves
+        } else {
+            MotionScales::All
+        }
+    }
+
+    /// `p` with its wind response times `motion` as this says.
+    pub fn apply(self, p: PlantParams, motion: f64) -> PlantParams {
+        match self {
+            MotionScales::All => apply(p, 1.0, motion),
+            MotionScales::Leaves => apply_leaf_motion(p, motion),
+        }
+    }
 }
 
 /// The committed record, parsed once.
@@ -150,6 +188,27 @@ pub fn apply(mut p: PlantParams, gain: f64, motion: f64) -> PlantParams {
     p.leaf_gain *= gain;
     p.stem_flexibility *= motion;
     p.branch_flexibility *= motion;
+    p.leaf_flutter_scale *= motion;
+    p
+}
+
+/// `p`, the physical preset of `plant`, with the committed record's factors: plants A-C
+/// ([`FitRecord::fits`]) by [`apply`], plants D and E ([`FitRecord::similarity`]) as their
+/// fit's [`MotionScales`] says, others unchanged.
+pub fn calibrate(plant: &str, p: PlantParams) -> PlantParams {
+    let record = record();
+    if let Some(f) = record.fits.iter().find(|f| f.plant == plant) {
+        return apply(p, f.gain, f.motion);
+    }
+    match record.similarity.iter().find(|f| f.plant == plant) {
+        Some(f) => f.scales.apply(p, f.motion),
+        None => p,
+    }
+}
+
+/// `p` with its leaves' flutter times `motion`, stems and branches as designed
+/// ([`MotionScales::Leaves`]).
+pub fn apply_leaf_motion(mut p: PlantParams, motion: f64) -> PlantParams {
     p.leaf_flutter_scale *= motion;
     p
 }
@@ -300,5 +359,9 @@ mod tests {
         assert_eq!(q.leaf_flutter_scale, 3.0 * p.leaf_flutter_scale);
         assert_eq!(q.stem_flexibility, 3.0 * p.stem_flexibility);
         assert_eq!(q.leaf_size_m, p.leaf_size_m);
+        let r = apply_leaf_motion(p.clone(), 3.0);
+        assert_eq!(r.leaf_flutter_scale, 3.0 * p.leaf_flutter_scale);
+        assert_eq!(r.stem_flexibility, p.stem_flexibility);
+        assert_eq!(r.branch_flexibility, p.branch_flexibility);
     }
 }

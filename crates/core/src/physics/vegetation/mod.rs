@@ -193,8 +193,7 @@ impl PlantParams {
     /// physical preset ([`PlantParams::uncalibrated`]) with the amplitude and wind-response
     /// factors fitted to the dissertation's Table 16 ([`calibration`]).
     pub fn preset(name: &str) -> Option<PlantParams> {
-        let (gain, motion) = calibration::factors(name);
-        Some(calibration::apply(Self::uncalibrated(name)?, gain, motion))
+        Some(calibration::calibrate(name, Self::uncalibrated(name)?))
     }
 
     /// The physical preset before calibration: the geometry, amplitudes and wind response as

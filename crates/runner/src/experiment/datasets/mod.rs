@@ -29,7 +29,10 @@ mod raw;
 mod spec;
 mod vegetation;
 
-pub use cost::*;
+pub use cost::{
+    chain_sizes, file_sizes, imaging_flops, mie, plant, scene_sizes, Blame, Cost, Plant, Sizes,
+    C128, C64, USUAL_GRID, USUAL_HALF_WIDTH, USUAL_IMAGE_SIZE, USUAL_PIXELS, USUAL_SAMPLES,
+};
 pub use filtered_noise::{filter_bank, generate, Family, FilterParams, FilteredNoise};
 pub use kspace::{KspaceDataset, Vector};
 pub use mat::MatDataset;

@@ -65,7 +65,7 @@ pub use outputs::{footprint, Footprint};
 
 use std::fmt;
 
-pub use crate::experiment::{Blame, Sizes};
+pub use crate::experiment::datasets::{Blame, Sizes};
 
 /// Most work one job may take, in operations of the reference core (30 Gflop/s): about 40
 /// days of that core, a few days of a whole large machine, far beyond any study the tool is
