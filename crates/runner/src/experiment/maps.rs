@@ -1,8 +1,12 @@
 //! Parameters that are a scalar or a spatial map (`alpha_h: 0.5`, a pattern, or an `.npy`
 //! file), validated onto an image grid.
 
-use super::*;
-
+use super::{Ctx, SpecError};
+use crate::io::npy;
+use serde::de::{self, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::fmt;
+use std::path::PathBuf;
 /// A parameter that is a scalar or a spatial map.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]

@@ -1,7 +1,8 @@
 //! The `metrics`, `noise_floor` and `hypotheses` sections: similarity metrics by name or with
 //! parameters, validated into [`crate::stats::metrics::Metric`]s, and the noise floor to measure.
 
-use super::*;
+use super::{Ctx, RawSpec, SpecError};
+use serde::{Deserialize, Serialize};
 
 /// `hypotheses:` section.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]

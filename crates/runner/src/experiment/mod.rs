@@ -4,12 +4,9 @@
 //!
 //! The format is documented with a complete example in `docs/spec.md`.
 
-use crate::io::npy;
 use crate::stats::analysis::check_levels;
-use serde::de::{self, MapAccess, Visitor};
-use serde::{Deserialize, Deserializer, Serialize};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 mod cnn;

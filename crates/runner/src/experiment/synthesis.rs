@@ -1,6 +1,8 @@
 //! The `synthesis` section: methods, half-width, samples and what to do with them.
 
-use super::*;
+use super::{yes, AnalysisSpec, Ctx, SpecError};
+use crate::stats::analysis::check_levels;
+use serde::{Deserialize, Serialize};
 
 /// `synthesis:` section (ch. 4): every dataset is fitted by every method; each fit generates
 /// `samples` new samples, from a seed shared by the methods of one dataset (common random

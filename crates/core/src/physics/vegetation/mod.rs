@@ -44,9 +44,8 @@
 use crate::physics::isar::{self, ImagingOptions, IsarError, Measurement};
 use ndarray::{Array3, Axis};
 use num_complex::Complex64;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 
 pub mod calibration;
 mod plant;

@@ -2,8 +2,11 @@
 //! by the seed), the wind's gusts and the damped oscillators that move it, and the scatterers
 //! of one pose.
 
-use super::*;
-
+use super::{PlantParams, WindParams};
+use num_complex::Complex64;
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
 type V3 = [f64; 3];
 
 fn add(a: V3, b: V3) -> V3 {

@@ -22,7 +22,6 @@
 //! threads. [`cmd_oracle`] is the slow, literal f64 reference used by the
 //! tests.
 
-use num_complex::Complex;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};

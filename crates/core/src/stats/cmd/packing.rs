@@ -1,8 +1,14 @@
 //! Packing of the normalised data matrix into f32 panels: the layout of a product (Gram or
 //! pixel-pair form), panel ranges, and the blocks the micro-kernels read.
 
-use super::*;
-
+use super::block_panels;
+use super::Normalised;
+use super::BLOCK;
+use super::KC_MAX;
+use super::MR;
+use super::NR;
+use rayon::prelude::*;
+use std::ops::Range;
 /// Which axis of A is the item axis of a product.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(super) enum View {

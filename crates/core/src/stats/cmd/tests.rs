@@ -4,6 +4,7 @@
 //! pool sizes.
 
 use super::*;
+use num_complex::Complex;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -1,8 +1,16 @@
 //! Line charts: overlaid histograms and named curves over a swept parameter, with a legend
 //! placed in the emptiest corner.
 
-use super::*;
-
+use super::{
+    cache, check_stem, finite_range, input_err, render, text, DrawResult, Figure, FigureError,
+};
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, VPos};
+use std::error::Error;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
 /// Pixel size of histogram and curve figures.
 pub(super) const CHART_SIZE: (u32, u32) = (800, 520);
 

@@ -1,8 +1,15 @@
 //! Grids of heat maps (levels x directions, or any panels) that share one colour scale and
 //! one colour bar; NaN cells are grey.
 
-use super::*;
+use super::{
+    cache, check_stem, finite_range, fmt_tick, input_err, nice_step, render, resample, text, vtext,
+    ColourMap, DrawResult, Figure, FigureError, Panel, Raster, Scale, NAN_RGB,
+};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, VPos};
 use rayon::prelude::*;
+use std::path::{Path, PathBuf};
 
 /// Side of a panel's plot square in pixels (divisible by 32, 16 and 8: crisp level maps).
 pub(super) const PANEL: u32 = 224;

@@ -2,7 +2,16 @@
 //! (ch. 5.3.8-5.3.9, Table 23, Figs. 73-74), its fields and their check against the clutter
 //! dataset.
 
-use super::*;
+use super::{
+    check_common, check_methods, data_ref, fit_samples, generated_samples, half_width, levels,
+    location_repeats, too_many_trainings, DataRef, MAX_TRAININGS,
+};
+use crate::apps::cnn::classification::Source;
+use crate::apps::cnn::location::{TargetKind, MIN_SIDE};
+use crate::apps::cnn::net::{Arch, NetConfig};
+use crate::apps::cnn::train::{Protocol, TrainingOptions};
+use crate::experiment::{Ctx, SpecError};
+use serde::{Deserialize, Serialize};
 
 /// `location:` section (5.3.8-5.3.9, Figs. 68-74).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]

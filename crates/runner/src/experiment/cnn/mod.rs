@@ -4,17 +4,15 @@
 //! YAML path, before anything runs. This file holds what they share: the datasets they read,
 //! the method list, the training settings and the ceiling on trainings.
 
-use super::*;
-
+use super::{Ctx, Dataset, SpecError};
 mod classification;
 mod location;
 
-use crate::apps::cnn::classification::{held_out, Normalise, Source};
-use crate::apps::cnn::location::{TargetKind, MIN_SIDE};
-use crate::apps::cnn::net::{Arch, NetConfig};
-use crate::apps::cnn::train::{Protocol, TrainingOptions};
+use crate::apps::cnn::classification::{Normalise, Source};
+use crate::apps::cnn::train::TrainingOptions;
 pub use classification::{ClassificationPlan, ClassificationSpec};
 pub use location::{LocationPlan, LocationSpec};
+use serde::{Deserialize, Serialize};
 
 /// One value or a list of values.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
