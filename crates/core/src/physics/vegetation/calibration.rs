@@ -49,6 +49,11 @@ pub struct PlantFit {
     pub achieved: [f64; 2],
     /// Simulations the fit ran (each of `samples` images).
     pub evaluations: usize,
+    /// Per seed of the fit (in [`fit_seeds`] order), the no-wind and light-wind variances with
+    /// the fitted factors: `achieved` is their mean, and a check can simulate one seed instead
+    /// of all (empty in records before it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub per_seed: Vec<[f64; 2]>,
 }
 
 /// The whole record: how the fit ran and its result per plant.
@@ -303,10 +308,16 @@ pub fn fit_variance(
             }
         }
         let gain = (none / base_none).sqrt();
-        let achieved = [
-            variance(plant, "none", (gain, motion), at, samples, seeds)?,
-            variance(plant, "light", (gain, motion), at, samples, seeds)?,
-        ];
+        let mut per_seed = Vec::with_capacity(seeds.len());
+        for &seed in seeds {
+            per_seed.push([
+                variance_at(plant, "none", (gain, motion), at, samples, seed)?,
+                variance_at(plant, "light", (gain, motion), at, samples, seed)?,
+            ]);
+        }
+        // Summed in seed order and divided, as `variance` does.
+        let mean = |w: usize| per_seed.iter().map(|v| v[w]).sum::<f64>() / seeds.len() as f64;
+        let achieved = [mean(0), mean(1)];
         fits.push(PlantFit {
             plant: plant.clone(),
             gain,
@@ -314,6 +325,7 @@ pub fn fit_variance(
             target: [*none, *light],
             achieved,
             evaluations: (evaluations + 2) * seeds.len(),
+            per_seed,
         });
     }
     Ok(fits)
