@@ -48,7 +48,8 @@ fn tables_3_and_4_match_the_dissertation() {
     let dir = tempfile::tempdir().unwrap();
     let (recipes, runs) = run(dir.path(), &[3, 4]);
     let doc = dir.path().join("reproduction.md");
-    let counts = rep::write(&recipes, &runs, &doc, &header()).unwrap();
+    let (counts, missing) = rep::write(&recipes, &runs, &doc, &header()).unwrap();
+    assert!(missing.is_empty(), "{missing:?}");
     // Table 3: 9 lags x 2 columns; Table 4: 3 levels x 3 directions.
     assert_eq!(
         counts.get(&Verdict::Matches).copied(),

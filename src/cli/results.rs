@@ -114,7 +114,7 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         builds: vec![],
         missing: vec![],
     };
-    let (_, missing) = rep::complete_folders(&runs)?;
+    let (counts, missing) = rep::write(&coverage, &runs, &doc, &header)?;
     for m in &missing {
         eprintln!(
             "warning: {}: {}: the document names it; its cells and claims use the other repeats",
@@ -122,7 +122,6 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
             m.why
         );
     }
-    let counts = rep::write(&coverage, &runs, &doc, &header)?;
     let n = |v| counts.get(&v).copied().unwrap_or(0);
     eprintln!(
         "{}: {} cells match, {} differ",

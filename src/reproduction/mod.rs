@@ -410,17 +410,16 @@ pub fn complete_folders(runs: &[SpecRuns]) -> Result<(Vec<SpecRuns>, Vec<Missing
 }
 
 /// Evaluates every recipe and writes the document to `doc` (atomically); the counts of
-/// verdicts.
+/// verdicts, and the folders it names as missing or incomplete ([`complete_folders`]).
 ///
 /// # Errors
-/// If a folder is damaged or incomplete (nothing is written then), or the document cannot be
-/// written.
+/// If a folder is damaged (nothing is written then), or the document cannot be written.
 pub fn write(
     coverage: &Coverage,
     runs: &[SpecRuns],
     doc: &Path,
     header: &render::Header,
-) -> Result<BTreeMap<Verdict, usize>> {
+) -> Result<(BTreeMap<Verdict, usize>, Vec<Missing>)> {
     let (complete, missing) = complete_folders(runs)?;
     let runs = complete.as_slice();
     let dissertation = reference::Dissertation::load()?;
@@ -502,7 +501,7 @@ pub fn write(
         Ok(())
     })
     .with_context(|| format!("writing {}", doc.display()))?;
-    Ok(counts)
+    Ok((counts, missing))
 }
 
 /// The tool's numbers of every evaluated table, for the file beside the document
