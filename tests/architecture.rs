@@ -454,7 +454,7 @@ fn the_reader_sees_an_import_the_graph_must_hold() {
     // parquet` the tables crate's, its `crate::stats::analysis` the core's.
     let store = &g[&root().join("crates/runner/src/run/scheduler.rs")];
     assert!(store.contains(&core.join("lib.rs")), "{store:?}");
-    let merge = &g[&root().join("crates/runner/src/run/merge.rs")];
+    let merge = &g[&root().join("crates/runner/src/run/merge/rows.rs")];
     assert!(merge.contains(&tables.join("io/parquet.rs")), "{merge:?}");
     // And a circle made on purpose is found.
     let mut g2 = g.clone();
@@ -708,7 +708,7 @@ fn long_functions(text: &str, limit: usize) -> Vec<(usize, String, bool)> {
 
 /// Functions over 100 lines in the tree, reasoned or not: the count only goes down (lower it
 /// when a long function is split; issue 47 found 24).
-const LONG_FUNCTIONS_AT_MOST: usize = 22;
+const LONG_FUNCTIONS_AT_MOST: usize = 20;
 
 #[test]
 fn no_function_over_100_lines_without_a_reason() {

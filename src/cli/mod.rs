@@ -12,6 +12,6 @@ pub mod run;
 /// If the pool's threads cannot be started.
 pub fn pool(jobs: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
     Ok(rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs.unwrap_or_else(isar_clutter::run::scheduler::default_threads))
+        .num_threads(jobs.unwrap_or_else(isar_clutter::run::options::default_threads))
         .build()?)
 }

@@ -4,7 +4,7 @@
 use super::args::{CalibratePlantsArgs, ReportArgs, ReproduceArgs, TableArgs};
 use super::pool;
 use anyhow::Result;
-use isar_clutter::run::scheduler;
+use isar_clutter::run::options;
 use std::process::ExitCode;
 
 /// `table`: the standard comparison tables (or one) of a results folder.
@@ -78,7 +78,7 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         specs,
         repeats,
         cnn_repeats,
-        threads: jobs.unwrap_or_else(scheduler::default_threads),
+        threads: jobs.unwrap_or_else(options::default_threads),
         write_only,
         only: only.clone(),
         quiet,

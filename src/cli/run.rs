@@ -5,8 +5,8 @@ use super::args::{MergeArgs, RunArgs, SlurmArgs, StatusArgs, ValidateArgs};
 use super::pool;
 use anyhow::{Context, Result};
 use isar_clutter::run::estimate;
+use isar_clutter::run::options::{self, RunOptions};
 use isar_clutter::run::plan::{self, Plan};
-use isar_clutter::run::scheduler::{self, RunOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -36,7 +36,7 @@ pub fn run(a: RunArgs) -> Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let out = out.unwrap_or_else(|| PathBuf::from("outputs").join(&plan.spec.name));
-    let mut opts = RunOptions::new(out, jobs.unwrap_or_else(scheduler::default_threads));
+    let mut opts = RunOptions::new(out, jobs.unwrap_or_else(options::default_threads));
     opts.quiet = quiet;
     opts.max_memory = max_memory;
     opts.fresh = fresh;
@@ -103,12 +103,11 @@ pub fn merge(a: MergeArgs) -> Result<ExitCode> {
     } = a;
     let mut opts = RunOptions::new(
         results.clone(),
-        jobs.unwrap_or_else(scheduler::default_threads),
+        jobs.unwrap_or_else(options::default_threads),
     );
     opts.quiet = quiet;
     opts.report_follows = !no_report;
-    let merged =
-        pool(jobs)?.install(|| isar_clutter::run::merge::merge(&results, &opts, partial))?;
+    let merged = pool(jobs)?.install(|| isar_clutter::run::merge::merge(&opts, partial))?;
     for note in &merged.notes {
         eprintln!("note: {note}");
     }
@@ -141,7 +140,7 @@ pub fn merge(a: MergeArgs) -> Result<ExitCode> {
 /// What the command cannot do, naming the file or the job.
 pub fn status(a: StatusArgs) -> Result<ExitCode> {
     let StatusArgs { results } = a;
-    print!("{}", isar_clutter::run::merge::status(&results)?);
+    print!("{}", isar_clutter::run::status::list(&results)?);
     Ok(ExitCode::SUCCESS)
 }
 

@@ -12,7 +12,7 @@ use crate::physics::vegetation::calibration::{
     fit_seeds, fit_variance, FitRecord, MotionScales, PlantFit, SimilarityFit, TableResidual,
 };
 use crate::physics::vegetation::PlantParams;
-use crate::run::{driver, plan, scheduler::RunOptions};
+use crate::run::{driver, options::RunOptions, plan};
 use crate::stats::optimise::nelder_mead;
 use anyhow::{Context, Result};
 use std::io::Write as _;
@@ -235,7 +235,7 @@ fn residuals(
         std::fs::remove_dir_all(&dir)?;
     }
     let plan = plan::load(&file)?;
-    let mut ro = RunOptions::new(dir.clone(), crate::run::scheduler::default_threads());
+    let mut ro = RunOptions::new(dir.clone(), crate::run::options::default_threads());
     ro.quiet = true;
     ro.progress_bar = false;
     let summary = driver::run(&plan, &ro)?;

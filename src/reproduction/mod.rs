@@ -26,7 +26,7 @@ pub mod render;
 pub mod sections;
 pub mod solver;
 
-use crate::run::{driver, plan, scheduler::RunOptions};
+use crate::run::{driver, options::RunOptions, plan};
 use anyhow::{Context, Result};
 use compare::{Spread, Summary, Verdict};
 use extract::{Recipe, Tables};
