@@ -11,6 +11,7 @@ use crate::io::manifest::{Job, Manifest};
 use crate::io::results::{self, Table};
 use anyhow::Result;
 use serde_json::Value as Json;
+use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -91,9 +92,6 @@ fn sections_html(h: &mut String, sections: &[cnn::Section]) {
 
 /// The HTML page: the standard tables, the CNN applications' sections, the run-wide and the
 /// chosen jobs' figures (`figures`, in that order), the spec and the provenance.
-///
-/// Long because the page is written top to bottom in one pass, each section a few lines of HTML
-/// that share the selection and the manifest.
 pub(super) fn page(
     dir: &Path,
     manifest: &Manifest,
@@ -121,7 +119,6 @@ pub(super) fn page(
         "<nav><a href=\"#tables\">Tables</a>{apps}<a href=\"#figures\">Figures</a><a href=\"#spec\">Spec</a><a href=\"#provenance\">Provenance</a></nav>"
     );
     let _ = writeln!(h, "<h2 id=\"tables\">Tables</h2>");
-    let mut any = false;
     let chosen = selection.set();
     // A big run's report: some jobs without their figures, or more jobs than a table shows.
     let big = selection.limited || manifest.jobs.len() > TABLE_ROWS;
@@ -129,6 +126,29 @@ pub(super) fn page(
         jobs: &chosen,
         max_rows: TABLE_ROWS,
     });
+    tables_html(&mut h, dir, limit)?;
+    sections_html(&mut h, sections);
+    let _ = writeln!(h, "<h2 id=\"figures\">Figures</h2>");
+    if selection.limited {
+        selection_html(&mut h, dir, selection);
+    }
+    figures_html(&mut h, figures);
+    let spec_yaml = serde_yaml_ng::to_string(&manifest.spec).unwrap_or_default();
+    let _ = writeln!(
+        h,
+        "<h2 id=\"spec\">Spec</h2>\n<p>File {} (SHA-256 {}), with defaults filled in:</p>\n<pre>{}</pre>",
+        escape(&manifest.spec_file),
+        escape(&manifest.spec_hash_sha256),
+        escape(&spec_yaml)
+    );
+    provenance_html(&mut h, dir, manifest, big.then_some(&chosen));
+    Ok(h)
+}
+
+/// The standard tables (at most `limit`'s rows each, and then a note saying which), each with
+/// a link to its file.
+fn tables_html(h: &mut String, dir: &Path, limit: Option<RowLimit>) -> Result<()> {
+    let mut any = false;
     for def in table::standard() {
         let Some(t) = table::render_limited(dir, &def, &[], None, Format::Html, false, limit)?
         else {
@@ -156,11 +176,11 @@ pub(super) fn page(
     if !any {
         let _ = writeln!(h, "<p>No tables with rows.</p>");
     }
-    sections_html(&mut h, sections);
-    let _ = writeln!(h, "<h2 id=\"figures\">Figures</h2>");
-    if selection.limited {
-        selection_html(&mut h, dir, selection);
-    }
+    Ok(())
+}
+
+/// The figures, under a heading per job (the run-wide ones first, under their own).
+fn figures_html(h: &mut String, figures: &[Figure]) {
     let mut current = None;
     for f in figures {
         if current != Some(&f.job) {
@@ -174,14 +194,17 @@ pub(super) fn page(
         }
         let _ = writeln!(h, "{}", figure_html(f));
     }
-    let spec_yaml = serde_yaml_ng::to_string(&manifest.spec).unwrap_or_default();
-    let _ = writeln!(
-        h,
-        "<h2 id=\"spec\">Spec</h2>\n<p>File {} (SHA-256 {}), with defaults filled in:</p>\n<pre>{}</pre>",
-        escape(&manifest.spec_file),
-        escape(&manifest.spec_hash_sha256),
-        escape(&spec_yaml)
-    );
+}
+
+/// The provenance: the tool, commit, seeds, threads and time, then the jobs' table (with
+/// `chosen`, a big run's: only the jobs with figures and those not ok, at most
+/// [`TABLE_ROWS`]) and the links to the full record and the tables.
+fn provenance_html(
+    h: &mut String,
+    dir: &Path,
+    manifest: &Manifest,
+    chosen: Option<&BTreeSet<&str>>,
+) {
     let _ = writeln!(h, "<h2 id=\"provenance\">Provenance</h2>\n<table><tbody>");
     // Numbers as JSON prints them (`null` for one the manifest lacks).
     let json = |v: Json| v.to_string();
@@ -211,13 +234,13 @@ pub(super) fn page(
     }
     let _ = writeln!(h, "</tbody></table>\n<table><thead><tr><th>job</th><th>dataset</th><th>method</th><th>status</th><th>seed</th><th>data seed</th><th>generation seed</th><th>elapsed (s)</th><th>error</th></tr></thead><tbody>");
     let jobs = &manifest.jobs;
-    let shown: Vec<&Job> = if big {
-        jobs.iter()
+    let shown: Vec<&Job> = match chosen {
+        Some(chosen) => jobs
+            .iter()
             .filter(|j| !j.ok() || chosen.contains(j.job.as_str()))
             .take(TABLE_ROWS)
-            .collect()
-    } else {
-        jobs.iter().collect()
+            .collect(),
+        None => jobs.iter().collect(),
     };
     for j in &shown {
         let s = |k: &str| match j.field(k) {
@@ -258,7 +281,6 @@ pub(super) fn page(
             .collect::<Vec<_>>()
             .join(", ")
     );
-    Ok(h)
 }
 
 /// The note of a big run's report on which jobs have figures, and where the others' are.

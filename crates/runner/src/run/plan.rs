@@ -198,9 +198,6 @@ pub fn load(file: &Path) -> Result<Plan, SpecError> {
 ///
 /// # Errors
 /// As [`load`].
-///
-/// Long because it builds the plan in order (spec, sweep points, jobs, seeds, checks), each step
-/// using the one before.
 pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
     let bytes = std::fs::read(file)
         .map_err(|e| SpecError::at(file, ".", format!("cannot read the spec: {e}")))?;
@@ -218,62 +215,7 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
     let metrics = experiment::check_metrics(&spec, &ctx)?;
     let axes = parse_axes(&spec, &ctx)?;
     let points = sweep_points(&axes, &ctx)?;
-    let mut jobs: Vec<Job> = Vec::new();
-    let mut seen = std::collections::HashSet::new();
-    let methods: Vec<Option<Method>> = std::iter::once(None)
-        .chain(
-            spec.synthesis
-                .iter()
-                .flat_map(|s| s.methods.iter().copied().map(Some)),
-        )
-        .collect();
-    for (i, ds) in spec.datasets.iter().enumerate() {
-        for point in &points {
-            for &method in &methods {
-                let applied: Vec<&(usize, usize)> = point
-                    .iter()
-                    .filter(|(a, _)| axes[*a].applies_to(ds, method))
-                    .collect();
-                let pairs = applied
-                    .iter()
-                    .map(|&&(a, v)| (axes[a].short.clone(), axes[a].json[v].clone()))
-                    .collect();
-                let params = Params::new(pairs).map_err(|key| {
-                    let axis = applied
-                        .iter()
-                        .map(|&&(a, _)| &axes[a])
-                        .filter(|axis| axis.short == key)
-                        .nth(1)
-                        .expect("a key given twice");
-                    ctx.err(
-                        &axis.at,
-                        format!("another sweep axis also sets `{key}` of dataset {}", ds.id),
-                    )
-                })?;
-                let identity = identity(&ds.id, method, &params);
-                // Identities seen, by their 128-bit hash (a collision, about 2^-100 for a
-                // million jobs, would drop a job): a set of the strings held a second copy
-                // of every identity while the plan was built.
-                if !seen.insert(xxhash_rust::xxh3::xxh3_128(identity.as_bytes())) {
-                    continue;
-                }
-                if jobs.len() == MAX_JOBS {
-                    return Err(too_many_jobs(&spec, points.len(), methods.len(), &ctx));
-                }
-                let job = build_job(
-                    &spec,
-                    &raw,
-                    &ctx,
-                    (i, ds, method),
-                    &axes,
-                    &applied,
-                    params,
-                    identity,
-                )?;
-                jobs.push(job);
-            }
-        }
-    }
+    let mut jobs = expand(&spec, &raw, &ctx, &axes, &points)?;
     for job in &mut jobs {
         check_job_metrics(&spec, &metrics, &ctx, job)?;
     }
@@ -328,6 +270,78 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
         classification,
         location,
     })
+}
+
+/// The jobs of the spec: every dataset at every sweep point, analysed and synthesised with each
+/// method, the axes that apply to it setting its parameters; a job whose identity repeats
+/// another's (an axis that does not apply) is listed once. Ids and metrics come after.
+///
+/// # Errors
+/// When two axes set the same parameter of a dataset, or the jobs pass [`MAX_JOBS`].
+fn expand(
+    spec: &RawSpec,
+    raw: &Yaml,
+    ctx: &Ctx,
+    axes: &[Axis],
+    points: &[Vec<(usize, usize)>],
+) -> Result<Vec<Job>, SpecError> {
+    let mut jobs: Vec<Job> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    let methods: Vec<Option<Method>> = std::iter::once(None)
+        .chain(
+            spec.synthesis
+                .iter()
+                .flat_map(|s| s.methods.iter().copied().map(Some)),
+        )
+        .collect();
+    for (i, ds) in spec.datasets.iter().enumerate() {
+        for point in points {
+            for &method in &methods {
+                let applied: Vec<&(usize, usize)> = point
+                    .iter()
+                    .filter(|(a, _)| axes[*a].applies_to(ds, method))
+                    .collect();
+                let pairs = applied
+                    .iter()
+                    .map(|&&(a, v)| (axes[a].short.clone(), axes[a].json[v].clone()))
+                    .collect();
+                let params = Params::new(pairs).map_err(|key| {
+                    let axis = applied
+                        .iter()
+                        .map(|&&(a, _)| &axes[a])
+                        .filter(|axis| axis.short == key)
+                        .nth(1)
+                        .expect("a key given twice");
+                    ctx.err(
+                        &axis.at,
+                        format!("another sweep axis also sets `{key}` of dataset {}", ds.id),
+                    )
+                })?;
+                let identity = identity(&ds.id, method, &params);
+                // Identities seen, by their 128-bit hash (a collision, about 2^-100 for a
+                // million jobs, would drop a job): a set of the strings held a second copy
+                // of every identity while the plan was built.
+                if !seen.insert(xxhash_rust::xxh3::xxh3_128(identity.as_bytes())) {
+                    continue;
+                }
+                if jobs.len() == MAX_JOBS {
+                    return Err(too_many_jobs(spec, points.len(), methods.len(), ctx));
+                }
+                let job = build_job(
+                    spec,
+                    raw,
+                    ctx,
+                    (i, ds, method),
+                    axes,
+                    &applied,
+                    params,
+                    identity,
+                )?;
+                jobs.push(job);
+            }
+        }
+    }
+    Ok(jobs)
 }
 
 impl Plan {

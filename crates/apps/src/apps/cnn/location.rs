@@ -7,7 +7,8 @@
 //! variance.
 
 use super::train::Labelled;
-use num_complex::Complex32;
+use ndarray::{Array3, ArrayView3, Axis};
+use num_complex::{Complex32, Complex64};
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -118,6 +119,99 @@ pub fn with_targets(
         set.push(&img, label);
     }
     set
+}
+
+/// How a location experiment's clutter stack is split (5.3.8.2): one seeded permutation of its
+/// samples; the methods are fitted on its first `fit` samples, `original`'s network trains and
+/// validates on its first `originals` (the fit part among them), and every network is tested on
+/// the rest (on every sample with `test_all`, the dissertation's own protocol).
+pub struct Split {
+    perm: Vec<usize>,
+    fit: usize,
+    originals: usize,
+    test_all: bool,
+}
+
+impl Split {
+    /// The split of `n` samples, permuted with `seed`.
+    pub fn new(n: usize, seed: u64, fit: usize, originals: usize, test_all: bool) -> Self {
+        Split {
+            perm: super::classification::permutation(n, seed),
+            fit,
+            originals,
+            test_all,
+        }
+    }
+
+    /// The samples the methods are fitted on.
+    pub fn fit(&self, stack: &ArrayView3<Complex64>) -> Array3<Complex64> {
+        stack.select(Axis(0), &self.perm[..self.fit])
+    }
+
+    /// `original`'s samples, training then validation.
+    pub fn originals(&self, stack: &ArrayView3<Complex64>) -> Array3<Complex64> {
+        stack.select(Axis(0), &self.perm[..self.originals])
+    }
+
+    /// The test samples.
+    pub fn test(&self, stack: &ArrayView3<Complex64>) -> Array3<Complex64> {
+        let from = if self.test_all { 0 } else { self.originals };
+        stack.select(Axis(0), &self.perm[from..])
+    }
+}
+
+/// `P_c`: the mean over the image of the per-pixel variance of `stack` (`[N, H, W]`, the
+/// unbiased variance over its samples), the power a target's SCR is relative to.
+pub fn clutter_power(stack: &ArrayView3<Complex64>) -> f64 {
+    let (n, h, w) = stack.dim();
+    let mean = stack.mean_axis(Axis(0)).expect("samples");
+    stack
+        .axis_iter(Axis(0))
+        .map(|plane| {
+            plane
+                .iter()
+                .zip(mean.iter())
+                .map(|(z, m)| (z - m).norm_sqr())
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / ((n.max(2) - 1) * h * w) as f64
+}
+
+/// The values of `stack` in single precision, sample after sample (row-major).
+pub fn single(stack: &ArrayView3<Complex64>) -> Vec<Complex32> {
+    stack
+        .iter()
+        .map(|z| Complex32::new(z.re as f32, z.im as f32))
+        .collect()
+}
+
+/// The training images the report shows (Fig. 72): samples 0, 6, 12, 18 and 24 of `set`, one
+/// per row of the grid (sample `k` has its target at location `k mod 25`), as `[5, h, w]`; a
+/// sample past the set's end stays zero.
+pub fn examples(set: &Labelled, h: usize, w: usize) -> Array3<Complex32> {
+    let picks = [0usize, 6, 12, 18, 24];
+    let pixels = h * w;
+    let mut ex = Array3::<Complex32>::zeros((picks.len(), h, w));
+    for (k, &l) in picks.iter().enumerate() {
+        if l < set.len() {
+            ex.index_axis_mut(Axis(0), k)
+                .as_slice_mut()
+                .expect("standard layout")
+                .copy_from_slice(&set.images[l * pixels..(l + 1) * pixels]);
+        }
+    }
+    ex
+}
+
+/// The names of the network's outputs, one per location: `row<r>_col<c>` at its centre.
+pub fn output_names() -> Vec<String> {
+    (0..LOCATIONS)
+        .map(|l| {
+            let (r, c) = centre(l);
+            format!("row{r}_col{c}")
+        })
+        .collect()
 }
 
 /// Where mean accuracy first reaches `level` along increasing SCR, linearly interpolated

@@ -140,14 +140,8 @@ impl Loaded {
     }
 }
 
-/// Loads a network saved by [`save`], checking every file's shape and finiteness.
-///
-/// # Errors
-/// A message naming the folder and the file for a missing, misshapen or non-finite file.
-///
-/// Long because each file of the network folder is read and checked (shape, finite values) with its
-/// own message.
-pub fn load(dir: &Path) -> Result<Loaded> {
+/// The network's description, `network.json`, checked: its format, geometry and class names.
+fn read_info(dir: &Path) -> Result<NetworkInfo> {
     let json = dir.join("network.json");
     let text = std::fs::read_to_string(&json)
         .with_context(|| format!("{}: cannot read", json.display()))?;
@@ -171,8 +165,14 @@ pub fn load(dir: &Path) -> Result<Loaded> {
             info.config.classes
         );
     }
+    Ok(info)
+}
+
+/// The network's arrays in the order of [`files`], each checked for its shape and finite
+/// values.
+fn read_arrays(dir: &Path, config: &NetConfig) -> Result<Vec<Vec<f32>>> {
     let mut arrays = vec![];
-    for (name, shape) in files(&info.config) {
+    for (name, shape) in files(config) {
         let path = dir.join(format!("{name}.npy"));
         let header = crate::io::npy::read_raw_header(&path)?;
         if header.shape != shape {
@@ -190,6 +190,16 @@ pub fn load(dir: &Path) -> Result<Loaded> {
         }
         arrays.push(a.into_raw_vec_and_offset().0);
     }
+    Ok(arrays)
+}
+
+/// Loads a network saved by [`save`], checking every file's shape and finiteness.
+///
+/// # Errors
+/// A message naming the folder and the file for a missing, misshapen or non-finite file.
+pub fn load(dir: &Path) -> Result<Loaded> {
+    let info = read_info(dir)?;
+    let arrays = read_arrays(dir, &info.config)?;
     let device: burn::tensor::Device<Cpu> = Default::default();
     let cfg = info.config;
     let mut rest: Vec<(Vec<usize>, Vec<f32>)> = files(&cfg)

@@ -88,9 +88,6 @@ impl OutDir {
     ///
     /// # Errors
     /// As above; every message names the folder and says why.
-    ///
-    /// Long because each state a folder can be in (new, empty, the tool's, another tool's, locked,
-    /// in progress) is handled with its own message.
     pub fn claim(root: &Path, name: Option<&str>, purpose: Purpose) -> Result<OutDir> {
         match fs::symlink_metadata(root) {
             Ok(m) if !m.is_dir() => bail!(
@@ -140,10 +137,17 @@ impl OutDir {
         // What the folder held may have changed while the lock was not ours (a run of another
         // experiment that finished a moment ago).
         check_owner(root, name, purpose)?;
-        // A shard runs beside other shards, never beside a whole run or a merge; those run
-        // beside nothing. Each writer takes its own lock before it looks at the others', so of
-        // two started at once at least one sees the other.
-        let conflicts = lock::other_locks(root, &dir.lock)?;
+        dir.check_no_other_writer(purpose)?;
+        dir.prepare(&state, name, purpose, &me)?;
+        Ok(dir)
+    }
+
+    /// Refuses when another writer holds the folder: a shard runs beside other shards, never
+    /// beside a whole run or a merge; those run beside nothing. Each writer takes its own lock
+    /// before it looks at the others', so of two started at once at least one sees the other.
+    fn check_no_other_writer(&self, purpose: Purpose) -> Result<()> {
+        let root = &self.root;
+        let conflicts = lock::other_locks(root, &self.lock)?;
         let blocking: Vec<String> = conflicts
             .into_iter()
             .filter(|(name, _)| !matches!(purpose, Purpose::Shard { .. }) || name == "lock")
@@ -156,6 +160,21 @@ impl OutDir {
                 root.display(),
             );
         }
+        Ok(())
+    }
+
+    /// Readies a claimed folder: its owner marker written (for a named experiment), the
+    /// temporary files of dead writers removed (not by a shard: other shards' are alive), and
+    /// for a run or a shard the folder marked in progress and its manifest moved aside; then
+    /// the journal opened.
+    fn prepare(
+        &mut self,
+        state: &Path,
+        name: Option<&str>,
+        purpose: Purpose,
+        me: &Holder,
+    ) -> Result<()> {
+        let root = self.root.clone();
         if let Some(name) = name {
             let owner = serde_json::json!({"tool": crate::TOOL, "name": name});
             let marker = state.join("owner.json");
@@ -171,16 +190,16 @@ impl OutDir {
         let removed = if matches!(purpose, Purpose::Shard { .. }) {
             0 // other shards may be writing: their temporary files are alive
         } else {
-            dir.remove_dead_temporaries()?
+            self.remove_dead_temporaries()?
         };
         if removed > 0 {
-            dir.notes.push(format!(
+            self.notes.push(format!(
                 "removed {removed} temporary file(s) left by an interrupted writer in {}",
                 root.display()
             ));
         }
         if matches!(purpose, Purpose::Run | Purpose::Shard { .. }) {
-            write_json(&state.join("in-progress"), &me)?;
+            write_json(&state.join("in-progress"), me)?;
             let manifest = root.join("manifest.json");
             match fs::rename(&manifest, state.join("previous-manifest.json")) {
                 // Another shard moved it first, or there was none.
@@ -196,8 +215,8 @@ impl OutDir {
             .append(true)
             .open(state.join("journal"))
             .with_context(|| format!("cannot open {}/{STATE}/journal", root.display()))?;
-        journal::open(&dir.abs, file)?;
-        Ok(dir)
+        journal::open(&self.abs, file)?;
+        Ok(())
     }
 
     /// The folder.

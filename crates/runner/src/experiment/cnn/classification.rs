@@ -76,49 +76,10 @@ impl ClassificationSpec {
     ///
     /// # Errors
     /// A [`SpecError`] with the YAML path of the first problem.
-    ///
-    /// Long because each field of the CNN sections is checked in turn, each with its YAML path and
-    /// message.
     pub fn validate(&self, ctx: &Ctx, stacks: &[DataRef]) -> Result<ClassificationPlan, SpecError> {
         let at = "classification";
-        if self.classes.len() < 2 {
-            return Err(ctx.err(
-                format!("{at}.classes"),
-                "name at least 2 classes (dataset ids)",
-            ));
-        }
-        let mut classes: Vec<DataRef> = vec![];
-        for (i, id) in self.classes.iter().enumerate() {
-            if self.classes[..i].contains(id) {
-                return Err(ctx.err(
-                    format!("{at}.classes[{i}]"),
-                    format!("{id} is listed twice"),
-                ));
-            }
-            classes.push(data_ref(ctx, format!("{at}.classes[{i}]"), id, stacks)?);
-        }
+        let classes = self.check_classes(ctx, at, stacks)?;
         let (_, h, w) = classes[0].dataset.shape();
-        for (i, c) in classes.iter().enumerate() {
-            let (n, hc, wc) = c.dataset.shape();
-            if (hc, wc) != (h, w) {
-                return Err(ctx.err(
-                    format!("{at}.classes[{i}]"),
-                    format!(
-                        "class {} has {hc}x{wc} images, class {} has {h}x{w}: every class needs one image size",
-                        c.id, classes[0].id
-                    ),
-                ));
-            }
-            if n < 4 {
-                return Err(ctx.err(
-                    format!("{at}.classes[{i}]"),
-                    format!(
-                        "class {} has {n} samples; a fit part and a test part need at least 4",
-                        c.id
-                    ),
-                ));
-            }
-        }
         let net = NetConfig {
             arch: Arch::Table18,
             height: h,
@@ -161,6 +122,82 @@ impl ClassificationSpec {
             self.levels,
             &sources,
         )?;
+        self.check_train_sizes(ctx, at, &classes, &sources)?;
+        let trainings =
+            (normalise.len() * sources.len() * self.train_sizes.len()).saturating_mul(self.repeats);
+        if trainings > MAX_TRAININGS {
+            return Err(too_many_trainings(ctx, at, trainings, self.repeats));
+        }
+        let largest = self.train_sizes.iter().copied().max().unwrap_or(0);
+        Ok(ClassificationPlan {
+            training: self.training.for_largest(largest),
+            spec: self.clone(),
+            classes,
+            normalise,
+            sources,
+            net,
+        })
+    }
+
+    /// The classes (dataset ids, at least 2, each once) resolved to the plan's stacks, of one
+    /// image size and at least 4 samples each.
+    fn check_classes(
+        &self,
+        ctx: &Ctx,
+        at: &str,
+        stacks: &[DataRef],
+    ) -> Result<Vec<DataRef>, SpecError> {
+        if self.classes.len() < 2 {
+            return Err(ctx.err(
+                format!("{at}.classes"),
+                "name at least 2 classes (dataset ids)",
+            ));
+        }
+        let mut classes: Vec<DataRef> = vec![];
+        for (i, id) in self.classes.iter().enumerate() {
+            if self.classes[..i].contains(id) {
+                return Err(ctx.err(
+                    format!("{at}.classes[{i}]"),
+                    format!("{id} is listed twice"),
+                ));
+            }
+            classes.push(data_ref(ctx, format!("{at}.classes[{i}]"), id, stacks)?);
+        }
+        let (_, h, w) = classes[0].dataset.shape();
+        for (i, c) in classes.iter().enumerate() {
+            let (n, hc, wc) = c.dataset.shape();
+            if (hc, wc) != (h, w) {
+                return Err(ctx.err(
+                    format!("{at}.classes[{i}]"),
+                    format!(
+                        "class {} has {hc}x{wc} images, class {} has {h}x{w}: every class needs one image size",
+                        c.id, classes[0].id
+                    ),
+                ));
+            }
+            if n < 4 {
+                return Err(ctx.err(
+                    format!("{at}.classes[{i}]"),
+                    format!(
+                        "class {} has {n} samples; a fit part and a test part need at least 4",
+                        c.id
+                    ),
+                ));
+            }
+        }
+        Ok(classes)
+    }
+
+    /// Each training size: listed once, at least one sample per class, at most 1000000, and
+    /// (for a generated training set) mixing no more originals per class than the smallest
+    /// fit part holds.
+    fn check_train_sizes(
+        &self,
+        ctx: &Ctx,
+        at: &str,
+        classes: &[DataRef],
+        sources: &[Source],
+    ) -> Result<(), SpecError> {
         if self.train_sizes.is_empty() {
             return Err(ctx.err(format!("{at}.train_sizes"), "name at least one size"));
         }
@@ -199,19 +236,6 @@ impl ClassificationSpec {
                 ));
             }
         }
-        let trainings =
-            (normalise.len() * sources.len() * self.train_sizes.len()).saturating_mul(self.repeats);
-        if trainings > MAX_TRAININGS {
-            return Err(too_many_trainings(ctx, at, trainings, self.repeats));
-        }
-        let largest = self.train_sizes.iter().copied().max().unwrap_or(0);
-        Ok(ClassificationPlan {
-            training: self.training.for_largest(largest),
-            spec: self.clone(),
-            classes,
-            normalise,
-            sources,
-            net,
-        })
+        Ok(())
     }
 }

@@ -317,10 +317,8 @@ impl DatasetKind for FilteredNoise {
     }
 }
 
-/// Checks a filtered-noise dataset's fields into its typed parameters.
-///
-/// Long because every family (exponential, dyadic, patterned maps) has its own fields, each
-/// checked with its YAML path.
+/// Checks a filtered-noise dataset's fields into its typed parameters, each with its YAML
+/// path; the family's filter by [`exponential_filter`] or [`dyadic_filter`].
 fn check_fields(spec: &Spec, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecError> {
     let family = spec.family.ok_or_else(|| {
         ctx.err(
@@ -354,72 +352,8 @@ fn check_fields(spec: &Spec, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecE
         }
     };
     let filter = match family {
-        Family::Exponential => {
-            let need = |p: &Option<ParamMap>, name: &str| -> Result<Map, SpecError> {
-                let p = p.as_ref().ok_or_else(|| {
-                    ctx.err(
-                        format!("{at}.{name}"),
-                        format!("family exponential needs `{name}`"),
-                    )
-                })?;
-                let m = p.check(ctx, &format!("{at}.{name}"), h, w)?;
-                check_range(
-                    ctx,
-                    &format!("{at}.{name}"),
-                    &m,
-                    |v| v != 0.0 && !v.is_nan(),
-                    "alpha must be non-zero (negative alpha: sign-alternating filter)",
-                )?;
-                Ok(m)
-            };
-            FilterParams::Exponential {
-                alpha_h: need(&spec.alpha_h, "alpha_h")?,
-                alpha_v: need(&spec.alpha_v, "alpha_v")?,
-            }
-        }
-        Family::Dyadic => {
-            let list = |p: &Option<Vec<ParamMap>>, name: &str| -> Result<Vec<Map>, SpecError> {
-                let p = p.as_ref().ok_or_else(|| {
-                    ctx.err(
-                        format!("{at}.{name}"),
-                        format!("family dyadic needs `{name}: [r_1, ..., r_L]`"),
-                    )
-                })?;
-                if p.is_empty() {
-                    return Err(ctx.err(format!("{at}.{name}"), "needs at least one parameter"));
-                }
-                let reach = crate::stats::filters::dyadic_reach(p.len());
-                if half_width < reach {
-                    return Err(ctx.err(format!("{at}.half_width"), format!("a {}-level dyadic filter reaches offset {reach}; half_width {half_width} would truncate it", p.len())));
-                }
-                p.iter()
-                    .enumerate()
-                    .map(|(i, m)| {
-                        let m = m.check(ctx, &format!("{at}.{name}[{i}]"), h, w)?;
-                        check_range(
-                            ctx,
-                            &format!("{at}.{name}[{i}]"),
-                            &m,
-                            f64::is_finite,
-                            "r must be finite",
-                        )?;
-                        Ok(m)
-                    })
-                    .collect()
-            };
-            let (r_h, r_v) = (list(&spec.r_h, "r_h")?, list(&spec.r_v, "r_v")?);
-            if r_h.len() != r_v.len() {
-                return Err(ctx.err(
-                    format!("{at}.r_v"),
-                    format!(
-                        "r_h has {} parameters, r_v {}; they must match",
-                        r_h.len(),
-                        r_v.len()
-                    ),
-                ));
-            }
-            FilterParams::Dyadic { r_h, r_v }
-        }
+        Family::Exponential => exponential_filter(spec, ctx, at, (h, w))?,
+        Family::Dyadic => dyadic_filter(spec, ctx, at, (h, w), half_width)?,
     };
     let std = map(&spec.std, "std", 1.0)?;
     check_range(
@@ -460,6 +394,88 @@ fn check_fields(spec: &Spec, ctx: &Ctx, at: &str) -> Result<FilteredNoise, SpecE
         std,
         texture_shape,
     })
+}
+
+/// The filter of family exponential: `alpha_h` and `alpha_v`, each a map of non-zero values.
+fn exponential_filter(
+    spec: &Spec,
+    ctx: &Ctx,
+    at: &str,
+    (h, w): (usize, usize),
+) -> Result<FilterParams, SpecError> {
+    let need = |p: &Option<ParamMap>, name: &str| -> Result<Map, SpecError> {
+        let p = p.as_ref().ok_or_else(|| {
+            ctx.err(
+                format!("{at}.{name}"),
+                format!("family exponential needs `{name}`"),
+            )
+        })?;
+        let m = p.check(ctx, &format!("{at}.{name}"), h, w)?;
+        check_range(
+            ctx,
+            &format!("{at}.{name}"),
+            &m,
+            |v| v != 0.0 && !v.is_nan(),
+            "alpha must be non-zero (negative alpha: sign-alternating filter)",
+        )?;
+        Ok(m)
+    };
+    Ok(FilterParams::Exponential {
+        alpha_h: need(&spec.alpha_h, "alpha_h")?,
+        alpha_v: need(&spec.alpha_v, "alpha_v")?,
+    })
+}
+
+/// The filter of family dyadic: `r_h` and `r_v`, lists of as many finite maps as levels, the
+/// levels' reach within `half_width`.
+fn dyadic_filter(
+    spec: &Spec,
+    ctx: &Ctx,
+    at: &str,
+    (h, w): (usize, usize),
+    half_width: usize,
+) -> Result<FilterParams, SpecError> {
+    let list = |p: &Option<Vec<ParamMap>>, name: &str| -> Result<Vec<Map>, SpecError> {
+        let p = p.as_ref().ok_or_else(|| {
+            ctx.err(
+                format!("{at}.{name}"),
+                format!("family dyadic needs `{name}: [r_1, ..., r_L]`"),
+            )
+        })?;
+        if p.is_empty() {
+            return Err(ctx.err(format!("{at}.{name}"), "needs at least one parameter"));
+        }
+        let reach = crate::stats::filters::dyadic_reach(p.len());
+        if half_width < reach {
+            return Err(ctx.err(format!("{at}.half_width"), format!("a {}-level dyadic filter reaches offset {reach}; half_width {half_width} would truncate it", p.len())));
+        }
+        p.iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let m = m.check(ctx, &format!("{at}.{name}[{i}]"), h, w)?;
+                check_range(
+                    ctx,
+                    &format!("{at}.{name}[{i}]"),
+                    &m,
+                    f64::is_finite,
+                    "r must be finite",
+                )?;
+                Ok(m)
+            })
+            .collect()
+    };
+    let (r_h, r_v) = (list(&spec.r_h, "r_h")?, list(&spec.r_v, "r_v")?);
+    if r_h.len() != r_v.len() {
+        return Err(ctx.err(
+            format!("{at}.r_v"),
+            format!(
+                "r_h has {} parameters, r_v {}; they must match",
+                r_h.len(),
+                r_v.len()
+            ),
+        ));
+    }
+    Ok(FilterParams::Dyadic { r_h, r_v })
 }
 
 /// A pixel's vertical and horizontal taps.

@@ -20,7 +20,8 @@ use crate::seeds::derive_seed;
 use crate::synthesis::CostSize;
 use crate::synthesis::FitOptions;
 use anyhow::{Context, Result};
-use ndarray::s;
+use ndarray::{s, Array3};
+use num_complex::Complex64;
 use polars::prelude::*;
 use serde_json::json;
 use std::sync::Arc;
@@ -96,6 +97,78 @@ impl ClassificationJob {
     }
 }
 
+/// The sets of a classification training, and how its training set was composed.
+struct Sets {
+    train: Labelled,
+    validation: Labelled,
+    test: Labelled,
+    /// Generated samples in the training set.
+    generated: usize,
+    /// Original samples in the training set.
+    originals: usize,
+    /// Whether the validation set reuses originals of the training set.
+    reused: bool,
+}
+
+impl ClassificationJob {
+    /// Each class's stack (consecutive in `all`) split into its fit and test parts; the method
+    /// fitted on the fit part; the training and validation sets composed of originals and
+    /// generated samples, balanced over the classes.
+    fn sets(&self, plan: &Plan, all: &Array3<Complex64>) -> Result<Sets> {
+        let cp = plan
+            .classification
+            .as_ref()
+            .expect("a classification section");
+        let k = self.classes.len();
+        let mut sets = Sets {
+            train: Labelled::default(),
+            validation: Labelled::default(),
+            test: Labelled::default(),
+            generated: 0,
+            originals: 0,
+            reused: false,
+        };
+        let mut first = 0;
+        for (c, class) in self.classes.iter().enumerate() {
+            let n = class.dataset.shape().0;
+            let stack = all.slice(s![first..first + n, .., ..]);
+            first += n;
+            let split_seed = derive_seed(plan.spec.seed, "cnn/classification/split", &class.id);
+            let data = split_class(stack, cp.spec.holdout, self.normalise, split_seed);
+            let options = FitOptions {
+                half_width: cp.spec.half_width,
+                levels: cp.spec.levels,
+                negative_signs: cp.spec.negative_signs,
+            };
+            let model = match self.source {
+                Source::Original => None,
+                Source::Generated(m) => Some(
+                    super::fits::fitted(data.fit.view(), m, options)
+                        .with_context(|| format!("class {}", class.id))?,
+                ),
+            };
+            // Balanced: N / k per class, the remainder to the first classes.
+            let per_class = self.train_size / k + usize::from(c < self.train_size % k);
+            let composition = compose(
+                c,
+                data.fit.view(),
+                model.as_deref(),
+                per_class,
+                cp.spec.original_fraction,
+                derive_seed(self.data_seed, "originals", &class.id),
+                derive_seed(self.data_seed, "generate", &class.id),
+                &mut sets.train,
+                &mut sets.validation,
+            );
+            sets.generated += composition.generated;
+            sets.originals += composition.originals;
+            sets.reused |= composition.reused;
+            labelled(data.test.view(), c, &mut sets.test);
+        }
+        Ok(sets)
+    }
+}
+
 impl JobKind for ClassificationJob {
     fn id(&self) -> &str {
         &self.id
@@ -143,11 +216,8 @@ impl JobKind for ClassificationJob {
         materialise_all(&self.classes)
     }
 
-    /// Fits and generates each class's training samples, trains and evaluates the classifier, and
-    /// makes the job's rows.
-    ///
-    /// Long because the steps (data, training, evaluation, three tables' rows) follow one another
-    /// over the same arrays.
+    /// Makes the training, validation and test sets ([`ClassificationJob::sets`]), trains and
+    /// evaluates the classifier, and makes the job's rows.
     fn run(&self, cx: &JobContext) -> Result<Rows> {
         let plan = cx.plan;
         let cp = plan
@@ -156,53 +226,14 @@ impl JobKind for ClassificationJob {
             .expect("a classification section");
         let mut owned = None;
         let all = stacks_of(cx.shared, &self.classes, &mut owned)?;
-        let k = self.classes.len();
-        let (mut train_set, mut validation, mut test) = (
-            Labelled::default(),
-            Labelled::default(),
-            Labelled::default(),
-        );
-        let mut first = 0;
-        let (mut generated, mut originals, mut reused) = (0, 0, false);
-        for (c, class) in self.classes.iter().enumerate() {
-            let n = class.dataset.shape().0;
-            let stack = all.slice(s![first..first + n, .., ..]);
-            first += n;
-            let split_seed = derive_seed(plan.spec.seed, "cnn/classification/split", &class.id);
-            let data = split_class(stack, cp.spec.holdout, self.normalise, split_seed);
-            let model = match self.source {
-                Source::Original => None,
-                Source::Generated(m) => Some(
-                    super::fits::fitted(
-                        data.fit.view(),
-                        m,
-                        FitOptions {
-                            half_width: cp.spec.half_width,
-                            levels: cp.spec.levels,
-                            negative_signs: cp.spec.negative_signs,
-                        },
-                    )
-                    .with_context(|| format!("class {}", class.id))?,
-                ),
-            };
-            // Balanced: N / k per class, the remainder to the first classes.
-            let per_class = self.train_size / k + usize::from(c < self.train_size % k);
-            let composition = compose(
-                c,
-                data.fit.view(),
-                model.as_deref(),
-                per_class,
-                cp.spec.original_fraction,
-                derive_seed(self.data_seed, "originals", &class.id),
-                derive_seed(self.data_seed, "generate", &class.id),
-                &mut train_set,
-                &mut validation,
-            );
-            generated += composition.generated;
-            originals += composition.originals;
-            reused |= composition.reused;
-            labelled(data.test.view(), c, &mut test);
-        }
+        let Sets {
+            train: train_set,
+            validation,
+            test,
+            generated,
+            originals,
+            reused,
+        } = self.sets(plan, &all)?;
         let trained = train_on_device(&cp.net, &cp.training, &train_set, &validation, self.seed)?;
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];

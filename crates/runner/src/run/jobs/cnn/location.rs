@@ -7,8 +7,8 @@ use super::common::{
     group_seed, materialise_all, nan_none, record_tables, stacks_of, training_status, TrainingRow,
     LOCATION, LOCATION_SUMMARY,
 };
-use crate::apps::cnn::classification::{permutation, Source};
-use crate::apps::cnn::location::{self, TargetKind};
+use crate::apps::cnn::classification::Source;
+use crate::apps::cnn::location::{self, Split, TargetKind};
 use crate::apps::cnn::train::train_on_device;
 use crate::experiment::datasets::{C128, C64};
 use crate::experiment::DataRef;
@@ -21,7 +21,7 @@ use crate::seeds::derive_seed;
 use crate::synthesis::CostSize;
 use crate::synthesis::FitOptions;
 use anyhow::Result;
-use ndarray::{s, Array3, Axis};
+use ndarray::{s, Array3};
 use num_complex::{Complex32, Complex64};
 use polars::prelude::*;
 use serde_json::json;
@@ -108,6 +108,50 @@ impl LocationJob {
     }
 }
 
+impl LocationJob {
+    /// The clutter of the training and the validation set (single precision, sample after
+    /// sample) and how many samples were generated: `original`'s samples of the split, halved
+    /// by the protocol; or a method fitted on the split's fit part generating
+    /// `generated_samples`, half for training and half for validation.
+    fn training_clutter(
+        &self,
+        plan: &Plan,
+        split: &Split,
+        all: &Array3<Complex64>,
+    ) -> Result<(Vec<Complex32>, Vec<Complex32>, usize)> {
+        let lp = plan.location.as_ref().expect("a location section");
+        Ok(match self.source {
+            Source::Original => {
+                let originals = split.originals(&all.view());
+                let t = lp.spec.original_training();
+                (
+                    location::single(&originals.slice(s![..t, .., ..])),
+                    location::single(&originals.slice(s![t.., .., ..])),
+                    0,
+                )
+            }
+            Source::Generated(m) => {
+                let options = FitOptions {
+                    half_width: lp.spec.half_width,
+                    levels: lp.spec.levels,
+                    negative_signs: lp.spec.negative_signs,
+                };
+                let model = super::fits::fitted(split.fit(&all.view()).view(), m, options)?;
+                let g = lp.spec.generated_samples;
+                let gen_seed = derive_seed(self.data_seed, "generate", &self.clutter[0].id);
+                let half = g / 2;
+                let tr = model.try_generate_c64(gen_seed, 0, half)?;
+                let va = model.try_generate_c64(gen_seed, half, g - half)?;
+                (
+                    tr.into_raw_vec_and_offset().0,
+                    va.into_raw_vec_and_offset().0,
+                    g,
+                )
+            }
+        })
+    }
+}
+
 impl JobKind for LocationJob {
     fn id(&self) -> &str {
         &self.id
@@ -149,83 +193,28 @@ impl JobKind for LocationJob {
         materialise_all(&self.clutter)
     }
 
-    /// Fits and generates the training clutter, trains and evaluates the location network, and
-    /// makes the job's rows.
-    ///
-    /// Long because the steps (data, targets, training, evaluation, four tables' rows) follow one
-    /// another over the same arrays.
+    /// Fits and generates the training clutter, adds the targets, trains and evaluates the
+    /// location network, and makes the job's rows.
     fn run(&self, cx: &JobContext) -> Result<Rows> {
         let plan = cx.plan;
         let lp = plan.location.as_ref().expect("a location section");
         let mut owned = None;
         let all = stacks_of(cx.shared, &self.clutter, &mut owned)?;
         let (n, h, w) = all.dim();
-        let pixels = h * w;
-        let clutter_id = &self.clutter[0].id;
-        let perm = permutation(
+        let split = Split::new(
             n,
-            derive_seed(plan.spec.seed, "cnn/location/split", clutter_id),
+            derive_seed(plan.spec.seed, "cnn/location/split", &self.clutter[0].id),
+            lp.spec.fit_samples,
+            lp.spec.originals(),
+            lp.spec.test_all,
         );
-        // The fit part first, then the rest of `original`'s pool; the test set after both (or
-        // every sample, with `test_all`).
-        let fit = all.select(Axis(0), &perm[..lp.spec.fit_samples]);
-        let pool = lp.spec.originals();
-        let test_clutter = all.select(Axis(0), &perm[if lp.spec.test_all { 0 } else { pool }..]);
-        // P_c: the mean over the image of the per-pixel variance of all originals.
-        let mean = all.mean_axis(Axis(0)).expect("samples");
-        let p_c = all
-            .axis_iter(Axis(0))
-            .map(|plane| {
-                plane
-                    .iter()
-                    .zip(mean.iter())
-                    .map(|(z, m)| (z - m).norm_sqr())
-                    .sum::<f64>()
-            })
-            .sum::<f64>()
-            / ((n.max(2) - 1) * pixels) as f64;
+        let p_c = location::clutter_power(&all.view());
         let amp = location::amplitude(p_c, self.scr_db);
         let constant =
             location::constant_pattern(derive_seed(plan.spec.seed, "cnn/location/constant", ""));
-        let c32 = |a: ndarray::ArrayView3<Complex64>| -> Vec<Complex32> {
-            a.iter()
-                .map(|z| Complex32::new(z.re as f32, z.im as f32))
-                .collect()
-        };
-        let (train_clutter, val_clutter, generated) = match self.source {
-            Source::Original => {
-                let originals = all.select(Axis(0), &perm[..pool]);
-                let t = lp.spec.original_training();
-                (
-                    c32(originals.slice(s![..t, .., ..])),
-                    c32(originals.slice(s![t.., .., ..])),
-                    0,
-                )
-            }
-            Source::Generated(m) => {
-                let model = super::fits::fitted(
-                    fit.view(),
-                    m,
-                    FitOptions {
-                        half_width: lp.spec.half_width,
-                        levels: lp.spec.levels,
-                        negative_signs: lp.spec.negative_signs,
-                    },
-                )?;
-                let g = lp.spec.generated_samples;
-                let gen_seed = derive_seed(self.data_seed, "generate", clutter_id);
-                let half = g / 2;
-                let tr = model.try_generate_c64(gen_seed, 0, half)?;
-                let va = model.try_generate_c64(gen_seed, half, g - half)?;
-                (
-                    tr.into_raw_vec_and_offset().0,
-                    va.into_raw_vec_and_offset().0,
-                    g,
-                )
-            }
-        };
+        let (train_clutter, val_clutter, generated) = self.training_clutter(plan, &split, &all)?;
         let targets = |clutter: &[Complex32], seed: u64| {
-            location::with_targets(clutter, w, pixels, self.target, &constant, amp, seed)
+            location::with_targets(clutter, w, h * w, self.target, &constant, amp, seed)
         };
         let train_set = targets(&train_clutter, derive_seed(self.seed, "targets", "train"));
         let validation = targets(
@@ -237,37 +226,23 @@ impl JobKind for LocationJob {
             "cnn/location/test",
             &format!("{}/{}", self.target.as_str(), self.scr_db),
         );
-        let test = targets(&c32(test_clutter.view()), test_seed);
+        let test = targets(
+            &location::single(&split.test(&all.view()).view()),
+            test_seed,
+        );
         let trained = train_on_device(&lp.net, &lp.training, &train_set, &validation, self.seed)?;
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];
         if lp.spec.save_networks {
             let dir = cx.out.join("networks").join(&self.id);
-            let names: Vec<String> = (0..location::LOCATIONS)
-                .map(|l| {
-                    let (r, c) = location::centre(l);
-                    format!("row{r}_col{c}")
-                })
-                .collect();
+            let names = location::output_names();
             crate::apps::cnn::store::save(&trained, &names, &self.id, self.seed, &dir)?;
             files.push(dir);
         }
         // Example training images (one per grid row) for the report (Fig. 72).
         if self.repeat == 0 {
-            let picks = [0usize, 6, 12, 18, 24];
-            let mut ex = Array3::<Complex32>::zeros((picks.len(), h, w));
-            for (k, &l) in picks.iter().enumerate() {
-                if l < train_set.len() {
-                    let img = &train_set.images[l * pixels..(l + 1) * pixels];
-                    ex.index_axis_mut(Axis(0), k)
-                        .as_slice_mut()
-                        .expect("standard layout")
-                        .copy_from_slice(img);
-                }
-            }
-            let path = std::path::PathBuf::from("examples").join(format!("{}.npy", self.id));
-            let path = cx.out.join(path);
-            crate::io::atomic::write_npy(&path, &ex)?;
+            let path = cx.out.join("examples").join(format!("{}.npy", self.id));
+            crate::io::atomic::write_npy(&path, &location::examples(&train_set, h, w))?;
             files.push(path);
         }
         let row = DataFrame::new_infer_height(vec![
