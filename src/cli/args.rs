@@ -2,7 +2,7 @@
 //! arguments struct per command (its fields are what the command's function in [`super`]
 //! receives). Nothing here runs anything.
 
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use isar_clutter::io::mat::MatClass;
 use std::path::PathBuf;
 
@@ -169,6 +169,29 @@ pub struct ReportArgs {
     pub figures_for: isar_clutter::report::select::FiguresFor,
 }
 
+/// The layouts of `isar-clutter table`, named for the command line (the report's
+/// [`isar_clutter::report::table::Format`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TableFormat {
+    /// Aligned columns.
+    Text,
+    /// GitHub-flavoured Markdown.
+    Md,
+    /// An HTML `<table>` with a caption.
+    Html,
+}
+
+impl From<TableFormat> for isar_clutter::report::table::Format {
+    fn from(f: TableFormat) -> Self {
+        use isar_clutter::report::table::Format;
+        match f {
+            TableFormat::Text => Format::Text,
+            TableFormat::Md => Format::Md,
+            TableFormat::Html => Format::Html,
+        }
+    }
+}
+
 /// The arguments of `isar-clutter table`.
 #[derive(Args)]
 pub struct TableArgs {
@@ -180,7 +203,7 @@ pub struct TableArgs {
     pub table: Option<String>,
     /// text (aligned columns) or md (Markdown).
     #[arg(long, value_enum, default_value = "text")]
-    pub format: isar_clutter::report::table::Format,
+    pub format: TableFormat,
     /// Column spread across the page (default: method; model_order for model_order;
     /// source for summary), e.g. `--pivot dataset`.
     #[arg(long)]

@@ -26,7 +26,7 @@ pub fn table(a: TableArgs) -> Result<ExitCode> {
     table_command(
         &results,
         table.as_deref(),
-        format,
+        format.into(),
         pivot.as_deref(),
         &filter,
     )?;

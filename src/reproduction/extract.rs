@@ -5,6 +5,7 @@
 
 use super::compare::{Spread, Summary};
 use crate::io::results::{self, col, Table};
+use crate::stats::metrics::name as metric_name;
 use anyhow::{bail, Context, Result};
 use polars::prelude::{
     BooleanChunked, ChunkCompareEq, ChunkFull, DataFrame, DataType, ParquetReader, SerReader,
@@ -144,7 +145,7 @@ pub(super) fn rmse_average(
     method: &'static str,
     statistic: &'static str,
 ) -> Query {
-    let mut f = sim(dataset, method, "multiscale_rmse");
+    let mut f = sim(dataset, method, metric_name::MULTISCALE_RMSE);
     f.push((col::STATISTIC, Key::S(statistic)));
     q(spec_of(dataset), results::SIMILARITY, f, col::VALUE)
 }
@@ -154,7 +155,7 @@ pub(super) fn cmd(dataset: &'static str, method: &'static str) -> Query {
     q(
         spec_of(dataset),
         results::SIMILARITY,
-        sim(dataset, method, "cmd"),
+        sim(dataset, method, metric_name::CMD),
         col::VALUE,
     )
 }
@@ -175,7 +176,7 @@ pub(super) fn kl(
 
 /// The directional RMSE of level `level`, direction `d`, in percent (the appendix tables).
 fn rmse_percent(dataset: &'static str, method: &'static str, level: i64, d: &'static str) -> Query {
-    let mut f = sim(dataset, method, "multiscale_rmse");
+    let mut f = sim(dataset, method, metric_name::MULTISCALE_RMSE);
     f.push((col::STATISTIC, Key::S("rmse")));
     f.push((col::LEVEL, Key::I(level)));
     f.push((col::DIRECTION, Key::S(d)));
@@ -210,10 +211,10 @@ fn kl_rows(datasets: &[&'static str], method: &'static str) -> Vec<Vec<Option<Qu
         .iter()
         .map(|&ds| {
             vec![
-                Some(kl(ds, method, "kl_pixel", "re")),
-                Some(kl(ds, method, "kl_pixel", "im")),
-                Some(kl(ds, method, "kl_area", "re")),
-                Some(kl(ds, method, "kl_area", "im")),
+                Some(kl(ds, method, metric_name::KL_PIXEL, "re")),
+                Some(kl(ds, method, metric_name::KL_PIXEL, "im")),
+                Some(kl(ds, method, metric_name::KL_AREA, "re")),
+                Some(kl(ds, method, metric_name::KL_AREA, "im")),
             ]
         })
         .collect()

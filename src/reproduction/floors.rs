@@ -9,6 +9,7 @@
 use super::compare::{num, Summary};
 use super::extract::{kl, Tables};
 use crate::io::results::col;
+use crate::stats::metrics::name as metric_name;
 use anyhow::Result;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -43,7 +44,10 @@ pub fn kl_floors<'a>(
         let mut parts = Vec::new();
         for &ds in datasets {
             let mut cells = Vec::new();
-            for (metric, what) in [("kl_pixel", "per pixel"), ("kl_area", "per 8x8 area")] {
+            for (metric, what) in [
+                (metric_name::KL_PIXEL, "per pixel"),
+                (metric_name::KL_AREA, "per 8x8 area"),
+            ] {
                 let query = kl(ds, "noise_floor", metric, "re");
                 let (mut values, mut c) = (Vec::new(), Vec::new());
                 for dir in folders(query.spec) {
@@ -62,7 +66,11 @@ pub fn kl_floors<'a>(
                             ..query.clone()
                         },
                     )?;
-                    let values_per_unit = if metric == "kl_area" { 64.0 } else { 1.0 };
+                    let values_per_unit = if metric == metric_name::KL_AREA {
+                        64.0
+                    } else {
+                        1.0
+                    };
                     values.push(v);
                     c.push(v / (1.0 / (n * values_per_unit) + 1.0 / (m * values_per_unit)));
                 }

@@ -7,6 +7,7 @@
 //! out; one that only estimates a few correlations per cell looks alike both ways.
 
 use super::extract::{cmd, held_out, kl, rmse_average, Query, Tables};
+use crate::stats::metrics::name as metric_name;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -50,7 +51,9 @@ fn measures() -> [(&'static str, Measure); 3] {
         ("multiscale RMSE, levels 1-3", |d, m| {
             rmse_average(d, m, "average_levels_1_3")
         }),
-        ("KL by 8x8 area (real)", |d, m| kl(d, m, "kl_area", "re")),
+        ("KL by 8x8 area (real)", |d, m| {
+            kl(d, m, metric_name::KL_AREA, "re")
+        }),
     ]
 }
 

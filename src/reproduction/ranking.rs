@@ -9,6 +9,7 @@
 //! methods as the networks do.
 
 use super::extract::{self, Query, Tables};
+use crate::stats::metrics::name as metric_name;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -35,10 +36,10 @@ fn measures() -> [Measure; 4] {
             extract::cmd(d, m)
         }),
         ("KL by pixel, real part (Tables 13-15)", |d, m| {
-            extract::kl(d, m, "kl_pixel", "re")
+            extract::kl(d, m, metric_name::KL_PIXEL, "re")
         }),
         ("KL by 8x8 area, real part (Tables 13-15)", |d, m| {
-            extract::kl(d, m, "kl_area", "re")
+            extract::kl(d, m, metric_name::KL_AREA, "re")
         }),
     ]
 }

@@ -5,6 +5,6 @@
 
 #![warn(missing_docs)]
 
-pub use isar_clutter_core::{alloc, io, physics, seeds, stats, synthesis};
+pub use isar_clutter_core::{alloc, io, location_grid, physics, seeds, stats, synthesis};
 
 pub mod apps;

@@ -24,6 +24,7 @@ pub const TOOL: &str = "isar-clutter";
 
 pub mod alloc;
 pub mod io;
+pub mod location_grid;
 pub mod physics;
 pub mod seeds;
 pub mod stats;

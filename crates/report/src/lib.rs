@@ -4,8 +4,7 @@
 
 #![warn(missing_docs)]
 
-pub use isar_clutter_apps::apps;
-pub use isar_clutter_core::{alloc, error_text, physics, seeds, stats, synthesis};
+pub use isar_clutter_core::{alloc, error_text, location_grid, physics, seeds, stats, synthesis};
 pub use isar_clutter_tables::io;
 
 pub mod report;

@@ -7,7 +7,9 @@
 #![warn(missing_docs)]
 
 pub use isar_clutter_apps::apps;
-pub use isar_clutter_core::{alloc, error_text, physics, seeds, stats, synthesis, workflow, TOOL};
+pub use isar_clutter_core::{
+    alloc, error_text, location_grid, physics, seeds, stats, synthesis, workflow, TOOL,
+};
 pub use isar_clutter_tables::io;
 
 pub mod experiment;

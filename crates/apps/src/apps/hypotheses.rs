@@ -134,15 +134,6 @@ pub struct Row {
     pub verdict: Option<&'static str>,
 }
 
-/// Parses `plant_<letter>_<wind>`.
-pub fn parse_id(id: &str) -> Option<(String, String)> {
-    let mut parts = id.split('_');
-    match (parts.next(), parts.next(), parts.next(), parts.next()) {
-        (Some("plant"), Some(p), Some(w), None) => Some((p.to_string(), w.to_string())),
-        _ => None,
-    }
-}
-
 fn verdict(ok: bool) -> Option<&'static str> {
     Some(if ok { "verified" } else { "not verified" })
 }

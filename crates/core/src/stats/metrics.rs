@@ -163,14 +163,36 @@ pub enum Metric {
     MultiscaleRmse,
 }
 
+/// The metrics' names in specs, in the `metric` column of `similarity.parquet` and in the
+/// comparison maps' file stems ([`map_stem`]): written once here, read by the spec's parser,
+/// the jobs, the report and the reproduction.
+pub mod name {
+    /// KL divergence per pixel.
+    pub const KL_PIXEL: &str = "kl_pixel";
+    /// KL divergence per image area.
+    pub const KL_AREA: &str = "kl_area";
+    /// Correlation matrix distance.
+    pub const CMD: &str = "cmd";
+    /// Multiscale correlation RMSE.
+    pub const MULTISCALE_RMSE: &str = "multiscale_rmse";
+    /// Every metric's name, in the order specs list them.
+    pub const ALL: [&str; 4] = [KL_PIXEL, KL_AREA, CMD, MULTISCALE_RMSE];
+}
+
+/// The file stem of a comparison map: the metric's name and the component compared, `re` or
+/// `im` (`kl_pixel_re`, `kl_area_im`).
+pub fn map_stem(metric: &str, component: &str) -> String {
+    format!("{metric}_{component}")
+}
+
 impl Metric {
-    /// The metric's name in specs and tables.
+    /// The metric's name in specs and tables ([`name`]).
     pub fn name(&self) -> &'static str {
         match self {
-            Metric::KlPixel(_) => "kl_pixel",
-            Metric::KlArea(..) => "kl_area",
-            Metric::Cmd => "cmd",
-            Metric::MultiscaleRmse => "multiscale_rmse",
+            Metric::KlPixel(_) => name::KL_PIXEL,
+            Metric::KlArea(..) => name::KL_AREA,
+            Metric::Cmd => name::CMD,
+            Metric::MultiscaleRmse => name::MULTISCALE_RMSE,
         }
     }
 }

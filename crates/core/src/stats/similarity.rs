@@ -6,7 +6,8 @@
 use crate::stats::analysis::{Analysis, Direction};
 use crate::stats::cmd::{cmd_terms, Form, Normalised};
 use crate::stats::metrics::{
-    db, finite_max, finite_mean, kl_maps, multiscale_rmse, rmse_summaries, KlOptions, Metric, Parts,
+    db, finite_max, finite_mean, kl_maps, map_stem, multiscale_rmse, name, rmse_summaries,
+    KlOptions, Metric, Parts,
 };
 use ndarray::{Array2, ArrayView3, Axis};
 
@@ -110,14 +111,14 @@ fn kl_rows<A: Parts, B: Parts>(
                 form: None,
             });
         }
-        out.maps.push((format!("{metric}_{component}"), map));
+        out.maps.push((map_stem(metric, component), map));
     }
 }
 
 fn rmse_rows(x: &Analysis, y: &Analysis) -> Vec<Row> {
     let per_level = multiscale_rmse(x, y);
     let row = |level, direction, statistic, value, units| Row {
-        metric: "multiscale_rmse",
+        metric: name::MULTISCALE_RMSE,
         level,
         direction,
         component: None,
@@ -191,7 +192,7 @@ fn cmd_row<A: Parts, B: Parts>(a: ArrayView3<A>, b: ArrayView3<B>) -> Row {
         (t.distance(), Some(form))
     };
     Row {
-        metric: "cmd",
+        metric: name::CMD,
         level: None,
         direction: None,
         component: None,

@@ -6,7 +6,9 @@
 
 use super::figures::{self, Scale};
 use super::{abs_max, grid, rel, Figure, Grid, Task};
-use crate::io::results::{self, col};
+use crate::io::results::{self, col, maps as names};
+use crate::stats::analysis::Direction;
+use crate::stats::metrics::{map_stem, name as metric_name};
 use anyhow::{Context, Result};
 use ndarray::Array2;
 use num_complex::Complex64;
@@ -27,8 +29,8 @@ fn level_maps(maps: &Path, prefix: &str, kind: &str) -> Result<(Grid, Vec<PathBu
     let (mut rows, mut files) = (vec![], vec![]);
     for level in 1.. {
         let mut row = vec![];
-        for d in ["H", "V", "D"] {
-            let f = maps.join(format!("{prefix}level{level}_{kind}_{d}.npy"));
+        for d in Direction::ALL {
+            let f = names::file(maps, &names::level(prefix, level, kind, d));
             if let Some(m) = map(&f)? {
                 row.push((format!("level {level}, {d}"), m));
                 files.push(f);
@@ -121,7 +123,7 @@ fn correlation_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> 
 /// The exact expected correlation maps of a synthetic model, and the covariance maps.
 fn level_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
     let mut out = vec![];
-    let (expected, files) = level_maps(maps, "expected_", col::CORRELATION)?;
+    let (expected, files) = level_maps(maps, names::EXPECTED, col::CORRELATION)?;
     if !expected.is_empty() {
         out.push(grid(
             dir,
@@ -154,7 +156,7 @@ fn level_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
 /// The sample mean (real part) and the pixel variance.
 fn moment_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
     let mut out = vec![];
-    let mean_file = maps.join("mean.npy");
+    let mean_file = names::file(maps, names::MEAN);
     if mean_file.exists() {
         use ndarray_npy::ReadNpyExt;
         let mean = Array2::<Complex64>::read_npy(
@@ -175,7 +177,7 @@ fn moment_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
             vec![mean_file],
         ));
     }
-    let var_file = maps.join("variance.npy");
+    let var_file = names::file(maps, names::VARIANCE);
     if let Some(v) = map(&var_file)? {
         out.push(grid(
             dir,
@@ -195,11 +197,11 @@ fn moment_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
 /// and of the noise floor.
 fn kl_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
     let mut out = vec![];
-    for prefix in ["", "noise_floor_"] {
-        for metric in ["kl_pixel", "kl_area"] {
-            let files: Vec<PathBuf> = ["re", "im"]
+    for prefix in ["", names::NOISE_FLOOR] {
+        for metric in [metric_name::KL_PIXEL, metric_name::KL_AREA] {
+            let files: Vec<PathBuf> = names::COMPONENTS
                 .iter()
-                .map(|c| maps.join(format!("{prefix}{metric}_{c}.npy")))
+                .map(|c| names::file(maps, &names::comparison(prefix, &map_stem(metric, c))))
                 .collect();
             let loaded: Vec<Option<Array2<f64>>> =
                 files.iter().map(|f| map(f)).collect::<Result<_>>()?;
@@ -211,7 +213,7 @@ fn kl_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
                 .zip(loaded.into_iter().flatten())
                 .map(|(t, m)| (t.to_string(), m))
                 .collect();
-            let what = if metric == "kl_pixel" {
+            let what = if metric == metric_name::KL_PIXEL {
                 "per pixel"
             } else {
                 "per image area"
@@ -224,7 +226,7 @@ fn kl_figures(dir: &Path, job: &str, maps: &Path) -> Result<Vec<Task>> {
             out.push(grid(
                 dir,
                 job,
-                &format!("{prefix}{metric}"),
+                &names::comparison(prefix, metric),
                 format!("{job}: KL divergence {what} ({whose})"),
                 vec![row],
                 Scale::Perceptual,

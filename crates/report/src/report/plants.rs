@@ -8,8 +8,8 @@
 use super::figures::{self, Panel, Scale};
 use super::runwide::curves_task;
 use super::{rel, Figure, Task};
-use crate::apps::hypotheses::parse_id;
 use crate::io::results::{self, col};
+use crate::physics::vegetation::parse_dataset_id;
 use anyhow::{Context, Result};
 use ndarray::Array2;
 use polars::prelude::{DataFrame, DataType};
@@ -134,7 +134,7 @@ fn correlating_figures(dir: &Path) -> Result<Vec<Task>> {
     // Plant datasets in (wind, plant) order, each with its map of magnitudes.
     let mut maps: BTreeMap<(usize, String), (String, Array2<f64>)> = BTreeMap::new();
     for i in 0..datasets.len() {
-        let Some((plant, wind)) = parse_id(&datasets[i]) else {
+        let Some((plant, wind)) = parse_dataset_id(&datasets[i]) else {
             continue;
         };
         let w = wind_rank(&wind);
@@ -227,7 +227,7 @@ fn level_figures(dir: &Path) -> Result<Vec<Task>> {
     // (plant, wind, level, direction) -> mean correlation.
     let mut at: BTreeMap<(String, usize, usize, String), f64> = BTreeMap::new();
     for i in 0..datasets.len() {
-        let Some((plant, wind)) = parse_id(&datasets[i]) else {
+        let Some((plant, wind)) = parse_dataset_id(&datasets[i]) else {
             continue;
         };
         let Some(w) = WINDS.iter().position(|x| *x == wind) else {
@@ -305,7 +305,7 @@ fn kspace_figure(dir: &Path) -> Result<Vec<Task>> {
         };
         // The analysis job of a dataset has the dataset's id (plus swept values, if any).
         let id = job.split('.').next().unwrap_or(job);
-        let Some((plant, wind)) = parse_id(id) else {
+        let Some((plant, wind)) = parse_dataset_id(id) else {
             continue;
         };
         let w = wind_rank(&wind);

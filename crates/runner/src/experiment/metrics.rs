@@ -2,6 +2,7 @@
 //! parameters, validated into [`crate::stats::metrics::Metric`]s, and the noise floor to measure.
 
 use super::{Ctx, RawSpec, SpecError};
+use crate::stats::metrics::name as metric_name;
 use serde::{Deserialize, Serialize};
 
 /// `hypotheses:` section.
@@ -104,7 +105,7 @@ pub fn check_metrics(
             "metrics compare generated samples with the original: add a `synthesis` section",
         ));
     }
-    let names = "kl_pixel, kl_area, cmd, multiscale_rmse";
+    let names = metric_name::ALL.join(", ");
     let mut out: Vec<Metric> = Vec::new();
     for (i, entry) in spec.metrics.iter().enumerate() {
         let at = format!("metrics[{i}]");
@@ -132,19 +133,19 @@ pub fn check_metrics(
         let at = format!("{at}.{name}");
         let kl = |block_ok: bool| kl_options(&params, &at, ctx, block_ok);
         let metric = match name.as_str() {
-            "kl_pixel" => Metric::KlPixel(kl(false)?),
-            "kl_area" => {
+            metric_name::KL_PIXEL => Metric::KlPixel(kl(false)?),
+            metric_name::KL_AREA => {
                 let block = params.block.unwrap_or(crate::stats::metrics::DEFAULT_BLOCK);
                 if block == 0 {
                     return Err(ctx.err(format!("{at}.block"), "block must be at least 1"));
                 }
                 Metric::KlArea(kl(true)?, block)
             }
-            "cmd" | "multiscale_rmse" => {
+            metric_name::CMD | metric_name::MULTISCALE_RMSE => {
                 if params != MetricParams::default() {
                     return Err(ctx.err(&at, format!("{name} takes no parameters")));
                 }
-                if name == "cmd" {
+                if name == metric_name::CMD {
                     Metric::Cmd
                 } else {
                     Metric::MultiscaleRmse

@@ -2,6 +2,7 @@
 //! timings) before it becomes table fragments, and the `.npy` maps it writes.
 
 use crate::io::atomic::write_npy;
+use crate::io::results::{col, maps as names};
 use crate::stats::analysis::{Analysis, Direction};
 use anyhow::Result;
 use ndarray::Array2;
@@ -87,26 +88,26 @@ pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
     let mut maps: Vec<(String, &Array2<f64>)> = vec![];
     if let Some(sim) = &r.similarity {
         let prefix = if sim.noise_floor.is_some() {
-            "noise_floor_"
+            names::NOISE_FLOOR
         } else {
             ""
         };
         for (stem, map) in &sim.comparison.maps {
-            maps.push((format!("{prefix}{stem}"), map));
+            maps.push((names::comparison(prefix, stem), map));
         }
     }
     if let Some(analysis) = &r.analysis {
-        write_npy(&dir.join("mean.npy"), &analysis.mean)?;
-        maps.push(("variance".into(), &analysis.variance));
+        write_npy(&names::file(dir, names::MEAN), &analysis.mean)?;
+        maps.push((names::VARIANCE.into(), &analysis.variance));
     }
     for lm in r.analysis.iter().flat_map(|a| &a.levels) {
         for d in Direction::ALL {
             maps.push((
-                format!("level{}_correlation_{d}", lm.level),
+                names::level("", lm.level, col::CORRELATION, d),
                 lm.correlation(d),
             ));
             maps.push((
-                format!("level{}_covariance_{d}", lm.level),
+                names::level("", lm.level, col::COVARIANCE, d),
                 lm.covariance(d),
             ));
         }
@@ -114,11 +115,11 @@ pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
     for (l, expected) in r.expected.iter().flatten().enumerate() {
         for d in Direction::ALL {
             maps.push((
-                format!("expected_level{}_correlation_{d}", l + 1),
+                names::level(names::EXPECTED, l + 1, col::CORRELATION, d),
                 &expected[d as usize],
             ));
         }
     }
     maps.par_iter()
-        .try_for_each(|(name, map)| write_npy(&dir.join(format!("{name}.npy")), *map))
+        .try_for_each(|(name, map)| write_npy(&names::file(dir, name), *map))
 }

@@ -569,7 +569,9 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
         for component in ["re", "im"] {
             let stat = |name: &str| {
                 sim.comparison.rows.iter().find(|w| {
-                    w.metric == "kl_pixel" && w.component == Some(component) && w.statistic == name
+                    w.metric == crate::stats::metrics::name::KL_PIXEL
+                        && w.component == Some(component)
+                        && w.statistic == name
                 })
             };
             let (Some(mean), Some(max)) = (stat("mean"), stat("max")) else {

@@ -7,21 +7,13 @@
 //! variance.
 
 use super::train::Labelled;
+use crate::location_grid::{centre, LOCATIONS, TARGET};
 use ndarray::{Array3, ArrayView3, Axis};
 use num_complex::{Complex32, Complex64};
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
-
-/// Grid locations per side.
-pub const GRID: usize = 5;
-/// Number of locations (classes).
-pub const LOCATIONS: usize = GRID * GRID;
-/// Target side in pixels.
-pub const TARGET: usize = 8;
-/// Smallest image side that holds the grid (last centre 56, last target row 59).
-pub const MIN_SIDE: usize = 60;
 
 /// Target kinds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -41,11 +33,6 @@ impl TargetKind {
             TargetKind::Stochastic => "stochastic",
         }
     }
-}
-
-/// Centre `(row, column)` of location `label`.
-pub fn centre(label: usize) -> (usize, usize) {
-    (8 + 12 * (label / GRID), 8 + 12 * (label % GRID))
 }
 
 /// `TARGET * TARGET` i.i.d. circular complex Gaussian pixels with unit mean power

@@ -183,6 +183,17 @@ pub struct SceneParams {
     pub sample_interval_s: f64,
 }
 
+/// The plant and the wind of a dataset id `plant_<plant>_<wind>` (e.g. `plant_A_light`), the
+/// naming the hypothesis tests and the report's plant figures read a spec's datasets by; `None`
+/// for any other id.
+pub fn parse_dataset_id(id: &str) -> Option<(String, String)> {
+    let mut parts = id.split('_');
+    match (parts.next(), parts.next(), parts.next(), parts.next()) {
+        (Some("plant"), Some(p), Some(w), None) => Some((p.to_string(), w.to_string())),
+        _ => None,
+    }
+}
+
 impl PlantParams {
     /// Presets "A".."E" (docs/definitions.md §10): A two large canes, very large
     /// leaves, wide spacing, large leaf motion; B medium leaves, smaller

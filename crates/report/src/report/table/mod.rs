@@ -4,6 +4,7 @@
 //! default the method) across the page, in aligned text for the terminal or in Markdown.
 
 use crate::io::results::{self, col, Table};
+use crate::stats::metrics::name as metric_name;
 use anyhow::{bail, Context, Result};
 use polars::prelude::{DataFrame, DataType, StringChunked};
 use std::collections::{BTreeSet, HashMap};
@@ -11,7 +12,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Output format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
     /// Aligned columns.
     Text,
@@ -70,7 +71,7 @@ pub fn standard() -> Vec<TableDef> {
             name: "rmse",
             title: "Multiscale correlation RMSE, eq. 25 (Tables 6, 26, 28): original vs each method; noise_floor = two independent stacks of the original; reference held_out = against originals no fit saw",
             table: results::SIMILARITY,
-            filters: vec![(col::METRIC, vec!["multiscale_rmse"])],
+            filters: vec![(col::METRIC, vec![metric_name::MULTISCALE_RMSE])],
             rows: vec![
                 col::DATASET,
                 col::REFERENCE,
@@ -88,7 +89,7 @@ pub fn standard() -> Vec<TableDef> {
             name: "cmd",
             title: "Correlation matrix distance, eq. 24 (Tables 7, 25, 27)",
             table: results::SIMILARITY,
-            filters: vec![(col::METRIC, vec!["cmd"])],
+            filters: vec![(col::METRIC, vec![metric_name::CMD])],
             rows: vec![col::DATASET, col::REFERENCE],
             pivot: col::METHOD,
             values: vec![col::VALUE],
@@ -101,7 +102,7 @@ pub fn standard() -> Vec<TableDef> {
             title: "Mean KL divergence by pixel and by image area (Tables 8-10)",
             table: results::SIMILARITY,
             filters: vec![
-                (col::METRIC, vec!["kl_pixel", "kl_area"]),
+                (col::METRIC, vec![metric_name::KL_PIXEL, metric_name::KL_AREA]),
                 (col::STATISTIC, vec!["mean"]),
             ],
             rows: vec![col::DATASET, col::REFERENCE, col::METRIC, col::COMPONENT],

@@ -7,10 +7,11 @@ use super::{
     location_repeats, too_many_trainings, DataRef, MAX_TRAININGS,
 };
 use crate::apps::cnn::classification::Source;
-use crate::apps::cnn::location::{TargetKind, MIN_SIDE};
+use crate::apps::cnn::location::TargetKind;
 use crate::apps::cnn::net::{Arch, NetConfig};
 use crate::apps::cnn::train::{Protocol, TrainingOptions};
 use crate::experiment::{Ctx, SpecError};
+use crate::location_grid::MIN_SIDE;
 use serde::{Deserialize, Serialize};
 
 /// `location:` section (5.3.8-5.3.9, Figs. 68-74).
@@ -145,7 +146,7 @@ impl LocationSpec {
             arch: Arch::Table23,
             height: h,
             width: w,
-            classes: crate::apps::cnn::location::LOCATIONS,
+            classes: crate::location_grid::LOCATIONS,
         };
         net.check()
             .map_err(|e| ctx.err(format!("{at}.clutter"), e.to_string()))?;

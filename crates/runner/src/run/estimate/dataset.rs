@@ -88,8 +88,7 @@ fn metric_sizes(plan: &Plan, s: &mut Sizes) {
     let usual = KlOptions::default().bins as f64;
     for (j, m) in plan.metrics.iter().enumerate() {
         let (name, bins) = match *m {
-            Metric::KlPixel(o) => ("kl_pixel", o.bins),
-            Metric::KlArea(o, _) => ("kl_area", o.bins),
+            Metric::KlPixel(o) | Metric::KlArea(o, _) => (m.name(), o.bins),
             Metric::Cmd | Metric::MultiscaleRmse => continue,
         };
         s.add(

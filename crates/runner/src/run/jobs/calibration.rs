@@ -5,7 +5,7 @@
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
 use crate::experiment::datasets::{chain_sizes, mie};
-use crate::io::results;
+use crate::io::results::{self, col};
 use crate::physics::calibration::{calibrate, simulate, summary, CalibrationRow, ChainParams};
 use crate::run::estimate::Estimate;
 use crate::run::estimate::Sizes;
@@ -78,12 +78,12 @@ impl JobKind for CalibrationJob {
         ])?;
         let s = summary(&rows);
         let summary = DataFrame::new_infer_height(vec![
-            Column::new("band".into(), s.iter().map(|x| x.0).collect::<Vec<_>>()),
+            Column::new(col::BAND.into(), s.iter().map(|x| x.0).collect::<Vec<_>>()),
             Column::new(
                 "statistic".into(),
                 s.iter().map(|x| x.1).collect::<Vec<_>>(),
             ),
-            Column::new("value".into(), s.iter().map(|x| x.2).collect::<Vec<_>>()),
+            Column::new(col::VALUE.into(), s.iter().map(|x| x.2).collect::<Vec<_>>()),
         ])?;
         Ok(Rows {
             tables: vec![

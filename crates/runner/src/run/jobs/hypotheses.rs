@@ -5,8 +5,9 @@
 //! [`crate::apps::hypotheses`] into `hypotheses`; its estimate of memory and work.
 
 use super::{Context as JobContext, Inputs, JobKind, Rows, Status};
-use crate::apps::hypotheses::{analysis_numbers, parse_id, test, PlantStats};
-use crate::io::results;
+use crate::apps::hypotheses::{analysis_numbers, test, PlantStats};
+use crate::io::results::{self, col};
+use crate::physics::vegetation::parse_dataset_id;
 use crate::run::plan::{Job, Plan};
 use crate::run::tables::JobResult;
 use anyhow::{Context, Result};
@@ -29,7 +30,7 @@ impl HypothesesJob {
         let inputs = jobs
             .iter()
             .enumerate()
-            .filter(|(_, j)| j.method.is_none() && parse_id(&j.dataset_id).is_some())
+            .filter(|(_, j)| j.method.is_none() && parse_dataset_id(&j.dataset_id).is_some())
             .map(|(i, _)| i)
             .collect();
         HypothesesJob { inputs }
@@ -46,15 +47,15 @@ pub fn plant_stats(job: &Job, r: &JobResult) -> Result<Option<DataFrame>> {
     let (Some(a), Some(_), None) = (&r.analysis, &r.correlating, job.method) else {
         return Ok(None);
     };
-    if parse_id(&job.dataset_id).is_none() {
+    if parse_dataset_id(&job.dataset_id).is_none() {
         return Ok(None);
     }
     let (mean_variance, level_correlations) = analysis_numbers(a);
     let n = level_correlations.len();
     let dir = |k: usize| -> Vec<f64> { level_correlations.iter().map(|l| l[k]).collect() };
     Ok(Some(DataFrame::new_infer_height(vec![
-        Column::new("dataset".into(), vec![job.dataset_id.as_str(); n]),
-        Column::new("level".into(), (1..=n as i64).collect::<Vec<_>>()),
+        Column::new(col::DATASET.into(), vec![job.dataset_id.as_str(); n]),
+        Column::new(col::LEVEL.into(), (1..=n as i64).collect::<Vec<_>>()),
         Column::new("mean_correlation_h".into(), dir(0)),
         Column::new("mean_correlation_v".into(), dir(1)),
         Column::new("mean_correlation_d".into(), dir(2)),
@@ -108,7 +109,7 @@ fn read_stats(rows: &Rows) -> Result<Option<PlantStats>> {
         correlating[at] = nan(mc[k]);
         magnitude[at] = nan(mm[k]);
     }
-    let Some((plant, wind)) = parse_id(&dataset) else {
+    let Some((plant, wind)) = parse_dataset_id(&dataset) else {
         return Ok(None);
     };
     Ok(Some(PlantStats {

@@ -12,6 +12,7 @@ use crate::apps::cnn::train::{train_on_device, Labelled};
 use crate::experiment::datasets::{C128, C64, USUAL_SAMPLES};
 use crate::experiment::DataRef;
 use crate::experiment::Materialised;
+use crate::io::results::col;
 use crate::run::estimate::Estimate;
 use crate::run::estimate::Sizes;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
@@ -249,31 +250,31 @@ impl JobKind for ClassificationJob {
             "dissertation (test = fit data)"
         };
         let row = DataFrame::new_infer_height(vec![
-            Column::new("job".into(), [self.id.as_str()]),
-            Column::new("method".into(), [self.source.as_str()]),
-            Column::new("normalise".into(), [self.normalise.as_str()]),
-            Column::new("train_size".into(), [self.train_size as i64]),
-            Column::new("repeat".into(), [self.repeat as i64]),
-            Column::new("seed".into(), [self.seed]),
-            Column::new("train_accuracy".into(), [trained.train_accuracy]),
+            Column::new(col::JOB.into(), [self.id.as_str()]),
+            Column::new(col::METHOD.into(), [self.source.as_str()]),
+            Column::new(col::NORMALISE.into(), [self.normalise.as_str()]),
+            Column::new(col::TRAIN_SIZE.into(), [self.train_size as i64]),
+            Column::new(col::REPEAT.into(), [self.repeat as i64]),
+            Column::new(col::SEED.into(), [self.seed]),
+            Column::new(col::TRAIN_ACCURACY.into(), [trained.train_accuracy]),
             Column::new(
                 "validation_accuracy".into(),
                 [nan_none(trained.validation_accuracy)],
             ),
-            Column::new("test_accuracy".into(), [test_accuracy]),
-            Column::new("test_samples".into(), [test.len() as i64]),
-            Column::new("epochs".into(), [trained.epochs.len() as i64]),
-            Column::new("train_seconds".into(), [trained.seconds]),
+            Column::new(col::TEST_ACCURACY.into(), [test_accuracy]),
+            Column::new(col::TEST_SAMPLES.into(), [test.len() as i64]),
+            Column::new(col::EPOCHS.into(), [trained.epochs.len() as i64]),
+            Column::new(col::TRAIN_SECONDS.into(), [trained.seconds]),
             Column::new(
                 "train_samples_per_second".into(),
                 [trained.samples_per_second],
             ),
-            Column::new("train_samples".into(), [train_set.len() as i64]),
-            Column::new("train_generated".into(), [generated as i64]),
-            Column::new("train_originals".into(), [originals as i64]),
-            Column::new("validation_samples".into(), [validation.len() as i64]),
-            Column::new("validation_reuses_originals".into(), [reused]),
-            Column::new("protocol".into(), [protocol]),
+            Column::new(col::TRAIN_SAMPLES.into(), [train_set.len() as i64]),
+            Column::new(col::TRAIN_GENERATED.into(), [generated as i64]),
+            Column::new(col::TRAIN_ORIGINALS.into(), [originals as i64]),
+            Column::new(col::VALIDATION_SAMPLES.into(), [validation.len() as i64]),
+            Column::new(col::VALIDATION_REUSES_ORIGINALS.into(), [reused]),
+            Column::new(col::PROTOCOL.into(), [protocol]),
         ])?;
         let mut tables = vec![(CLASSIFICATION, row)];
         tables.extend(record_tables(&self.id, &trained, &confusion)?);

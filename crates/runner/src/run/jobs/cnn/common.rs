@@ -9,7 +9,7 @@ use crate::experiment::datasets::{C128, C64};
 use crate::experiment::DataRef;
 use crate::experiment::Materialised;
 use crate::io::npy::Stack;
-use crate::io::results;
+use crate::io::results::{self, col};
 use crate::run::estimate::{dataset_at, Sizes};
 use crate::run::jobs::Status;
 use crate::run::plan::Plan;
@@ -91,12 +91,15 @@ pub(super) fn record_tables(
 ) -> Result<Vec<(&'static str, DataFrame)>> {
     let e = &t.epochs;
     let history = DataFrame::new_infer_height(vec![
-        Column::new("job".into(), vec![id; e.len()]),
+        Column::new(col::JOB.into(), vec![id; e.len()]),
         Column::new(
             "epoch".into(),
             e.iter().map(|x| x.epoch as i64).collect::<Vec<_>>(),
         ),
-        Column::new("loss".into(), e.iter().map(|x| x.loss).collect::<Vec<_>>()),
+        Column::new(
+            col::LOSS.into(),
+            e.iter().map(|x| x.loss).collect::<Vec<_>>(),
+        ),
         Column::new(
             "batch_accuracy".into(),
             e.iter().map(|x| x.batch_accuracy).collect::<Vec<_>>(),
@@ -118,10 +121,10 @@ pub(super) fn record_tables(
         }
     }
     let conf = DataFrame::new_infer_height(vec![
-        Column::new("job".into(), vec![id; k * k]),
-        Column::new("true_class".into(), truth),
-        Column::new("predicted_class".into(), pred),
-        Column::new("count".into(), count),
+        Column::new(col::JOB.into(), vec![id; k * k]),
+        Column::new(col::TRUE_CLASS.into(), truth),
+        Column::new(col::PREDICTED_CLASS.into(), pred),
+        Column::new(col::COUNT.into(), count),
     ])?;
     Ok(vec![(HISTORY, history), (CONFUSION, conf)])
 }
@@ -155,10 +158,10 @@ pub(super) fn training_status(
         samples,
     } = row;
     Ok(DataFrame::new_infer_height(vec![
-        Column::new("job".into(), [id]),
-        Column::new("dataset".into(), [dataset]),
-        Column::new("kind".into(), [kind]),
-        Column::new("method".into(), [method]),
+        Column::new(col::JOB.into(), [id]),
+        Column::new(col::DATASET.into(), [dataset]),
+        Column::new(col::KIND.into(), [kind]),
+        Column::new(col::METHOD.into(), [method]),
         Column::new(
             "status".into(),
             [if status.error.is_none() {
@@ -167,12 +170,12 @@ pub(super) fn training_status(
                 "failed"
             }],
         ),
-        Column::new("error".into(), [status.error]),
-        Column::new("seed".into(), [seed]),
-        Column::new("samples".into(), [samples as i64]),
-        Column::new("height".into(), [net.height as i64]),
-        Column::new("width".into(), [net.width as i64]),
-        Column::new("elapsed_s".into(), [status.elapsed_s]),
+        Column::new(col::ERROR.into(), [status.error]),
+        Column::new(col::SEED.into(), [seed]),
+        Column::new(col::SAMPLES.into(), [samples as i64]),
+        Column::new(col::HEIGHT.into(), [net.height as i64]),
+        Column::new(col::WIDTH.into(), [net.width as i64]),
+        Column::new(col::ELAPSED_S.into(), [status.elapsed_s]),
     ])?)
 }
 

@@ -13,6 +13,7 @@ use crate::apps::cnn::train::train_on_device;
 use crate::experiment::datasets::{C128, C64};
 use crate::experiment::DataRef;
 use crate::experiment::Materialised;
+use crate::io::results::col;
 use crate::run::estimate::Estimate;
 use crate::run::estimate::Sizes;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
@@ -246,28 +247,28 @@ impl JobKind for LocationJob {
             files.push(path);
         }
         let row = DataFrame::new_infer_height(vec![
-            Column::new("job".into(), [self.id.as_str()]),
-            Column::new("target".into(), [self.target.as_str()]),
-            Column::new("method".into(), [self.source.as_str()]),
-            Column::new("scr_db".into(), [self.scr_db]),
-            Column::new("repeat".into(), [self.repeat as i64]),
-            Column::new("seed".into(), [self.seed]),
-            Column::new("train_accuracy".into(), [trained.train_accuracy]),
+            Column::new(col::JOB.into(), [self.id.as_str()]),
+            Column::new(col::TARGET.into(), [self.target.as_str()]),
+            Column::new(col::METHOD.into(), [self.source.as_str()]),
+            Column::new(col::SCR_DB.into(), [self.scr_db]),
+            Column::new(col::REPEAT.into(), [self.repeat as i64]),
+            Column::new(col::SEED.into(), [self.seed]),
+            Column::new(col::TRAIN_ACCURACY.into(), [trained.train_accuracy]),
             Column::new(
                 "validation_accuracy".into(),
                 [nan_none(trained.validation_accuracy)],
             ),
-            Column::new("test_accuracy".into(), [test_accuracy]),
-            Column::new("test_samples".into(), [test.len() as i64]),
-            Column::new("epochs".into(), [trained.epochs.len() as i64]),
-            Column::new("train_seconds".into(), [trained.seconds]),
+            Column::new(col::TEST_ACCURACY.into(), [test_accuracy]),
+            Column::new(col::TEST_SAMPLES.into(), [test.len() as i64]),
+            Column::new(col::EPOCHS.into(), [trained.epochs.len() as i64]),
+            Column::new(col::TRAIN_SECONDS.into(), [trained.seconds]),
             Column::new(
                 "train_samples_per_second".into(),
                 [trained.samples_per_second],
             ),
-            Column::new("train_samples".into(), [train_set.len() as i64]),
-            Column::new("train_generated".into(), [(generated / 2) as i64]),
-            Column::new("clutter_power".into(), [p_c]),
+            Column::new(col::TRAIN_SAMPLES.into(), [train_set.len() as i64]),
+            Column::new(col::TRAIN_GENERATED.into(), [(generated / 2) as i64]),
+            Column::new(col::CLUTTER_POWER.into(), [p_c]),
         ])?;
         let mut tables = vec![(LOCATION, row)];
         tables.extend(record_tables(&self.id, &trained, &confusion)?);
@@ -460,8 +461,8 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
             "scr_90_db".into(),
             rows.iter().map(|r| r.3).collect::<Vec<_>>(),
         ),
-        Column::new("gain_50_db".into(), g50),
-        Column::new("gain_90_db".into(), g90),
+        Column::new(col::GAIN_50_DB.into(), g50),
+        Column::new(col::GAIN_90_DB.into(), g90),
         Column::new(
             "best_mean_accuracy".into(),
             rows.iter().map(|r| r.4).collect::<Vec<_>>(),
