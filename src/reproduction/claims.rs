@@ -14,8 +14,8 @@
 //! means). The printed numbers are one draw with no spread: they are judged with a zero margin.
 
 use super::compare::{num, Summary};
+use super::evaluated::{Evaluated, Stated};
 use super::reference::Dissertation;
-use super::{Evaluated, Stated};
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
 use std::fmt::Write as _;

@@ -6,8 +6,9 @@
 
 use super::claims::{self, Claim, Judged};
 use super::compare::{evidence, num, printed_num, Evidence, Verdict, REPEATS};
+use super::evaluated::{Cell, Evaluated, Stated};
 use super::reference::Dissertation;
-use super::{sections, Evaluated};
+use super::sections;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
@@ -77,7 +78,7 @@ fn not_covered(kind: &str) -> &'static str {
 pub fn document(
     dissertation: &Dissertation,
     evaluated: &[Evaluated],
-    stated: &[super::Stated],
+    stated: &[Stated],
     judged: &[(Claim, Judged)],
     header: &Header,
 ) -> (String, BTreeMap<Verdict, usize>) {
@@ -327,26 +328,24 @@ fn headline(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
         return;
     };
     let sizes = super::cnn::SIZES;
-    let printed = |c: &super::Cell| c.printed;
-    let tool = |c: &super::Cell| c.tool.map(|x| x.mean);
-    let first =
-        |row: &[super::Cell], base: Option<f64>, v: &dyn Fn(&super::Cell) -> Option<f64>| {
-            base.map(|base| {
-                row.iter()
-                    .zip(sizes)
-                    .find(|(c, _)| v(c).is_some_and(|x| x > base))
-                    .map(|(_, n)| n)
-            })
-        };
+    let printed = |c: &Cell| c.printed;
+    let tool = |c: &Cell| c.tool.map(|x| x.mean);
+    let first = |row: &[Cell], base: Option<f64>, v: &dyn Fn(&Cell) -> Option<f64>| {
+        base.map(|base| {
+            row.iter()
+                .zip(sizes)
+                .find(|(c, _)| v(c).is_some_and(|x| x > base))
+                .map(|(_, n)| n)
+        })
+    };
     let words = |f: First| match f {
         None => "-".to_string(),
         Some(None) => "never".to_string(),
         Some(Some(n)) => format!("N = {n}"),
     };
-    let first_above =
-        |row: &[super::Cell], base: Option<f64>, v: &dyn Fn(&super::Cell) -> Option<f64>| {
-            words(first(row, base, v))
-        };
+    let first_above = |row: &[Cell], base: Option<f64>, v: &dyn Fn(&Cell) -> Option<f64>| {
+        words(first(row, base, v))
+    };
     let _ = writeln!(
         s,
         "Headline: the first training size at which a generation method's mean accuracy exceeds \
@@ -364,7 +363,7 @@ fn headline(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
             first_above(row, tool(original), &tool)
         );
     }
-    let above = |v: &dyn Fn(&super::Cell) -> Option<f64>| -> String {
+    let above = |v: &dyn Fn(&Cell) -> Option<f64>| -> String {
         let sizes: Vec<String> = e.cells[1]
             .iter()
             .zip(&e.cells[0])
@@ -512,7 +511,7 @@ fn elsewhere(quantity: &str) -> Option<&'static str> {
 }
 
 /// The numbers the text states for figures, each with its quote.
-fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]) {
+fn figures(s: &mut String, dissertation: &Dissertation, stated: &[Stated]) {
     if !dissertation.figures.is_empty() {
         let _ = writeln!(s, "## Numbers the text states for figures\n");
         for f in &dissertation.figures {
@@ -523,7 +522,7 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[super::Stated]
                     .to_string()
             });
             let unit = f.unit.as_deref().unwrap_or("");
-            let mine: Vec<&super::Stated> = stated
+            let mine: Vec<&Stated> = stated
                 .iter()
                 .filter(|st| st.quantity == f.quantity)
                 .collect();
@@ -652,7 +651,7 @@ mod tests {
         let cells = (0..4)
             .map(|r| {
                 (0..4)
-                    .map(|c| super::super::Cell {
+                    .map(|c| super::Cell {
                         printed: t.number_at(r, c),
                         tool: (r < 3 || c == 0).then(|| Summary::of(&[tool[r][c]])),
                         difference: None,

@@ -10,8 +10,8 @@
 //! filter, which shows why they cannot be matched: they give neither set of correlations.
 
 use super::compare::{self, Spread, Summary};
+use super::evaluated::Stated;
 use super::reference::Dissertation;
-use super::Stated;
 use crate::synthesis::{dyadic_correlations, solve_dyadic};
 use anyhow::{Context, Result};
 

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::reproduction::compare::Spread;
-use crate::reproduction::{Cell, Evaluated, Stated};
+use crate::reproduction::evaluated::{Cell, Evaluated, Stated};
 
 /// A tool cell of `mean` and `sd` over 5 repeats.
 fn cell(mean: f64, sd: f64) -> Cell {

@@ -6,7 +6,7 @@
 
 use super::kernel::{FastFilter, Scratch};
 use super::method::{ArrayStore, Layout, Moments, Recorded};
-use super::sampling::{per_sample_c128, per_sample_c64};
+use super::sampling::{self, OneAtATime};
 use crate::stats::filters::{
     dyadic_taps, exponential_taps_signed, filter_seed, FilterBank, NegativeSigns,
 };
@@ -158,48 +158,14 @@ impl Filtered {
         })
     }
 
-    /// Sample `index` in format 1: the `f64` white seed of stream `index` filtered, scaled
-    /// to the moments.
-    fn sample_f64(&self, seed: u64, index: usize, out: &mut [Complex64]) {
-        let (h, w) = self.moments.mean.dim();
-        let bank = &self.filter.bank;
-        let k = bank.half_width;
-        let white = crate::seeds::white_seed(seed, index, h + 2 * k, w + 2 * k);
-        filter_seed(bank, white.view(), out);
-        let (mean, std) = (
-            self.moments.mean.as_slice().expect("standard layout"),
-            self.moments.std.as_slice().expect("standard layout"),
-        );
-        for (((x, sd), mu), s) in out.iter_mut().zip(bank.output_sds()).zip(mean).zip(std) {
-            *x = mu + *x * (s / sd);
-        }
-    }
-
-    /// Sample `index` in format 2 (the kernel).
-    fn sample_f32(&self, seed: u64, index: usize, scratch: &mut Scratch, out: &mut [Complex32]) {
-        self.fast().sample(seed, index, scratch, out)
-    }
-
     /// [`super::method::SynthesisMethod::generate_c128`] of a filter model.
     pub(super) fn generate_c128(&self, seed: u64, first: usize, out: &mut [Complex64]) {
-        per_sample_c128(
-            &self.moments,
-            first,
-            out,
-            |index, scratch, plane| self.sample_f32(seed, index, scratch, plane),
-            |index, plane| self.sample_f64(seed, index, plane),
-        )
+        sampling::generate_c128(self, &self.moments, seed, first, out)
     }
 
     /// [`super::method::SynthesisMethod::generate_c64`] of a filter model.
     pub(super) fn generate_c64(&self, seed: u64, first: usize, out: &mut [Complex32]) {
-        per_sample_c64(
-            &self.moments,
-            first,
-            out,
-            |index, scratch, plane| self.sample_f32(seed, index, scratch, plane),
-            |index, plane| self.sample_f64(seed, index, plane),
-        )
+        sampling::generate_c64(self, &self.moments, seed, first, out)
     }
 
     /// The unreached directions `model.json` records, with `negative_signs` (Method 1's).
@@ -286,5 +252,29 @@ impl Filtered {
             }
         }
         Ok(())
+    }
+}
+
+impl OneAtATime for Filtered {
+    /// Sample `index` in format 1: the `f64` white seed of stream `index` filtered, scaled
+    /// to the moments.
+    fn sample_f64(&self, seed: u64, index: usize, out: &mut [Complex64]) {
+        let (h, w) = self.moments.mean.dim();
+        let bank = &self.filter.bank;
+        let k = bank.half_width;
+        let white = crate::seeds::white_seed(seed, index, h + 2 * k, w + 2 * k);
+        filter_seed(bank, white.view(), out);
+        let (mean, std) = (
+            self.moments.mean.as_slice().expect("standard layout"),
+            self.moments.std.as_slice().expect("standard layout"),
+        );
+        for (((x, sd), mu), s) in out.iter_mut().zip(bank.output_sds()).zip(mean).zip(std) {
+            *x = mu + *x * (s / sd);
+        }
+    }
+
+    /// Sample `index` in format 2 (the kernel).
+    fn sample_f32(&self, seed: u64, index: usize, scratch: &mut Scratch, out: &mut [Complex32]) {
+        self.fast().sample(seed, index, scratch, out)
     }
 }

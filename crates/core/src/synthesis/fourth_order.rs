@@ -7,7 +7,7 @@ use super::method::{
     ArrayStore, Cost, CostSize, Layout, Moments, Needs, Recorded, SynthesisMethod,
 };
 use super::options::{FitError, FitOptions};
-use super::sampling::{per_sample_c128, per_sample_c64};
+use super::sampling::{self, OneAtATime};
 use crate::stats::analysis::Analysis;
 use ndarray::{Array3, ArrayView3};
 use num_complex::{Complex32, Complex64};
@@ -82,26 +82,6 @@ impl FourthOrder {
         }
     }
 
-    /// Sample `index` in format 1: per pixel two ChaCha20 normals through the cubic.
-    fn sample_f64(&self, seed: u64, index: usize, out: &mut [Complex64]) {
-        let w = self.moments.mean.dim().1;
-        let f = &self.fourth;
-        let mut rng = ChaCha20Rng::seed_from_u64(seed);
-        rng.set_stream(index as u64);
-        for (p, x) in out.iter_mut().enumerate() {
-            let (i, j) = (p / w, p % w);
-            let part = |comp: usize, z: f64| {
-                let coef = [0, 1, 2, 3].map(|k| f.coefficients[[comp, k, i, j]]);
-                f.component_sd[[comp, i, j]] * crate::stats::fleishman::transform(&coef, z)
-            };
-            let (zr, zi): (f64, f64) = (
-                StandardNormal.sample(&mut rng),
-                StandardNormal.sample(&mut rng),
-            );
-            *x = self.moments.mean[[i, j]] + Complex64::new(part(0, zr), part(1, zi));
-        }
-    }
-
     /// The `f32` coefficients of format 2.
     fn coefficients_f32(&self) -> &[f32] {
         self.f32_coefficients.get_or_init(|| {
@@ -122,6 +102,28 @@ impl FourthOrder {
             }
             c
         })
+    }
+}
+
+impl OneAtATime for FourthOrder {
+    /// Sample `index` in format 1: per pixel two ChaCha20 normals through the cubic.
+    fn sample_f64(&self, seed: u64, index: usize, out: &mut [Complex64]) {
+        let w = self.moments.mean.dim().1;
+        let f = &self.fourth;
+        let mut rng = ChaCha20Rng::seed_from_u64(seed);
+        rng.set_stream(index as u64);
+        for (p, x) in out.iter_mut().enumerate() {
+            let (i, j) = (p / w, p % w);
+            let part = |comp: usize, z: f64| {
+                let coef = [0, 1, 2, 3].map(|k| f.coefficients[[comp, k, i, j]]);
+                f.component_sd[[comp, i, j]] * crate::stats::fleishman::transform(&coef, z)
+            };
+            let (zr, zi): (f64, f64) = (
+                StandardNormal.sample(&mut rng),
+                StandardNormal.sample(&mut rng),
+            );
+            *x = self.moments.mean[[i, j]] + Complex64::new(part(0, zr), part(1, zi));
+        }
     }
 
     /// Sample `index` in format 2: per pixel and component, in `f32`, the mean plus the
@@ -177,23 +179,11 @@ impl SynthesisMethod for FourthOrder {
     }
 
     fn generate_c128(&self, seed: u64, first: usize, out: &mut [Complex64]) {
-        per_sample_c128(
-            &self.moments,
-            first,
-            out,
-            |index, scratch, plane| self.sample_f32(seed, index, scratch, plane),
-            |index, plane| self.sample_f64(seed, index, plane),
-        )
+        sampling::generate_c128(self, &self.moments, seed, first, out)
     }
 
     fn generate_c64(&self, seed: u64, first: usize, out: &mut [Complex32]) {
-        per_sample_c64(
-            &self.moments,
-            first,
-            out,
-            |index, scratch, plane| self.sample_f32(seed, index, scratch, plane),
-            |index, plane| self.sample_f64(seed, index, plane),
-        )
+        sampling::generate_c64(self, &self.moments, seed, first, out)
     }
 
     fn recorded(&self) -> Recorded {

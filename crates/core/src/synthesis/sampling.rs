@@ -16,9 +16,53 @@ fn check_format(format: u32) {
     );
 }
 
+/// A model that draws one sample at a time from its own stream: sample `index` of `seed` in
+/// either sample format. [`generate_c128`] and [`generate_c64`] fill an output with it.
+pub(super) trait OneAtATime: Sync {
+    /// Sample `index` in format 1 (`f64`).
+    fn sample_f64(&self, seed: u64, index: usize, out: &mut [Complex64]);
+    /// Sample `index` in format 2 (`f32`, with the kernels' scratch).
+    fn sample_f32(&self, seed: u64, index: usize, scratch: &mut Scratch, out: &mut [Complex32]);
+}
+
+/// Samples `first ..` of `model` (with `moments`: its size and sample format) into `out` as
+/// complex128.
+pub(super) fn generate_c128(
+    model: &impl OneAtATime,
+    moments: &Moments,
+    seed: u64,
+    first: usize,
+    out: &mut [Complex64],
+) {
+    per_sample_c128(
+        moments,
+        first,
+        out,
+        |index, scratch, plane| model.sample_f32(seed, index, scratch, plane),
+        |index, plane| model.sample_f64(seed, index, plane),
+    )
+}
+
+/// Samples `first ..` of `model` into `out` as complex64 ([`generate_c128`]).
+pub(super) fn generate_c64(
+    model: &impl OneAtATime,
+    moments: &Moments,
+    seed: u64,
+    first: usize,
+    out: &mut [Complex32],
+) {
+    per_sample_c64(
+        moments,
+        first,
+        out,
+        |index, scratch, plane| model.sample_f32(seed, index, scratch, plane),
+        |index, plane| model.sample_f64(seed, index, plane),
+    )
+}
+
 /// Samples `first ..` into `out` as complex128, one sample at a time in parallel: in format 2
 /// `f32(index, scratch, plane)` widened, in format 1 `f64(index, plane)`.
-pub(super) fn per_sample_c128(
+fn per_sample_c128(
     moments: &Moments,
     first: usize,
     out: &mut [Complex64],
@@ -46,7 +90,7 @@ pub(super) fn per_sample_c128(
 
 /// Samples `first ..` into `out` as complex64, one sample at a time in parallel: in format 2
 /// `f32(index, scratch, plane)`, in format 1 `f64(index, buffer)` rounded.
-pub(super) fn per_sample_c64(
+fn per_sample_c64(
     moments: &Moments,
     first: usize,
     out: &mut [Complex32],

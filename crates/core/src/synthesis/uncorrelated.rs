@@ -7,7 +7,7 @@ use super::method::{
     ArrayStore, Cost, CostSize, Layout, Moments, Needs, Recorded, SynthesisMethod,
 };
 use super::options::{FitError, FitOptions};
-use super::sampling::{per_sample_c128, per_sample_c64};
+use super::sampling::{self, OneAtATime};
 use crate::stats::analysis::Analysis;
 use ndarray::ArrayView3;
 use num_complex::{Complex32, Complex64};
@@ -22,7 +22,7 @@ pub struct Uncorrelated {
     pub moments: Moments,
 }
 
-impl Uncorrelated {
+impl OneAtATime for Uncorrelated {
     /// Sample `index` in format 1: per pixel two ChaCha20 normals scaled by `std / sqrt 2`.
     fn sample_f64(&self, seed: u64, index: usize, out: &mut [Complex64]) {
         let w = self.moments.mean.dim().1;
@@ -87,23 +87,11 @@ impl SynthesisMethod for Uncorrelated {
     }
 
     fn generate_c128(&self, seed: u64, first: usize, out: &mut [Complex64]) {
-        per_sample_c128(
-            &self.moments,
-            first,
-            out,
-            |index, scratch, plane| self.sample_f32(seed, index, scratch, plane),
-            |index, plane| self.sample_f64(seed, index, plane),
-        )
+        sampling::generate_c128(self, &self.moments, seed, first, out)
     }
 
     fn generate_c64(&self, seed: u64, first: usize, out: &mut [Complex32]) {
-        per_sample_c64(
-            &self.moments,
-            first,
-            out,
-            |index, scratch, plane| self.sample_f32(seed, index, scratch, plane),
-            |index, plane| self.sample_f64(seed, index, plane),
-        )
+        sampling::generate_c64(self, &self.moments, seed, first, out)
     }
 
     fn recorded(&self) -> Recorded {

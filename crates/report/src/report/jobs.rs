@@ -5,7 +5,7 @@
 //! parallel, as a [`Task`].
 
 use super::figures::{self, Scale};
-use super::{abs_max, grid, rel, Figure, Grid, Task};
+use super::task::{abs_max, grid, rel, Figure, Grid, Task};
 use crate::io::results::{self, col, maps as names};
 use crate::stats::analysis::Direction;
 use crate::stats::metrics::{map_stem, name as metric_name};

@@ -4,9 +4,10 @@
 //! more jobs with figures than the limit of [`super::select`]), and every table over jobs is
 //! bounded ([`TABLE_ROWS`]).
 
+use super::cnn;
 use super::select::Selection;
 use super::table::{self, escape, Format, RowLimit};
-use super::{cnn, Figure};
+use super::task::Figure;
 use crate::io::manifest::{Job, Manifest};
 use crate::io::results::{self, Table};
 use anyhow::Result;

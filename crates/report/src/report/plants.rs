@@ -7,7 +7,7 @@
 
 use super::figures::{self, Panel, Scale};
 use super::runwide::curves_task;
-use super::{rel, Figure, Task};
+use super::task::{rel, Figure, Task};
 use crate::io::results::{self, col};
 use crate::physics::vegetation::parse_dataset_id;
 use anyhow::{Context, Result};

@@ -3,7 +3,7 @@
 //! run's Parquet tables. They come first among the report's figures.
 
 use super::figures;
-use super::{rel, Figure, Task};
+use super::task::{rel, Figure, Task};
 use crate::io::results::{self, col, Table};
 use anyhow::{Context, Result};
 use polars::prelude::{

@@ -8,7 +8,7 @@
 use super::super::figures::charts::{self, Point};
 use super::super::figures::heatmap::{heatmap_grid_with, GridOptions};
 use super::super::figures::{Panel, Scale};
-use super::super::{rel, Figure};
+use super::super::task::{rel, Figure};
 use super::{App, Group, Representative};
 use crate::io::results::{self, col};
 use crate::location_grid::{centre, GRID, TARGET};
@@ -370,7 +370,7 @@ fn training_curves(
 /// five locations (columns), `20 log10 |x|` on one scale spanning [`EXAMPLE_RANGE_DB`] below
 /// the peak, each target's 8x8 footprint outlined.
 fn examples(dir: &Path, g: &Group, rep: &Representative) -> Result<Option<Figure>> {
-    let mut rows: super::super::Grid = vec![];
+    let mut rows: super::super::task::Grid = vec![];
     let mut files = vec![];
     for m in &g.methods {
         let Some(r) = g.at(m, rep.x).find(|r| r.repeat == 0) else {
@@ -405,7 +405,7 @@ fn examples(dir: &Path, g: &Group, rep: &Representative) -> Result<Option<Figure
     for (_, m) in rows.iter_mut().flatten() {
         m.mapv_inplace(|v| if v.is_finite() { v.max(floor) } else { floor });
     }
-    let panels = super::super::panels(&rows);
+    let panels = super::super::task::panels(&rows);
     let half = TARGET / 2;
     let boxes = rows
         .iter()

@@ -8,7 +8,7 @@ mod figures;
 pub mod table;
 
 use super::table::{floats, kept_rows, strings, Format};
-use super::Figure;
+use super::task::Figure;
 use crate::io::results::{self, col, Table};
 use anyhow::{Context, Result};
 use std::path::Path;
