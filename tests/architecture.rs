@@ -5,6 +5,9 @@
 //! burn, plotters, clap and indicatif; no source file over 800 lines; and every path and item
 //! name that `docs/architecture.md` cites still there.
 
+mod common;
+
+use common::rust_files;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -34,24 +37,6 @@ fn is_facade(file: &Path) -> bool {
     rel.file_name().is_some_and(|n| n == "lib.rs")
         && !rel.starts_with("crates/core")
         && !rel.starts_with("python")
-}
-
-/// Every `.rs` file under `dir`, sorted.
-fn rust_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut todo = vec![dir.to_path_buf()];
-    while let Some(d) = todo.pop() {
-        for e in fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                todo.push(p);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
 }
 
 /// The module path of a file under its crate's `src` (`stats/cmd/mod.rs` -> `[stats, cmd]`).

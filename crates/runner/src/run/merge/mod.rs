@@ -127,10 +127,10 @@ impl Run<'_> {
         let out = outdir.root();
         let mut unsaved: HashMap<usize, String> = failures(ran);
         unsaved.extend(self.run_row_jobs()?);
-        let records = records::read(self, out, &unsaved)?;
+        let mut records = records::read(self, out, &unsaved)?;
         let mut merged = Merged {
-            failed: records.failed.clone(),
-            missing: records.missing.clone(),
+            failed: std::mem::take(&mut records.failed),
+            missing: std::mem::take(&mut records.missing),
             notes: vec![],
         };
         if !merged.missing.is_empty() && !partial {
