@@ -1,32 +1,47 @@
 """Unlimited clutter for PyTorch: ``ClutterDataset``, an ``IterableDataset`` of generated samples.
 
-The stream of a seed is cut into blocks of ``block`` samples (block ``b`` holds samples
-``b * block ..``). Distributed rank ``r`` of ``world_size`` takes blocks ``r, r + world_size,
-...``; within a rank, DataLoader worker ``k`` of ``W`` takes every ``W``-th of the rank's blocks,
-starting at its ``k``-th. A DataLoader hands out its workers' batches in turn, so with
-``batch_size == block`` every rank sees its blocks in order for any ``num_workers``, and a single
-process (one rank) sees the samples ``0, 1, 2, ...`` of the command line's ``generate --seed``.
-``set_epoch(e)`` gives epoch ``e`` the stream of ``epoch_seed(seed, e)``: fresh samples, the same
-on every run.
+Every sample is the one ``isar-clutter generate --seed`` writes at its index (``block`` only
+says how many are generated at once). The stream is dealt out in batches of ``batch_size``
+(default: ``block``): at step ``s`` distributed rank ``r`` of ``R`` takes the ``r``-th batch of
+the step's ``R`` batches, so the ranks' step ``s`` together hold the stream's samples
+``s * R * batch_size ..`` in order, and within a rank DataLoader worker ``k`` of ``W`` makes the
+rank's batches ``k, k + W, ...``, which a DataLoader hands out in order for any ``num_workers``.
+A single process (one rank) thus sees the samples ``0, 1, 2, ...``.
 
-    from torch.utils.data import DataLoader
+Finite streams (``samples=N``) follow ``DistributedSampler``'s rule so that DistributedDataParallel
+never waits on a rank: every rank draws the same number of samples, ``ceil(N / R)`` with
+``remainder="pad"`` (the default; the ``R * ceil(N / R) - N < R`` missing samples wrap around to
+the stream's first samples, so every sample is seen and at most ``R - 1`` twice) or
+``floor(N / R)`` with ``remainder="drop"`` (the last ``N mod R`` samples are not drawn). Every
+rank then has the same number of full batches and, when ``batch_size`` does not divide its
+share, the same short last batch (its step's samples shared evenly): the ranks' batch sizes
+are one sequence. ``samples_per_rank=K`` gives an unlimited stream epochs of ``K`` samples per
+rank (the first ``R * K`` of the epoch's stream). ``set_epoch(e)`` draws epoch ``e`` from
+``epoch_seed(seed, e)``: fresh samples, the same on every run (call it on the dataset a
+DataLoader pickles into its workers at each epoch: ``persistent_workers=False``, the default).
+
     from isar_clutter.torch import ClutterDataset
-    data = ClutterDataset("models/m2", seed=1, block=64)
-    for batch in DataLoader(data, batch_size=64, num_workers=2):
-        ...  # complex64 tensors [64, H, W], forever (samples=None)
+    data = ClutterDataset("models/m2", seed=1, samples=10_000, batch_size=64)
+    for epoch in range(30):
+        data.set_epoch(epoch)
+        for batch in data.loader(num_workers=2):   # DataLoader(data, batch_size=64, ...)
+            ...  # complex64 tensors [64, H, W]; the same number of steps on every rank
 """
 
 from __future__ import annotations
 
 import os
-from typing import Callable, Iterator, Optional, Tuple, Union
+from typing import Callable, Iterator, List, Optional, Tuple, Union
 
 import torch
-from torch.utils.data import IterableDataset, get_worker_info
+from torch.utils.data import DataLoader, IterableDataset, get_worker_info
 
 from . import Model, epoch_seed
 
-__all__ = ["ClutterDataset"]
+__all__ = ["ClutterDataset", "REMAINDERS"]
+
+REMAINDERS = ("pad", "drop")
+"""The rules for a finite stream that does not divide evenly between the ranks."""
 
 
 def _count(name: str, value: Optional[int], least: int) -> Optional[int]:
@@ -45,12 +60,16 @@ class ClutterDataset(IterableDataset):
     Args:
         model: a ``Model``, or the path of a model folder.
         seed: the generation's seed (``isar-clutter generate --seed``).
-        samples: how many samples in all (over every rank and worker); ``None``: unlimited.
+        samples: how many distinct samples an epoch holds over every rank; ``None``: unlimited.
         transform: applied to every sample (a complex64 tensor ``[H, W]``) before it is yielded.
-        block: samples generated at once; the unit that ranks and workers share out.
+        block: the most samples generated at once (memory and speed, never which samples).
         rank, world_size: this process's share in distributed training (default: from
             ``torch.distributed`` when it is initialised, else one process).
         threads: generation threads (default: 1 in a DataLoader worker, all cores otherwise).
+        batch_size: the DataLoader's batch size, the unit dealt to ranks and workers
+            (default: ``block``); ``loader()`` builds a DataLoader with it.
+        remainder: ``"pad"`` or ``"drop"``: how a finite stream is made equal on every rank.
+        samples_per_rank: an unlimited stream's epoch length on every rank.
     """
 
     def __init__(
@@ -63,6 +82,9 @@ class ClutterDataset(IterableDataset):
         rank: Optional[int] = None,
         world_size: Optional[int] = None,
         threads: Optional[int] = None,
+        batch_size: Optional[int] = None,
+        remainder: str = "pad",
+        samples_per_rank: Optional[int] = None,
     ) -> None:
         super().__init__()
         if not isinstance(model, Model):
@@ -70,8 +92,16 @@ class ClutterDataset(IterableDataset):
         self.model = model
         self.seed = _count("seed", seed, 0)
         self.samples = _count("samples", samples, 0)
+        self.samples_per_rank = _count("samples_per_rank", samples_per_rank, 1)
+        if self.samples is not None and self.samples_per_rank is not None:
+            raise ValueError("samples and samples_per_rank do not go together (samples_per_rank is "
+                             "an unlimited stream's epoch)")
         self.transform = transform
         self.block = _count("block", block, 1)
+        self.batch_size = _count("batch_size", batch_size, 1) or self.block
+        if remainder not in REMAINDERS:
+            raise ValueError(f"remainder must be one of {', '.join(REMAINDERS)}, not {remainder!r}")
+        self.remainder = remainder
         self.threads = _count("threads", threads, 1)
         if (rank is None) != (world_size is None):
             raise ValueError("rank and world_size go together")
@@ -85,6 +115,17 @@ class ClutterDataset(IterableDataset):
         """Draws epoch ``epoch``'s samples from now on (the stream of ``epoch_seed(seed, epoch)``)."""
         self.epoch = _count("epoch", epoch, 0)
 
+    def loader(self, **kwargs) -> DataLoader:
+        """A DataLoader over this dataset with its ``batch_size``; other arguments pass through.
+
+        A different ``batch_size`` is refused: batches would then be cut across the ranks' shares.
+        """
+        batch = kwargs.pop("batch_size", self.batch_size)
+        if batch != self.batch_size:
+            raise ValueError(f"the DataLoader's batch_size {batch} is not the dataset's batch_size "
+                             f"{self.batch_size}: give ClutterDataset(batch_size={batch})")
+        return DataLoader(self, batch_size=batch, **kwargs)
+
     def _ranks(self) -> Tuple[int, int]:
         if self.world_size is not None:
             return self.rank, self.world_size
@@ -93,21 +134,40 @@ class ClutterDataset(IterableDataset):
             return dist.get_rank(), dist.get_world_size()
         return 0, 1
 
-    def _blocks(self) -> Optional[int]:
+    def _epoch(self, world: int) -> Tuple[Optional[int], Optional[int]]:
+        """(the stream's distinct samples, this rank's share), None for unlimited."""
+        if self.samples_per_rank is not None:
+            return world * self.samples_per_rank, self.samples_per_rank
         if self.samples is None:
-            return None
-        return -(-self.samples // self.block)
+            return None, None
+        share = -(-self.samples // world) if self.remainder == "pad" else self.samples // world
+        return self.samples, share
 
     def __len__(self) -> int:
-        """The samples this rank draws (only for a finite ``samples``)."""
-        blocks = self._blocks()
-        if blocks is None:
-            raise TypeError("an unlimited ClutterDataset (samples=None) has no length")
-        rank, world = self._ranks()
-        total = 0
-        for b in range(rank, blocks, world):
-            total += min(self.block, self.samples - b * self.block)
-        return total
+        """The samples this rank draws in an epoch (only for a finite or epoch-limited stream)."""
+        _, share = self._epoch(self._ranks()[1])
+        if share is None:
+            raise TypeError("an unlimited ClutterDataset (samples=None) has no length: give "
+                            "samples or samples_per_rank")
+        return share
+
+    def _batch(self, j: int, rank: int, world: int, distinct: Optional[int],
+               share: Optional[int]) -> List[Tuple[int, int]]:
+        """The stream's (start, count) ranges of the rank's ``j``-th batch; [] past its share."""
+        b = self.batch_size
+        if share is not None and j * b >= share:
+            return []
+        size = b if share is None else min(b, share - j * b)
+        start = j * world * b + rank * size
+        if distinct is None or start + size <= distinct:
+            return [(start, size)]
+        ranges, left = [], size  # pad: the indices past the end wrap to the stream's start
+        while left:
+            at = start % distinct
+            n = min(left, distinct - at)
+            ranges.append((at, n))
+            start, left = start + n, left - n
+        return ranges
 
     def __iter__(self) -> Iterator[object]:
         rank, world = self._ranks()
@@ -115,15 +175,16 @@ class ClutterDataset(IterableDataset):
         worker, workers = (info.id, info.num_workers) if info is not None else (0, 1)
         threads = self.threads if self.threads is not None else (1 if info is not None else None)
         seed = epoch_seed(self.seed, self.epoch)
-        blocks = self._blocks()
-        j = worker  # the rank's j-th block is block j * world + rank of the stream
+        distinct, share = self._epoch(world)
+        j = worker
         while True:
-            b = j * world + rank
-            if blocks is not None and b >= blocks:
+            ranges = self._batch(j, rank, world, distinct, share)
+            if not ranges:
                 return
-            start = b * self.block
-            n = self.block if self.samples is None else min(self.block, self.samples - start)
-            x = torch.from_numpy(self.model.generate(n, seed, start=start, threads=threads))
-            for s in x:
-                yield s if self.transform is None else self.transform(s)
+            for start, count in ranges:
+                for at in range(start, start + count, self.block):
+                    n = min(self.block, start + count - at)
+                    x = torch.from_numpy(self.model.generate(n, seed, start=at, threads=threads))
+                    for s in x:
+                        yield s if self.transform is None else self.transform(s)
             j += workers
