@@ -18,7 +18,9 @@
 #![warn(missing_docs)]
 
 pub use isar_clutter_apps::apps;
-pub use isar_clutter_core::{alloc, error_text, physics, seeds, stats, synthesis, workflow};
+pub use isar_clutter_core::{
+    alloc, error_text, physics, resources, seeds, stats, synthesis, workflow,
+};
 pub use isar_clutter_report::report;
 pub use isar_clutter_runner::{experiment, run};
 pub use isar_clutter_tables::io;

@@ -363,7 +363,7 @@ fn layer(file: &Path) -> Option<(usize, String)> {
     let l = match (krate, top) {
         // The core's lib.rs declares the modules and defines the tool's name and error_text:
         // it imports nothing, and every layer may name it.
-        ("core", "seeds" | "alloc" | "lib" | "location_grid") => 0,
+        ("core", "seeds" | "alloc" | "resources" | "lib" | "location_grid") => 0,
         ("core", "stats" | "physics") => 1,
         ("core", "synthesis") => 2,
         ("core", "io") => 3,

@@ -549,8 +549,10 @@ fn under_quiet_jobs_whose_outcome_cannot_be_stored_are_reported_failed_with_the_
     );
 }
 
-/// A real full disk: a 1 MiB tmpfs (in a mount namespace of its own, where `unshare` may make
-/// one; skipped otherwise) that the run fills with a saved sample stack.
+/// A real full disk: an 8 MiB tmpfs (in a mount namespace of its own, where `unshare` may make
+/// one; skipped otherwise) that the run fills with a saved sample stack (13 MB; the outputs'
+/// estimate, 14 MB, is within the margin of the up-front disk check, which only warns:
+/// tests/resources.rs has the refusal).
 #[test]
 fn under_quiet_a_full_disk_says_no_space_left() {
     let dir = tempfile::tempdir().unwrap();
@@ -566,7 +568,7 @@ fn under_quiet_a_full_disk_says_no_space_left() {
     let disk = dir.path().join("disk");
     std::fs::create_dir(&disk).unwrap();
     let script = format!(
-        "mount -t tmpfs -o size=1m tmpfs '{d}' || exit 77; exec '{BIN}' run '{spec}' --quiet \
+        "mount -t tmpfs -o size=8m tmpfs '{d}' || exit 77; exec '{BIN}' run '{spec}' --quiet \
          --no-report --jobs 1 --out '{d}/out'",
         d = disk.display(),
         spec = spec.display()

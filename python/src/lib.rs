@@ -115,8 +115,20 @@ fn fit(
     let source = source.to_string();
     let (model, info) = py
         .detach(|| workflow::fit_analysed(method, &analysis, full.as_ref(), options, source))
-        .map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
+        .map_err(|e| fit_error(&e))?;
     Ok(Model { model, info })
+}
+
+/// A failed fit as Python sees it: `MemoryError` when the model would not fit in memory
+/// (refused before allocating, or an allocation that failed), `ValueError` otherwise.
+fn fit_error(e: &anyhow::Error) -> PyErr {
+    use isar_clutter_core::synthesis::FitError;
+    match e.downcast_ref::<FitError>() {
+        Some(FitError::Memory { .. } | FitError::Alloc(_)) => {
+            PyMemoryError::new_err(format!("{e:#}"))
+        }
+        _ => PyValueError::new_err(format!("{e:#}")),
+    }
 }
 
 #[pymethods]
@@ -165,7 +177,7 @@ impl Model {
     /// generate(n, seed, start=0, threads=None) -> complex64 [n, H, W]: samples
     /// `start .. start + n` of the generation seeded by `seed`, byte for byte those of
     /// `isar-clutter generate --seed SEED`; the GIL is released while they are computed on
-    /// `threads` threads (default: all cores).
+    /// `threads` threads (default: all cores; more than 4 a core are capped with a `ResourceWarning`).
     #[pyo3(signature = (n, seed, start = 0, threads = None))]
     fn generate<'py>(
         &self,
@@ -185,6 +197,16 @@ impl Model {
         if threads == Some(0) {
             return Err(PyValueError::new_err("threads must be at least 1"));
         }
+        let threads = match threads.map(|t| isar_clutter_core::resources::cap_threads(t, "threads"))
+        {
+            Some((t, Some(note))) => {
+                let note = std::ffi::CString::new(note).expect("no NUL in the note");
+                let kind = py.get_type::<pyo3::exceptions::PyResourceWarning>();
+                PyErr::warn(py, &kind, &note, 1)?;
+                Some(t)
+            }
+            capped => capped.map(|(t, _)| t),
+        };
         let (h, w) = self.model.shape();
         let mut out = isar_clutter_core::alloc::try_zeros((n, h, w), "the generated samples")
             .map_err(|e| PyMemoryError::new_err(format!("n = {n}: {e}")))?;

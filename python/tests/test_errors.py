@@ -101,3 +101,35 @@ def test_importing_the_package_needs_no_torch():
     code = "import sys, isar_clutter; assert 'torch' not in sys.modules, 'torch was imported'"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
+
+
+ABSURD = [
+    # (what the child runs, the exception it must print)
+    ("ic.fit(x, method='method1', half_width=10**9)", "MemoryError: fitting method1 to numpy array: method1 with half_width 1000000000"),
+    ("ic.fit(x, method='method2', half_width=10**9)", "MemoryError: fitting method2 to numpy array: method2 with half_width 1000000000"),
+    ("ic.fit(x, method='method1').generate(2**62, 1)", "MemoryError: n = 4611686018427387904"),
+    ("ic.fit(x, method='method1').generate(-1, 1)", "ValueError: n must be 0 or more"),
+    ("ic.analyse(x, levels=10**9)", "ValueError: stack: "),
+    ("ic.fit(x, method='method2', levels=10**9)", "ValueError"),
+    ("ic.fit(x, method='method1').generate(3, 1, threads=100000).shape", "ResourceWarning: threads 100000 is more than"),
+]
+
+
+@pytest.mark.parametrize("call,says", ABSURD)
+def test_absurd_arguments_raise_and_the_interpreter_survives(call, says):
+    # In a child interpreter: an abort (SIGABRT) there fails this test instead of ending pytest.
+    import subprocess
+    import sys
+    code = ("import warnings, numpy as np, isar_clutter as ic\n"
+            "warnings.simplefilter('always')\n"
+            "r = np.random.default_rng(0)\n"
+            "x = (r.standard_normal((20, 8, 8)) + 1j * r.standard_normal((20, 8, 8))).astype(np.complex64)\n"
+            "try:\n"
+            f"    print({call})\n"
+            "except Exception as e:\n"
+            "    print(f'{type(e).__name__}: {e}')\n"
+            "print('survived')\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    both = out.stdout + out.stderr
+    assert out.returncode == 0, f"the interpreter died ({out.returncode}): {both[-2000:]}"
+    assert says in both and "survived" in out.stdout, both[-2000:]

@@ -59,7 +59,7 @@ pub struct RunArgs {
     pub out: Option<PathBuf>,
     /// Worker threads (default: RAYON_NUM_THREADS, else all cores). Results do not
     /// depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = jobs)]
     pub jobs: Option<usize>,
     /// Print the job table and exit without running anything.
     #[arg(long)]
@@ -113,7 +113,7 @@ pub struct ReproduceArgs {
     #[arg(long)]
     pub cnn_repeats: Option<usize>,
     /// Worker threads of each run (default: RAYON_NUM_THREADS, else all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = jobs)]
     pub jobs: Option<usize>,
     /// Write the document from the folders in OUT without running anything.
     #[arg(long)]
@@ -156,7 +156,7 @@ pub struct ReportArgs {
     /// The results folder of a run (outputs/<name>).
     pub results: PathBuf,
     /// Worker threads (default: RAYON_NUM_THREADS, else all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = jobs)]
     pub jobs: Option<usize>,
     /// Read a folder whose run is in progress, was interrupted, or whose files changed
     /// since its manifest (refused otherwise).
@@ -231,7 +231,7 @@ pub struct MergeArgs {
     #[arg(long)]
     pub no_report: bool,
     /// Worker threads (default: RAYON_NUM_THREADS, else all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = jobs)]
     pub jobs: Option<usize>,
     /// No progress output.
     #[arg(long, short)]
@@ -271,13 +271,13 @@ pub struct SlurmArgs {
     #[arg(long)]
     pub partition: Option<String>,
     /// Time limit of each job (sbatch --time, e.g. 2:00:00).
-    #[arg(long)]
+    #[arg(long, value_parser = isar_clutter::run::slurm_values::time)]
     pub time: Option<String>,
     /// CPUs per array task (and the worker threads of each shard).
     #[arg(long, default_value_t = 1)]
     pub cpus: usize,
     /// Memory of each job (sbatch --mem, e.g. 8G).
-    #[arg(long)]
+    #[arg(long, value_parser = isar_clutter::run::slurm_values::mem)]
     pub mem: Option<String>,
     /// Submit both jobs with sbatch (the merge job with --dependency=afterok).
     #[arg(long)]
@@ -316,7 +316,7 @@ pub struct FitArgs {
     #[arg(long, default_value = "multiscale")]
     pub negative_signs: String,
     /// Worker threads (default: RAYON_NUM_THREADS, else all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = jobs)]
     pub jobs: Option<usize>,
 }
 
@@ -365,6 +365,23 @@ pub struct GenerateArgs {
     pub buffered: bool,
     /// Worker threads (default: RAYON_NUM_THREADS, else all cores). The file does not
     /// depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = jobs)]
     pub jobs: Option<usize>,
+}
+
+/// Parses `--jobs`: at least 1, capped at what the machine can use
+/// ([`isar_clutter::resources::cap_threads`]) with a note on stderr.
+fn jobs(text: &str) -> Result<usize, String> {
+    let n: usize = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number of threads"))?;
+    if n == 0 {
+        return Err("at least 1 thread".into());
+    }
+    let (n, note) = isar_clutter::resources::cap_threads(n, "--jobs");
+    if let Some(note) = note {
+        eprintln!("note: {note}");
+    }
+    Ok(n)
 }

@@ -36,6 +36,7 @@ pub fn run(a: RunArgs) -> Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let out = out.unwrap_or_else(|| PathBuf::from("outputs").join(&plan.spec.name));
+    check_disk(&plan, &out)?;
     let mut opts = RunOptions::new(out, jobs.unwrap_or_else(options::default_threads));
     opts.quiet = quiet;
     opts.max_memory = max_memory;
@@ -155,10 +156,36 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode> {
     let all = isar_clutter::run::jobs::all::AllJobs::new(&plan)
         .list()
         .len();
+    let footprint = estimate::footprint(&plan, all);
+    // Against the default output folder's file system (`run --out` checks its own).
+    let disk = footprint.check_disk(&PathBuf::from("outputs").join(&plan.spec.name));
+    if let Err(why) = &disk {
+        anyhow::bail!("{}: `run` would refuse it: {why}", spec.display());
+    }
     println!("{}: valid, {all} job(s)", spec.display());
     println!("{largest}");
-    println!("{}", estimate::footprint(&plan, all));
+    println!("{footprint}");
+    if let Ok(Some(warning)) = disk {
+        println!("warning: {warning}");
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Refuses a run whose outputs cannot fit on the file system of `out`, or warns
+/// ([`estimate::Footprint::check_disk`]), before anything is written.
+///
+/// # Errors
+/// The refusal.
+fn check_disk(plan: &Plan, out: &std::path::Path) -> Result<()> {
+    let all = isar_clutter::run::jobs::all::AllJobs::new(plan)
+        .list()
+        .len();
+    match estimate::footprint(plan, all).check_disk(out) {
+        Err(why) => anyhow::bail!(why),
+        Ok(Some(warning)) => eprintln!("warning: {warning}"),
+        Ok(None) => {}
+    }
+    Ok(())
 }
 
 /// `slurm`: writes (and submits) the array and merge scripts.

@@ -13,6 +13,7 @@
 //! - [`physics`]: the ISAR imaging chain, Mie series, calibration, the vegetation stand-in;
 //! - [`io`]: file formats and atomic writes;
 //! - [`workflow`]: `fit` and `generate` from files to files (the model-folder policy);
+//! - [`resources`]: the machine's memory, free disk and threads, read before a command spends them;
 //! - [`alloc`]: the allocator of the binaries (large blocks mapped from the kernel) and fallible
 //!   allocation of stacks.
 
@@ -26,6 +27,7 @@ pub mod alloc;
 pub mod io;
 pub mod location_grid;
 pub mod physics;
+pub mod resources;
 pub mod seeds;
 pub mod stats;
 pub mod synthesis;

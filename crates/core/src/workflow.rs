@@ -151,6 +151,7 @@ pub fn generate(
     }
     let removed = crate::io::outdir::remove_dead_temporaries_of(out)?;
     let (mut m, _) = crate::io::model::load(model)?;
+    check_disk(&m, out, mat, run.samples)?;
     if let Some(format) = run.sample_format {
         m.set_sample_format(format);
     }
@@ -192,6 +193,28 @@ pub fn generate(
         record: mat.is_none().then(|| record_path(out)),
         removed,
     })
+}
+
+/// Refuses `samples` samples of `model` at `out` when they would not fit in the free space of
+/// its file system ([`crate::resources::disk_shortfall`]), before anything is written.
+///
+/// # Errors
+/// Naming the samples, the bytes and the free space.
+fn check_disk(model: &Model, out: &Path, mat: Option<&MatOutput>, samples: usize) -> Result<()> {
+    let (h, w) = model.shape();
+    let value = match mat.map(|m| m.class) {
+        Some(MatClass::Double) => 16u128,
+        _ => 8,
+    };
+    let bytes = (samples as u128 * h as u128 * w as u128 * value).min(u64::MAX as u128) as u64;
+    match crate::resources::disk_shortfall(
+        out,
+        bytes,
+        &format!("the {samples} samples (--samples)"),
+    ) {
+        Some(why) => bail!("{why}: lower --samples or choose another --out"),
+        None => Ok(()),
+    }
 }
 
 /// The method of its name (`method1`, `method2`, `full_covariance`, `uncorrelated`,

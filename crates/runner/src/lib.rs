@@ -8,7 +8,7 @@
 
 pub use isar_clutter_apps::apps;
 pub use isar_clutter_core::{
-    alloc, error_text, location_grid, physics, seeds, stats, synthesis, workflow, TOOL,
+    alloc, error_text, location_grid, physics, resources, seeds, stats, synthesis, workflow, TOOL,
 };
 pub use isar_clutter_tables::io;
 

@@ -90,10 +90,20 @@ impl AtomicWriter {
         fn named(path: &Path) -> impl Fn(std::io::Error) -> std::io::Error + '_ {
             move |e| std::io::Error::new(e.kind(), format!("cannot create {}: {e}", path.display()))
         }
-        match File::create(&self.tmp) {
+        // As File::create, but never through a symbolic link planted at the temporary's name.
+        let open = |path: &Path| {
+            use std::os::unix::fs::OpenOptionsExt;
+            fs::OpenOptions::new()
+                .write(true)
+                .create(true)
+                .truncate(true)
+                .custom_flags(libc::O_NOFOLLOW)
+                .open(path)
+        };
+        match open(&self.tmp) {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 fs::create_dir_all(&self.dir).map_err(named(&self.dir))?;
-                File::create(&self.tmp).map_err(named(&self.tmp))
+                open(&self.tmp).map_err(named(&self.tmp))
             }
             other => other.map_err(named(&self.tmp)),
         }

@@ -41,6 +41,7 @@ mod registry;
 mod sampling;
 mod uncorrelated;
 
+use crate::resources::human_bytes;
 pub use crate::stats::filters::NegativeSigns;
 pub use filter::{CellParams, FilterModel, Filtered, MAX_WORK_BYTES};
 pub use fourth_order::{FourthOrder, FourthOrderModel};
@@ -65,7 +66,8 @@ pub use uncorrelated::Uncorrelated;
 /// # Errors
 /// [`FitError`] if the stack has NaN or infinite values ([`check_finite`]: the model would
 /// hold a mean or standard deviation that is not finite), the analysis lacks levels the method
-/// needs, or the model's arrays (the full-covariance deviations) do not fit in memory.
+/// needs, the model's estimated size is above [`fit_limit`] ([`FitError::Memory`], before
+/// anything is allocated) or its arrays (the full-covariance deviations) do not fit in memory.
 pub fn fit(
     method: Method,
     analysis: &Analysis,
@@ -73,12 +75,55 @@ pub fn fit(
     opts: FitOptions,
 ) -> Result<Model, FitError> {
     check_finite(analysis)?;
+    check_fit_memory(method, analysis, &opts)?;
     let moments = Moments {
         mean: analysis.mean.clone(),
         std: analysis.variance.mapv(f64::sqrt),
         sample_format: SAMPLE_FORMAT,
     };
     method.fit_moments(moments, analysis, stack, &opts)
+}
+
+/// The most bytes a fitted model may take, in words: the machine's memory
+/// ([`crate::resources::machine_memory`]), and never more than [`MAX_WORK_BYTES`], the most
+/// a model folder's filter bank may need when it is loaded again.
+pub fn fit_limit() -> (u64, String) {
+    let cap = (
+        MAX_WORK_BYTES,
+        format!("the {} a model may hold", human_bytes(MAX_WORK_BYTES)),
+    );
+    match crate::resources::machine_memory() {
+        Some(m) if m < MAX_WORK_BYTES => (m, format!("the machine's {}", human_bytes(m))),
+        _ => cap,
+    }
+}
+
+/// Refuses a fit whose model ([`Method::cost`]) would be larger than [`fit_limit`].
+fn check_fit_memory(
+    method: Method,
+    analysis: &Analysis,
+    opts: &FitOptions,
+) -> Result<(), FitError> {
+    let (height, width) = analysis.mean.dim();
+    let cost = method.cost(&CostSize {
+        fitted: analysis.samples as f64,
+        generated: 0.0,
+        pixels: (height * width) as f64,
+        half_width: opts.half_width as f64,
+    });
+    let (limit, words) = fit_limit();
+    let bytes = cost.model_bytes as u64; // saturates
+    if bytes <= limit {
+        return Ok(());
+    }
+    Err(FitError::Memory {
+        method: method.as_str(),
+        half_width: opts.half_width,
+        height,
+        width,
+        bytes,
+        limit: words,
+    })
 }
 
 impl Model {

@@ -48,6 +48,26 @@ pub enum FitError {
     /// A model's arrays do not fit in memory.
     #[error(transparent)]
     Alloc(#[from] crate::alloc::AllocError),
+    /// The model's estimated size is above the memory limit: refused before fitting.
+    #[error(
+        "{method} with half_width {half_width} on a {height}x{width} image needs a model of \
+         about {} (estimated before fitting), more than {limit}: lower half_width",
+        crate::resources::human_bytes(*bytes)
+    )]
+    Memory {
+        /// Method name.
+        method: &'static str,
+        /// Given half-width.
+        half_width: usize,
+        /// Image height.
+        height: usize,
+        /// Image width.
+        width: usize,
+        /// The model's estimated bytes.
+        bytes: u64,
+        /// The limit crossed, in words (`the machine's 23.4 GiB`).
+        limit: String,
+    },
     /// The half-width truncates the dyadic filter.
     #[error("half_width {half_width} truncates a {levels}-level dyadic filter (needs {need})")]
     HalfWidth {

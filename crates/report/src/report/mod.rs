@@ -62,7 +62,7 @@ pub fn build(dir: &Path, allow_incomplete: bool) -> Result<Report> {
 pub fn build_with(dir: &Path, allow_incomplete: bool, options: &Options) -> Result<Report> {
     use crate::io::outdir::{OutDir, Purpose};
     let outdir = OutDir::claim(dir, None, Purpose::Report { allow_incomplete })?;
-    build_claimed_with(&outdir, options)
+    build_from(&outdir, options, allow_incomplete)
 }
 
 /// [`build`] in a folder this process has claimed already: a run's, right after its manifest
@@ -79,8 +79,23 @@ pub fn build_claimed(outdir: &crate::io::outdir::OutDir) -> Result<Report> {
 /// # Errors
 /// As [`build_claimed`].
 pub fn build_claimed_with(outdir: &crate::io::outdir::OutDir, options: &Options) -> Result<Report> {
+    build_from(outdir, options, false)
+}
+
+/// The report of a claimed folder; with `allow_incomplete`, a `manifest.json` that cannot be
+/// read (missing or damaged) does not stop it: the page says so and lacks the spec, the
+/// provenance and the per-job figures, which the manifest lists.
+fn build_from(
+    outdir: &crate::io::outdir::OutDir,
+    options: &Options,
+    allow_incomplete: bool,
+) -> Result<Report> {
     let dir = outdir.root();
-    let manifest = Manifest::read(dir)?;
+    let (manifest, unreadable) = match Manifest::read(dir) {
+        Ok(m) => (m, None),
+        Err(e) if allow_incomplete => (Manifest::default(), Some(crate::error_text(&e))),
+        Err(e) => return Err(e),
+    };
     let cache = figures::cache::FigureCache::open(dir)?;
     let params = jobs::Params::load(dir)?;
     let with_params = params.as_ref().map(jobs::Params::jobs).unwrap_or_default();
@@ -101,7 +116,13 @@ pub fn build_claimed_with(outdir: &crate::io::outdir::OutDir, options: &Options)
     // any order on any number of threads, the files are the same.
     let mut figures: Vec<Figure> = tasks.into_par_iter().map(|t| t()).collect::<Result<_>>()?;
     let sections = cnn::sections(dir)?;
-    let html = page(dir, &manifest, &selection, &figures, &sections)?;
+    let html = page(
+        dir,
+        (&manifest, unreadable.as_deref()),
+        &selection,
+        &figures,
+        &sections,
+    )?;
     figures.extend(sections.into_iter().flat_map(|s| s.figures));
     let path = dir.join("report.html");
     crate::io::atomic::atomic_write(&path, |w| {

@@ -95,7 +95,7 @@ fn sections_html(h: &mut String, sections: &[cnn::Section]) {
 /// chosen jobs' figures (`figures`, in that order), the spec and the provenance.
 pub(super) fn page(
     dir: &Path,
-    manifest: &Manifest,
+    (manifest, unreadable): (&Manifest, Option<&str>),
     selection: &Selection,
     figures: &[Figure],
     sections: &[cnn::Section],
@@ -108,6 +108,14 @@ pub(super) fn page(
         escape(name)
     );
     let _ = writeln!(h, "<h1>{}</h1>", escape(name));
+    if let Some(why) = unreadable {
+        let _ = writeln!(
+            h,
+            "<p><strong>Incomplete:</strong> manifest.json could not be read ({}); this page lacks \
+             the spec, the provenance and the per-job figures it lists.</p>",
+            escape(why)
+        );
+    }
     if let Some(d) = manifest.spec["description"].as_str() {
         let _ = writeln!(h, "<p>{}</p>", escape(d));
     }

@@ -7,7 +7,7 @@
 //! by [`assembly`]); the run's [`options`], the folder's record of its spec ([`record`]), the
 //! durable job store every finished job is saved in ([`store`]: resume, shards), the jobs'
 //! states ([`status`]), the manifest, and the Slurm scripts that run a spec's shards as an
-//! array job and merge them ([`slurm`]).
+//! array job and merge them ([`slurm`], their `--time` and `--mem` checked by [`slurm_values`]).
 
 pub mod assembly;
 pub mod check;
@@ -24,6 +24,7 @@ pub mod record;
 pub mod result;
 pub mod scheduler;
 pub mod slurm;
+pub mod slurm_values;
 pub mod status;
 pub mod store;
 pub mod tables;

@@ -74,7 +74,8 @@ pub struct RunSummary {
 }
 
 /// Default number of worker threads: `RAYON_NUM_THREADS` when it is set to a positive
-/// number (as rayon's own default honours it), otherwise the machine's available parallelism.
+/// number (as rayon's own default honours it; capped at
+/// [`crate::resources::max_threads`]), otherwise the machine's available parallelism.
 pub fn default_threads() -> usize {
     threads_from(std::env::var("RAYON_NUM_THREADS").ok().as_deref())
 }
@@ -83,6 +84,7 @@ pub fn default_threads() -> usize {
 fn threads_from(env: Option<&str>) -> usize {
     env.and_then(|v| v.trim().parse::<usize>().ok())
         .filter(|&n| n > 0)
+        .map(|n| n.min(crate::resources::max_threads()))
         .unwrap_or_else(|| {
             std::thread::available_parallelism()
                 .map(|n| n.get())
@@ -99,6 +101,8 @@ mod tests {
         let all = super::threads_from(None);
         assert!(all >= 1);
         assert_eq!(super::threads_from(Some("0")), all);
+        let most = crate::resources::max_threads();
+        assert_eq!(super::threads_from(Some("100000")), most);
         assert_eq!(super::threads_from(Some("many")), all);
     }
 }

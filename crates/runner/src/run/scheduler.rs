@@ -3,7 +3,9 @@
 //! materialised once when it is worth sharing); a job whose memory estimate exceeds the limit,
 //! or whose work is absurd, fails before it allocates; each finished job is saved in the job
 //! store at once ([`crate::run::store`]). A progress bar on a terminal (plain lines otherwise);
-//! a failed or panicking job is recorded without stopping the others. The order of a whole run
+//! a failed or panicking job is recorded without stopping the others. Jobs whose memory
+//! estimates would together pass the limit (`--max-memory`, or the machine's memory) when run
+//! at once are run in consecutive waves that fit ([`memory_waves`]). The order of a whole run
 //! is in [`crate::run::driver`].
 
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Outcome, Rows};
@@ -39,6 +41,38 @@ fn groups(jobs: &[&dyn JobKind], wave: &[usize]) -> Vec<Vec<usize>> {
     groups
 }
 
+/// The jobs (positions in `bytes`, each job's estimated peak) cut into waves that run one
+/// after the other, so that the jobs running together never hold more than `limit` bytes:
+/// one wave when any `threads` of them fit together (the usual case), otherwise consecutive
+/// runs of jobs, in order, whose bytes together fit (a job alone always makes a wave; the
+/// scheduler refuses one above the limit before it allocates).
+pub fn memory_waves(bytes: &[u64], limit: Option<u64>, threads: usize) -> Vec<Vec<usize>> {
+    let all = || vec![(0..bytes.len()).collect::<Vec<_>>()];
+    let Some(limit) = limit else { return all() };
+    let mut largest = bytes.to_vec();
+    largest.sort_unstable_by(|a, b| b.cmp(a));
+    let together = largest
+        .iter()
+        .take(threads.max(1))
+        .fold(0u64, |s, &b| s.saturating_add(b));
+    if together <= limit {
+        return all();
+    }
+    let mut waves: Vec<Vec<usize>> = vec![];
+    let mut held = 0u64;
+    for (k, &b) in bytes.iter().enumerate() {
+        match waves.last_mut() {
+            Some(wave) if held.saturating_add(b) <= limit => wave.push(k),
+            _ => {
+                waves.push(vec![k]);
+                held = 0;
+            }
+        }
+        held = held.saturating_add(b);
+    }
+    waves
+}
+
 impl Run<'_> {
     /// Runs the jobs `indices` on the installed rayon pool, grouped by the dataset they read,
     /// with the outcomes of `earlier` jobs for those that read other jobs' rows (empty when
@@ -53,10 +87,29 @@ impl Run<'_> {
         bar: Option<&ProgressBar>,
     ) -> Vec<(usize, Outcome)> {
         let commits = store::Commits::new(self.out());
-        let failed = groups(&self.jobs, indices)
-            .par_iter()
-            .flat_map_iter(|g| self.run_group(g, earlier, bar, &commits))
+        let limit = crate::run::estimate::limit(self.opts.max_memory);
+        let bytes: Vec<u64> = indices
+            .iter()
+            .map(|&i| {
+                let estimate = self.jobs[i].estimate(self.plan);
+                // A job that cannot fit fails before it allocates: it holds nothing.
+                match estimate.exceeds(limit.as_ref()) {
+                    Some(_) => 0,
+                    None => estimate.bytes,
+                }
+            })
             .collect();
+        let threads = rayon::current_num_threads();
+        let mut failed = vec![];
+        for wave in memory_waves(&bytes, limit.map(|l| l.bytes), threads) {
+            let wave: Vec<usize> = wave.into_iter().map(|k| indices[k]).collect();
+            failed.extend(
+                groups(&self.jobs, &wave)
+                    .par_iter()
+                    .flat_map_iter(|g| self.run_group(g, earlier, bar, &commits))
+                    .collect::<Vec<_>>(),
+            );
+        }
         commits.flush();
         failed
     }
@@ -177,4 +230,38 @@ fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
         .map(|s| s.to_string())
         .or_else(|| p.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "unknown panic".into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::memory_waves;
+
+    #[test]
+    fn jobs_that_fit_together_are_one_wave_and_others_run_in_waves_that_fit() {
+        let mib = 1u64 << 20;
+        assert_eq!(
+            memory_waves(&[380 * mib; 4], None, 2),
+            vec![vec![0, 1, 2, 3]]
+        );
+        assert_eq!(
+            memory_waves(&[100 * mib; 4], Some(600 * mib), 2),
+            vec![vec![0, 1, 2, 3]]
+        );
+        // Two 380 MiB jobs do not fit under 600 MiB together: one after the other.
+        assert_eq!(
+            memory_waves(&[380 * mib, 380 * mib], Some(600 * mib), 2),
+            vec![vec![0], vec![1]]
+        );
+        // One thread: jobs never run together, one wave.
+        assert_eq!(
+            memory_waves(&[380 * mib; 3], Some(600 * mib), 1),
+            vec![vec![0, 1, 2]]
+        );
+        let bytes = [300, 200, 100, 500, 50, 50, 600].map(|b| b * mib);
+        let waves = memory_waves(&bytes, Some(600 * mib), 4);
+        assert_eq!(waves, vec![vec![0, 1, 2], vec![3, 4, 5], vec![6]]);
+        for wave in &waves {
+            assert!(wave.iter().map(|&k| bytes[k]).sum::<u64>() <= 600 * mib);
+        }
+    }
 }

@@ -332,7 +332,8 @@ fn text<'a>(path: &'a Path, what: &str) -> Result<&'a str> {
 /// Writes an executable script (mode 0755).
 fn write_script(path: &Path, text: &str) -> Result<()> {
     use std::os::unix::fs::PermissionsExt;
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    crate::io::atomic::atomic_write(path, |w| Ok(std::io::Write::write_all(w, text.as_bytes())?))
+        .with_context(|| format!("cannot write {}", path.display()))?;
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755))
         .with_context(|| format!("cannot make {} executable", path.display()))
 }

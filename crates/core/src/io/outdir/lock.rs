@@ -90,6 +90,24 @@ impl Drop for HeldLock {
     }
 }
 
+/// Opens the state file `path` (`what`: `lock`, `journal`) with `options`, never through a
+/// symbolic link (`O_NOFOLLOW`): a link planted in its place is refused, naming it, and its
+/// target is left untouched.
+///
+/// # Errors
+/// When `path` is a symbolic link, or cannot be opened.
+pub fn open_no_follow(options: &mut OpenOptions, path: &Path, what: &str) -> Result<File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    match options.custom_flags(libc::O_NOFOLLOW).open(path) {
+        Err(e) if e.raw_os_error() == Some(libc::ELOOP) => bail!(
+            "the {what} file {} is a symbolic link: the tool never writes its state through \
+             one (remove the link; nothing was changed)",
+            path.display()
+        ),
+        r => r.with_context(|| format!("cannot create the {what} file {}", path.display())),
+    }
+}
+
 /// Takes the lock at `path` for `me`, atomically: of two takers at the same instant exactly
 /// one gets it, and the other is refused at once, naming the holder. The lock file of a holder
 /// that died (killed: the kernel released its lock, the file stayed) is taken over and said in
@@ -105,13 +123,15 @@ pub fn take_lock(
     notes: &mut Vec<String>,
 ) -> Result<HeldLock> {
     loop {
-        let mut file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .open(path)
-            .with_context(|| format!("cannot create the lock {}", path.display()))?;
+        let mut file = open_no_follow(
+            OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false),
+            path,
+            "lock",
+        )?;
         match ofd_lock(&file, libc::F_OFD_SETLK) {
             Ok(true) => {}
             Ok(false) => bail!(

@@ -210,11 +210,11 @@ impl OutDir {
                 _ => {}
             }
         }
-        let file = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(state.join("journal"))
-            .with_context(|| format!("cannot open {}/{STATE}/journal", root.display()))?;
+        let file = lock::open_no_follow(
+            OpenOptions::new().create(true).append(true),
+            &state.join("journal"),
+            "journal",
+        )?;
         journal::open(&self.abs, file)?;
         Ok(())
     }
@@ -299,8 +299,12 @@ impl OutDir {
         // The records now: what is left of the old list, and this claim's files; the journal
         // of earlier claims is emptied (this claim's paths stay noted in memory).
         keep.commit()?;
-        fs::write(state.join("journal"), b"")
-            .with_context(|| format!("cannot reset {}/{STATE}/journal", self.root.display()))?;
+        lock::open_no_follow(
+            OpenOptions::new().write(true).create(true).truncate(true),
+            &state.join("journal"),
+            "journal",
+        )
+        .with_context(|| format!("cannot reset {}/{STATE}/journal", self.root.display()))?;
         Ok(removed)
     }
 

@@ -65,6 +65,8 @@ pub use outputs::{footprint, Footprint};
 
 use std::fmt;
 
+pub use crate::resources::{human_bytes, machine_memory};
+
 pub use crate::experiment::datasets::{Blame, Sizes};
 
 /// Most work one job may take, in operations of the reference core (30 Gflop/s): about 40
@@ -203,34 +205,6 @@ pub fn limit(max_memory: Option<u64>) -> Option<Limit> {
     }
 }
 
-/// The machine's memory in bytes: `MemTotal` of `/proc/meminfo`, lowered to the cgroup's
-/// `memory.max` when that is set (Linux); `None` where neither can be read.
-pub fn machine_memory() -> Option<u64> {
-    let total = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|t| meminfo_total(&t));
-    let cgroup = std::fs::read_to_string("/sys/fs/cgroup/memory.max")
-        .ok()
-        .and_then(|t| t.trim().parse::<u64>().ok());
-    match (total, cgroup) {
-        (Some(t), Some(c)) => Some(t.min(c)),
-        (t, c) => t.or(c),
-    }
-}
-
-/// `MemTotal` (bytes) from the text of `/proc/meminfo` (`MemTotal:  16318412 kB`).
-fn meminfo_total(text: &str) -> Option<u64> {
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let mut words = line["MemTotal:".len()..].split_whitespace();
-    let value: u64 = words.next()?.parse().ok()?;
-    let unit = match words.next() {
-        None => 1,
-        Some("kB") => 1024,
-        Some(_) => return None,
-    };
-    value.checked_mul(unit)
-}
-
 /// Parses a memory size: bytes (`1048576`) or a number with a binary suffix `K`, `M`, `G`, `T`
 /// (optionally followed by `B` or `iB`: `8G`, `512MiB`, `1.5G`).
 ///
@@ -262,26 +236,6 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
     Ok(bytes as u64)
 }
 
-/// Bytes in binary units with three significant digits (`512 B`, `1.50 GiB`, `8.00 EiB`).
-pub fn human_bytes(bytes: u64) -> String {
-    const UNITS: [&str; 7] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
-    let mut v = bytes as f64;
-    let mut unit = 0;
-    while v >= 1024.0 && unit + 1 < UNITS.len() {
-        v /= 1024.0;
-        unit += 1;
-    }
-    if unit == 0 {
-        format!("{bytes} B")
-    } else if v < 10.0 {
-        format!("{v:.2} {}", UNITS[unit])
-    } else if v < 100.0 {
-        format!("{v:.1} {}", UNITS[unit])
-    } else {
-        format!("{v:.0} {}", UNITS[unit])
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -297,22 +251,6 @@ mod tests {
         for bad in ["", "G", "8X", "-1G", "0", "1e30", "99999999999T", "1.2.3M"] {
             assert!(parse_size(bad).is_err(), "{bad:?} must be refused");
         }
-    }
-
-    #[test]
-    fn meminfo_total_is_read_in_bytes() {
-        let text = "MemFree:  10 kB\nMemTotal:       16318412 kB\nSwapTotal: 0 kB\n";
-        assert_eq!(meminfo_total(text), Some(16318412 * 1024));
-        assert_eq!(meminfo_total("MemFree: 1 kB\n"), None);
-        assert_eq!(meminfo_total("MemTotal: x kB\n"), None);
-    }
-
-    #[test]
-    fn bytes_print_in_binary_units() {
-        assert_eq!(human_bytes(512), "512 B");
-        assert_eq!(human_bytes(3 << 29), "1.50 GiB");
-        assert_eq!(human_bytes(200 << 20), "200 MiB");
-        assert_eq!(human_bytes(u64::MAX), "16.0 EiB");
     }
 
     #[test]

@@ -108,6 +108,46 @@ pub fn footprint(plan: &Plan, jobs: usize) -> Footprint {
     f
 }
 
+impl Footprint {
+    /// Bytes of the outputs on disk: tables, maps and samples, job store.
+    pub fn disk(&self) -> f64 {
+        self.tables + self.maps + self.store
+    }
+
+    /// The outputs against the free space of the file system of `out`
+    /// ([`crate::resources::free_disk`]): `Err` (refused) when even half the estimate would not
+    /// fit (the model is an estimate, not a bound: the margin keeps a plausible run from
+    /// being refused), `Ok(Some(warning))` when the whole estimate would not, `Ok(None)` when it
+    /// fits or the free space is unknown.
+    ///
+    /// # Errors
+    /// The refusal, naming the estimate, the free space and the folder.
+    pub fn check_disk(&self, out: &std::path::Path) -> Result<Option<String>, String> {
+        let Some(free) = crate::resources::free_disk(out) else {
+            return Ok(None);
+        };
+        let need = self.disk();
+        let words = format!(
+            "the outputs need about {} on disk, more than the {} free on the file system of {}",
+            size(need),
+            size(free as f64),
+            out.display()
+        );
+        if need / 2.0 > free as f64 {
+            Err(format!(
+                "{words}: make the sweep smaller, set `outputs: {{npy_maps: false}}`, or \
+                 choose another --out (nothing was written)"
+            ))
+        } else if need > free as f64 {
+            Ok(Some(format!(
+                "{words} (an estimate: the run may still fit)"
+            )))
+        } else {
+            Ok(None)
+        }
+    }
+}
+
 /// Bytes with a unit (kB, MB, GB, TB).
 fn size(b: f64) -> String {
     match b {

@@ -40,14 +40,15 @@ pub struct Merged {
 pub fn merge(opts: &RunOptions, partial: bool) -> Result<Merged> {
     let start = Instant::now();
     let out = opts.out.as_path();
-    let (plan, _) = record::load(out)?;
+    let (plan, rec) = record::load(out)?;
+    let sharded = rec.shards.is_some();
     let all = AllJobs::new(&plan);
     let run = Run::new(&plan, &all, opts)?;
     // Refuse before touching anything when jobs are missing.
     if !partial {
         let missing = run.missing_jobs();
         if !missing.is_empty() {
-            bail!("{}", missing_message(out, &missing));
+            bail!("{}", missing_message(out, &missing, sharded));
         }
     }
     let outdir = OutDir::claim(out, Some(&plan.spec.name), Purpose::Run)?;
@@ -73,17 +74,28 @@ pub fn merge(opts: &RunOptions, partial: bool) -> Result<Merged> {
     Ok(merged)
 }
 
-/// What to do about jobs missing from the store.
-fn missing_message(out: &Path, missing: &[String]) -> String {
+/// What to do about jobs missing from the store: run their shards when the folder's last run
+/// was sharded, otherwise run the spec into it again (which resumes from the store).
+fn missing_message(out: &Path, missing: &[String], sharded: bool) -> String {
     let shown: Vec<&str> = missing.iter().take(20).map(String::as_str).collect();
+    let advice = if sharded {
+        format!(
+            "run their shards (see `isar-clutter status {}`)",
+            out.display()
+        )
+    } else {
+        format!(
+            "run the spec into it again (`isar-clutter run SPEC --out {}` resumes from its \
+             job store)",
+            out.display()
+        )
+    };
     format!(
-        "{} lacks {} job(s): {}{}; run their shards (see `isar-clutter status {}`), or merge \
-         what is there with --partial",
+        "{} lacks {} job(s): {}{}; {advice}, or merge what is there with --partial",
         out.display(),
         missing.len(),
         shown.join(", "),
         if missing.len() > 20 { ", ..." } else { "" },
-        out.display()
     )
 }
 
@@ -134,7 +146,8 @@ impl Run<'_> {
             notes: vec![],
         };
         if !merged.missing.is_empty() && !partial {
-            bail!("{}", missing_message(out, &merged.missing));
+            let sharded = record::load(out).is_ok_and(|(_, r)| r.shards.is_some());
+            bail!("{}", missing_message(out, &merged.missing, sharded));
         }
         let t_tables = Instant::now();
         let streamed = rows::stream(self, out, &records, &unsaved)?;
@@ -237,4 +250,26 @@ fn mark_incomplete(outdir: &OutDir, missing: &[String]) -> Result<String> {
          --allow-incomplete)",
         missing.len()
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn missing_jobs_are_advised_by_how_the_folder_was_run() {
+        let out = std::path::Path::new("/r/out");
+        let missing = vec!["a".to_string(), "b".to_string()];
+        let sharded = super::missing_message(out, &missing, true);
+        assert!(
+            sharded.contains(
+                "lacks 2 job(s): a, b; run their shards (see `isar-clutter status /r/out`)"
+            ),
+            "{sharded}"
+        );
+        let whole = super::missing_message(out, &missing, false);
+        assert!(
+            !whole.contains("shard")
+                && whole.contains("`isar-clutter run SPEC --out /r/out` resumes"),
+            "{whole}"
+        );
+    }
 }
