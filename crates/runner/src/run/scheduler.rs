@@ -15,6 +15,7 @@ use crate::run::value::Run;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::collections::HashMap;
 use std::time::Instant;
 
 /// The jobs of `wave` grouped by the dataset they read (its data seed), groups in order of
@@ -88,13 +89,18 @@ impl Run<'_> {
     ) -> Vec<(usize, Outcome)> {
         let commits = store::Commits::new(self.out());
         let limit = crate::run::estimate::limit(self.opts.max_memory);
+        // Every job estimated once: why it cannot run (it then fails before it allocates and
+        // holds nothing) or the bytes it holds.
+        let mut refused: HashMap<usize, String> = HashMap::new();
         let bytes: Vec<u64> = indices
             .iter()
             .map(|&i| {
                 let estimate = self.jobs[i].estimate(self.plan);
-                // A job that cannot fit fails before it allocates: it holds nothing.
                 match estimate.exceeds(limit.as_ref()) {
-                    Some(_) => 0,
+                    Some(why) => {
+                        refused.insert(i, why);
+                        0
+                    }
                     None => estimate.bytes,
                 }
             })
@@ -106,7 +112,7 @@ impl Run<'_> {
             failed.extend(
                 groups(&self.jobs, &wave)
                     .par_iter()
-                    .flat_map_iter(|g| self.run_group(g, earlier, bar, &commits))
+                    .flat_map_iter(|g| self.run_group(g, (earlier, &refused), bar, &commits))
                     .collect::<Vec<_>>(),
             );
         }
@@ -120,17 +126,16 @@ impl Run<'_> {
     fn run_group(
         &self,
         group: &[usize],
-        earlier: &[Option<Outcome>],
+        (earlier, refused): (&[Option<Outcome>], &HashMap<usize, String>),
         bar: Option<&ProgressBar>,
         commits: &store::Commits,
     ) -> Vec<(usize, Outcome)> {
         let (plan, jobs, opts) = (self.plan, &self.jobs, self.opts);
-        let limit = crate::run::estimate::limit(opts.max_memory);
         // A job that cannot fit fails before anything is allocated for it.
-        let too_big = |job: &dyn JobKind| job.estimate(plan).exceeds(limit.as_ref());
+        let too_big = |i: usize| refused.get(&i).cloned();
         let first = jobs[group[0]];
         let shared = (group.len() > 1
-            && group.iter().all(|&i| too_big(jobs[i]).is_none())
+            && group.iter().all(|&i| too_big(i).is_none())
             && matches!(first.inputs(), Inputs::Dataset { shared: true, .. }))
         .then(|| {
             catch_unwind(AssertUnwindSafe(|| {
@@ -144,7 +149,7 @@ impl Run<'_> {
                 let job = jobs[index];
                 let t = Instant::now();
                 let dir = store::begin(&opts.out, &self.keys[index]);
-                let rows = match (&shared, too_big(job)) {
+                let rows = match (&shared, too_big(index)) {
                     _ if dir.is_err() => Err(dir
                         .as_ref()
                         .map_or_else(crate::error_text, |_| String::new())),
