@@ -14,8 +14,8 @@ use crate::run::store;
 use crate::run::value::Run;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::collections::HashMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
 /// The jobs of `wave` grouped by the dataset they read (its data seed), groups in order of
