@@ -175,8 +175,6 @@ pub mod name {
     pub const CMD: &str = "cmd";
     /// Multiscale correlation RMSE.
     pub const MULTISCALE_RMSE: &str = "multiscale_rmse";
-    /// Every metric's name, in the order specs list them.
-    pub const ALL: [&str; 4] = [KL_PIXEL, KL_AREA, CMD, MULTISCALE_RMSE];
 }
 
 /// The file stem of a comparison map: the metric's name and the component compared, `re` or
@@ -185,15 +183,72 @@ pub fn map_stem(metric: &str, component: &str) -> String {
     format!("{metric}_{component}")
 }
 
+/// Which metric a [`Metric`] is, without its parameters: what the spec's parser matches
+/// (exhaustively, so that a new metric is a compile error there until it is parsed) and what
+/// [`Metric::kind`] gives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MetricKind {
+    /// [`Metric::KlPixel`].
+    KlPixel,
+    /// [`Metric::KlArea`].
+    KlArea,
+    /// [`Metric::Cmd`].
+    Cmd,
+    /// [`Metric::MultiscaleRmse`].
+    MultiscaleRmse,
+}
+
+impl MetricKind {
+    /// Every kind, in the order specs list them.
+    pub const ALL: [MetricKind; 4] = [
+        MetricKind::KlPixel,
+        MetricKind::KlArea,
+        MetricKind::Cmd,
+        MetricKind::MultiscaleRmse,
+    ];
+
+    /// Its name in specs and tables ([`name`]).
+    pub fn name(self) -> &'static str {
+        match self {
+            MetricKind::KlPixel => name::KL_PIXEL,
+            MetricKind::KlArea => name::KL_AREA,
+            MetricKind::Cmd => name::CMD,
+            MetricKind::MultiscaleRmse => name::MULTISCALE_RMSE,
+        }
+    }
+
+    /// Every name, comma-separated (for messages).
+    pub fn names() -> String {
+        MetricKind::ALL.map(MetricKind::name).join(", ")
+    }
+}
+
+impl std::str::FromStr for MetricKind {
+    type Err = String;
+
+    /// The kind of a metric's name; an unknown name lists the known ones.
+    fn from_str(s: &str) -> Result<Self, String> {
+        MetricKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown metric {s:?}; known: {}", MetricKind::names()))
+    }
+}
+
 impl Metric {
+    /// Which metric it is.
+    pub fn kind(&self) -> MetricKind {
+        match self {
+            Metric::KlPixel(_) => MetricKind::KlPixel,
+            Metric::KlArea(..) => MetricKind::KlArea,
+            Metric::Cmd => MetricKind::Cmd,
+            Metric::MultiscaleRmse => MetricKind::MultiscaleRmse,
+        }
+    }
+
     /// The metric's name in specs and tables ([`name`]).
     pub fn name(&self) -> &'static str {
-        match self {
-            Metric::KlPixel(_) => name::KL_PIXEL,
-            Metric::KlArea(..) => name::KL_AREA,
-            Metric::Cmd => name::CMD,
-            Metric::MultiscaleRmse => name::MULTISCALE_RMSE,
-        }
+        self.kind().name()
     }
 }
 
@@ -505,6 +560,25 @@ pub fn rmse_summaries(rows: &[LevelRmse]) -> (f64, Option<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_metric_kind_is_listed_once_and_parses_from_its_name() {
+        // Exhaustive: a new kind must be given its place in ALL here.
+        let place = |k: MetricKind| match k {
+            MetricKind::KlPixel => 0,
+            MetricKind::KlArea => 1,
+            MetricKind::Cmd => 2,
+            MetricKind::MultiscaleRmse => 3,
+        };
+        for (i, k) in MetricKind::ALL.into_iter().enumerate() {
+            assert_eq!(place(k), i);
+            assert_eq!(k.name().parse::<MetricKind>(), Ok(k));
+        }
+        assert_eq!(
+            "kl".parse::<MetricKind>(),
+            Err("unknown metric \"kl\"; known: kl_pixel, kl_area, cmd, multiscale_rmse".into())
+        );
+    }
 
     #[test]
     fn kl_of_hand_made_histograms() {

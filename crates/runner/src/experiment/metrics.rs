@@ -2,7 +2,6 @@
 //! parameters, validated into [`crate::stats::metrics::Metric`]s, and the noise floor to measure.
 
 use super::{Ctx, RawSpec, SpecError};
-use crate::stats::metrics::name as metric_name;
 use serde::{Deserialize, Serialize};
 
 /// `hypotheses:` section.
@@ -98,14 +97,14 @@ pub fn check_metrics(
     spec: &RawSpec,
     ctx: &Ctx,
 ) -> Result<Vec<crate::stats::metrics::Metric>, SpecError> {
-    use crate::stats::metrics::Metric;
+    use crate::stats::metrics::{Metric, MetricKind};
     if !spec.metrics.is_empty() && spec.synthesis.is_none() {
         return Err(ctx.err(
             "metrics",
             "metrics compare generated samples with the original: add a `synthesis` section",
         ));
     }
-    let names = metric_name::ALL.join(", ");
+    let names = MetricKind::names();
     let mut out: Vec<Metric> = Vec::new();
     for (i, entry) in spec.metrics.iter().enumerate() {
         let at = format!("metrics[{i}]");
@@ -132,27 +131,30 @@ pub fn check_metrics(
         };
         let at = format!("{at}.{name}");
         let kl = |block_ok: bool| kl_options(&params, &at, ctx, block_ok);
-        let metric = match name.as_str() {
-            metric_name::KL_PIXEL => Metric::KlPixel(kl(false)?),
-            metric_name::KL_AREA => {
+        let kind: MetricKind = name.parse().map_err(|e: String| ctx.err(&at, e))?;
+        let no_parameters = || {
+            if params != MetricParams::default() {
+                return Err(ctx.err(&at, format!("{name} takes no parameters")));
+            }
+            Ok(())
+        };
+        // Exhaustive: a new metric kind is a compile error here until it is parsed.
+        let metric = match kind {
+            MetricKind::KlPixel => Metric::KlPixel(kl(false)?),
+            MetricKind::KlArea => {
                 let block = params.block.unwrap_or(crate::stats::metrics::DEFAULT_BLOCK);
                 if block == 0 {
                     return Err(ctx.err(format!("{at}.block"), "block must be at least 1"));
                 }
                 Metric::KlArea(kl(true)?, block)
             }
-            metric_name::CMD | metric_name::MULTISCALE_RMSE => {
-                if params != MetricParams::default() {
-                    return Err(ctx.err(&at, format!("{name} takes no parameters")));
-                }
-                if name == metric_name::CMD {
-                    Metric::Cmd
-                } else {
-                    Metric::MultiscaleRmse
-                }
+            MetricKind::Cmd => {
+                no_parameters()?;
+                Metric::Cmd
             }
-            other => {
-                return Err(ctx.err(at, format!("unknown metric {other:?}; known: {names}")));
+            MetricKind::MultiscaleRmse => {
+                no_parameters()?;
+                Metric::MultiscaleRmse
             }
         };
         if out.iter().any(|m| m.name() == metric.name()) {
