@@ -335,6 +335,16 @@ fn outputs_larger_than_the_free_disk_are_refused_before_anything_is_written() {
         "",
         "the disk stays empty"
     );
+    // `validate` checks the default folder, `outputs/full` under the working directory.
+    fs::remove_dir(dir.path().join("disk")).unwrap();
+    let validate = format!("cd '{{d}}' && '{bin}' validate '{}' >&2", spec.display());
+    let o = on_a_small_disk(dir.path(), &validate).unwrap();
+    let msg = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{msg}");
+    assert!(
+        msg.contains("full.yaml: `run` would refuse it: the outputs need about 14 MB on disk"),
+        "{msg}"
+    );
     // `generate` of 20000 samples of 8 x 8 (10 MB) into the same kind of disk.
     let input = stack(dir.path());
     let model = dir.path().join("m");
