@@ -45,5 +45,6 @@ fn real_main() -> Result<ExitCode> {
         Command::CalibratePlants(a) => cli::results::calibrate_plants(a),
         Command::Fit(a) => cli::models::fit(a).map(|()| ExitCode::SUCCESS),
         Command::Generate(a) => cli::models::generate(a).map(|()| ExitCode::SUCCESS),
+        Command::Cut(a) => cli::models::cut(a).map(|()| ExitCode::SUCCESS),
     }
 }

@@ -47,6 +47,10 @@ pub enum Command {
     /// Generate samples from a model folder into a [M, H, W] complex64 .npy, or a MATLAB .mat
     /// holding an H x W x M single complex array, in constant memory.
     Generate(GenerateArgs),
+    /// Cut a scene [H, W] (or a time stack of coregistered scenes [T, H, W]) in an .npy into a
+    /// stack of clutter patches [N, h, w] (complex64 .npy) that `fit` and specs read, in
+    /// constant memory; the patches' places go to OUT.patches.json.
+    Cut(CutArgs),
 }
 
 /// The arguments of `isar-clutter run`.
@@ -367,6 +371,32 @@ pub struct GenerateArgs {
     /// depend on it.
     #[arg(long, value_parser = jobs)]
     pub jobs: Option<usize>,
+}
+
+/// `isar-clutter cut`.
+#[derive(Args)]
+pub struct CutArgs {
+    /// The scene: an .npy of shape [H, W] or [T, H, W] (complex64/128 or float32/64).
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Patch size: N (square) or ROWSxCOLS.
+    #[arg(long)]
+    pub patch: isar_clutter::io::cut::Size2,
+    /// Step between patches: N or ROWSxCOLS (default: the patch size).
+    #[arg(long)]
+    pub stride: Option<isar_clutter::io::cut::Size2>,
+    /// Where patches may lie: r0:r1,c0:c1 in pixels from 0, ends excluded (default: the scene).
+    #[arg(long)]
+    pub window: Option<isar_clutter::io::cut::Window>,
+    /// A box no patch may overlap (a target): r0:r1,c0:c1; give it once per box.
+    #[arg(long)]
+    pub avoid: Vec<isar_clutter::io::cut::Window>,
+    /// The stack to write (.npy); an existing file is replaced only if `cut` wrote it.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Patches per block (memory: two blocks).
+    #[arg(long, default_value_t = 256)]
+    pub chunk: usize,
 }
 
 /// Parses `--jobs`: at least 1, capped at what the machine can use

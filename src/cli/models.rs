@@ -2,7 +2,7 @@
 //! command line's arguments, on a pool of `--jobs` threads, with a progress bar and a line of
 //! what was written.
 
-use super::args::{FitArgs, GenerateArgs};
+use super::args::{CutArgs, FitArgs, GenerateArgs};
 use super::pool;
 use anyhow::Result;
 use isar_clutter::synthesis::FitOptions;
@@ -73,6 +73,45 @@ pub fn generate(a: GenerateArgs) -> Result<()> {
         done.sample_format,
         a.out.display(),
         run.samples as f64 / s
+    );
+    Ok(())
+}
+
+/// `cut`: a scene into a stack of clutter patches, with a line saying what was written.
+///
+/// # Errors
+/// From [`isar_clutter::io::cut::cut_npy`], or `--out` locked or not a stack `cut` wrote.
+pub fn cut(a: CutArgs) -> Result<()> {
+    use isar_clutter::io::cut;
+    let record = std::path::PathBuf::from(format!("{}.patches.json", a.out.display()));
+    let _lock = isar_clutter::io::outdir::lock_output(&a.out, "cut")?;
+    isar_clutter::io::outdir::check_file_output(&a.out, "stack .npy", |_| record.is_file())?;
+    let options = cut::CutOptions {
+        patch: a.patch,
+        stride: a.stride.unwrap_or(a.patch),
+        window: a.window,
+        avoid: a.avoid,
+    };
+    let t = std::time::Instant::now();
+    let bar = indicatif::ProgressBar::new_spinner();
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let done = cut::cut_npy(&a.input, &a.out, &options, a.chunk, |n| {
+        bar.set_message(format!("{n} patches written"));
+        bar.tick();
+    })?;
+    bar.finish_and_clear();
+    eprintln!(
+        "{} patch(es) of {}x{} ({} place(s) x {} scene(s)) -> {} (places: {}) in {:.2} s",
+        done.samples,
+        options.patch.rows,
+        options.patch.cols,
+        done.places,
+        done.scenes,
+        a.out.display(),
+        done.record.display(),
+        t.elapsed().as_secs_f64()
     );
     Ok(())
 }

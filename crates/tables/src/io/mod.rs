@@ -5,7 +5,7 @@
 //! folder's contract: its tables ([`results`]) and its manifest ([`manifest`]).
 
 pub use isar_clutter_core::io::{
-    atomic, file_id, journal, mat, model, netcdf, npy, outdir, stream, strip_bom, FileId,
+    atomic, cut, file_id, journal, mat, model, netcdf, npy, outdir, stream, strip_bom, FileId,
 };
 
 pub mod frame;

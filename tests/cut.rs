@@ -1,0 +1,161 @@
+//! `isar-clutter cut` (issue 49 item 2): a time stack of scenes cut into patches, every
+//! patch the scene's pixels at its place (the oracle: numpy-style slicing of the same array),
+//! boxes avoided, the places recorded, the stack fit for `fit`; bad input refused naming it.
+
+mod common;
+use common::{bin, text};
+
+use ndarray::{Array2, Array3};
+use num_complex::Complex32;
+use std::fs;
+
+/// A pixel's value: its scene, row and column readable from it.
+fn pixel(t: usize, r: usize, c: usize) -> Complex32 {
+    Complex32::new((t * 1000 + r * 30 + c) as f32, r as f32 - c as f32)
+}
+
+#[test]
+fn a_time_stack_is_cut_place_by_place_around_the_boxes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Array3::from_shape_fn((2, 20, 24), |(t, r, c)| pixel(t, r, c));
+    let input = dir.path().join("scene.npy");
+    ndarray_npy::write_npy(&input, &scene).unwrap();
+    let out = dir.path().join("stack.npy");
+    let args = [
+        "cut",
+        "--input",
+        input.to_str().unwrap(),
+        "--patch",
+        "4x6",
+        "--stride",
+        "4x6",
+        "--window",
+        "0:20,0:24",
+        "--avoid",
+        "8:12,6:12",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    // 5 x 4 places, less the one the box covers: 19 places x 2 scenes.
+    assert!(
+        text(&o).contains("38 patch(es) of 4x6 (19 place(s) x 2 scene(s))"),
+        "{}",
+        text(&o)
+    );
+    let got: Array3<Complex32> = ndarray_npy::read_npy(&out).unwrap();
+    assert_eq!(got.dim(), (38, 4, 6));
+    let record: serde_json::Value =
+        serde_json::from_slice(&fs::read(dir.path().join("stack.npy.patches.json")).unwrap())
+            .unwrap();
+    let places: Vec<(usize, usize)> = serde_json::from_value(record["places"].clone()).unwrap();
+    assert_eq!(places.len(), 19);
+    assert!(!places.contains(&(8, 6)), "the box's place is left out");
+    for (p, &(r, c)) in places.iter().enumerate() {
+        for t in 0..2 {
+            let want = scene.slice(ndarray::s![t, r..r + 4, c..c + 6]);
+            assert_eq!(
+                got.index_axis(ndarray::Axis(0), p * 2 + t),
+                want,
+                "place {p} scene {t}"
+            );
+        }
+    }
+    // The stack is a clutter stack: `fit` reads it.
+    let model = dir.path().join("m");
+    let o = bin(&[
+        "fit",
+        "--input",
+        out.to_str().unwrap(),
+        "--method",
+        "method1",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // Cutting again into the same file replaces it (the tool wrote it); a foreign file is kept.
+    assert!(bin(&args).status.success());
+    let foreign = dir.path().join("mine.npy");
+    fs::write(&foreign, b"mine").unwrap();
+    let mut again = args.to_vec();
+    let last = again.len() - 1;
+    again[last] = foreign.to_str().unwrap();
+    let o = bin(&again);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert_eq!(fs::read(&foreign).unwrap(), b"mine");
+}
+
+#[test]
+fn a_real_scene_becomes_complex_and_bad_input_is_refused_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Array2::from_shape_fn((9, 9), |(r, c)| (r * 9 + c) as f64);
+    let input = dir.path().join("real.npy");
+    ndarray_npy::write_npy(&input, &scene).unwrap();
+    let out = dir.path().join("s.npy");
+    let o = bin(&[
+        "cut",
+        "--input",
+        input.to_str().unwrap(),
+        "--patch",
+        "3",
+        "--stride",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let got: Array3<Complex32> = ndarray_npy::read_npy(&out).unwrap();
+    assert_eq!(got.dim(), (16, 3, 3));
+    assert_eq!(
+        got[[5, 1, 2]],
+        Complex32::new((3 * 9 + 4) as f32, 0.0),
+        "place (2, 2)"
+    );
+    for (args, says) in [
+        (
+            vec!["--patch", "10"],
+            "no 10x10 patch fits in the window 0:9,0:9 of the 9x9 scene",
+        ),
+        (
+            vec!["--patch", "3", "--window", "0:10,0:9"],
+            "--window 0:10,0:9 leaves the 9x9 scene",
+        ),
+        (vec!["--patch", "0"], "is not a size"),
+        (
+            vec!["--patch", "3", "--avoid", "4:2,0:1"],
+            "a range's start must be below its end",
+        ),
+    ] {
+        let mut all = vec![
+            "cut",
+            "--input",
+            input.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        all.extend(args);
+        let o = bin(&all);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(says), "{says}: {}", text(&o));
+    }
+    let flat = dir.path().join("flat.npy");
+    ndarray_npy::write_npy(&flat, &ndarray::Array1::<f64>::zeros(5)).unwrap();
+    let o = bin(&[
+        "cut",
+        "--input",
+        flat.to_str().unwrap(),
+        "--patch",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o).contains(
+            "flat.npy: a scene is [H, W] or a time stack [T, H, W], this array has shape [5]"
+        ),
+        "{}",
+        text(&o)
+    );
+}
