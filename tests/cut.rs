@@ -159,3 +159,62 @@ fn a_real_scene_becomes_complex_and_bad_input_is_refused_naming_it() {
         text(&o)
     );
 }
+
+#[test]
+fn a_mask_of_targets_keeps_patches_off_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Array3::from_shape_fn((1, 8, 8), |(t, r, c)| pixel(t, r, c));
+    let input = dir.path().join("scene.npy");
+    ndarray_npy::write_npy(&input, &scene).unwrap();
+    let out = dir.path().join("s.npy");
+    let cut = |mask: &std::path::Path| {
+        bin(&[
+            "cut",
+            "--input",
+            input.to_str().unwrap(),
+            "--patch",
+            "4",
+            "--avoid-mask",
+            mask.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    // A target at (5, 2): the patch at (4, 0) covers it.
+    let mut bools = Array2::from_elem((8, 8), false);
+    bools[[5, 2]] = true;
+    let mask = dir.path().join("mask.npy");
+    ndarray_npy::write_npy(&mask, &bools).unwrap();
+    let o = cut(&mask);
+    assert!(o.status.success(), "{}", text(&o));
+    let record: serde_json::Value =
+        serde_json::from_slice(&fs::read(dir.path().join("s.npy.patches.json")).unwrap()).unwrap();
+    let places: Vec<(usize, usize)> = serde_json::from_value(record["places"].clone()).unwrap();
+    assert_eq!(places, vec![(0, 0), (0, 4), (4, 4)]);
+    // uint8 works the same; a mask of another shape or type is refused naming it.
+    let bytes = bools.mapv(u8::from);
+    ndarray_npy::write_npy(&mask, &bytes).unwrap();
+    assert!(cut(&mask).status.success());
+    ndarray_npy::write_npy(&mask, &Array2::<u8>::zeros((8, 9))).unwrap();
+    let o = cut(&mask);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o).contains("mask.npy has shape [8, 9]; the scene's is [8, 8]"),
+        "{}",
+        text(&o)
+    );
+    ndarray_npy::write_npy(&mask, &Array2::<f64>::zeros((8, 8))).unwrap();
+    let o = cut(&mask);
+    assert!(
+        text(&o).contains("holds <f8 (C order); a mask is bool or uint8"),
+        "{}",
+        text(&o)
+    );
+    ndarray_npy::write_npy(&mask, &Array2::<u8>::ones((8, 8))).unwrap();
+    let o = cut(&mask);
+    assert!(
+        text(&o).contains("every patch covers a pixel of the mask"),
+        "{}",
+        text(&o)
+    );
+}

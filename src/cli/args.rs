@@ -391,6 +391,9 @@ pub struct CutArgs {
     /// A box no patch may overlap (a target): r0:r1,c0:c1; give it once per box.
     #[arg(long)]
     pub avoid: Vec<isar_clutter::io::cut::Window>,
+    /// A mask of the scene (.npy [H, W], bool or uint8): no patch covers a non-zero pixel.
+    #[arg(long, value_name = "MASK.npy")]
+    pub avoid_mask: Option<PathBuf>,
     /// The stack to write (.npy); an existing file is replaced only if `cut` wrote it.
     #[arg(long)]
     pub out: PathBuf,

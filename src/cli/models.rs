@@ -91,6 +91,7 @@ pub fn cut(a: CutArgs) -> Result<()> {
         stride: a.stride.unwrap_or(a.patch),
         window: a.window,
         avoid: a.avoid,
+        avoid_mask: a.avoid_mask,
     };
     let t = std::time::Instant::now();
     let bar = indicatif::ProgressBar::new_spinner();

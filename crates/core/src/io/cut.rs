@@ -94,6 +94,52 @@ pub struct CutOptions {
     pub window: Option<Window>,
     /// Boxes no patch may overlap.
     pub avoid: Vec<Window>,
+    /// A mask of the scene (`.npy`, `[H, W]`, `bool` or `uint8`): no patch may cover a
+    /// non-zero pixel.
+    pub avoid_mask: Option<PathBuf>,
+}
+
+/// `places` less those whose `patch` covers a non-zero pixel of the mask file `path` (an
+/// `[h, w]` `bool` or `uint8` `.npy`, mapped, not read).
+///
+/// # Errors
+/// Naming the mask: unreadable, of another type, order or shape.
+pub fn unmasked(
+    places: Vec<(usize, usize)>,
+    patch: Size2,
+    (h, w): (usize, usize),
+    path: &Path,
+) -> Result<Vec<(usize, usize)>> {
+    let header = crate::io::npy::read_raw_header(path)
+        .with_context(|| format!("reading the mask {}", path.display()))?;
+    if !matches!(header.descr.as_str(), "|b1" | "|u1") || header.fortran_order {
+        bail!(
+            "the mask {} holds {} ({} order); a mask is bool or uint8 in C order",
+            path.display(),
+            header.descr,
+            if header.fortran_order { "Fortran" } else { "C" }
+        );
+    }
+    if header.shape != [h, w] {
+        bail!(
+            "the mask {} has shape {:?}; the scene's is [{h}, {w}]",
+            path.display(),
+            header.shape
+        );
+    }
+    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    // SAFETY: read-only and private; the mask must not change while it is read.
+    let map = unsafe { memmap2::Mmap::map(&file) }
+        .with_context(|| format!("mapping {}", path.display()))?;
+    let mask = map
+        .get(header.data_offset..header.data_offset + h * w)
+        .with_context(|| format!("the mask {} is truncated", path.display()))?;
+    Ok(places
+        .into_iter()
+        .filter(|&(r, c)| {
+            (r..r + patch.rows).all(|i| mask[i * w + c..][..patch.cols].iter().all(|&b| b == 0))
+        })
+        .collect())
 }
 
 /// The places (top-left row and column) of the patches of a scene of `h x w` pixels.
@@ -204,7 +250,17 @@ pub fn cut_npy(
             input.display()
         );
     }
-    let places = places(h, w, o).with_context(|| format!("cutting {}", input.display()))?;
+    let mut places = places(h, w, o).with_context(|| format!("cutting {}", input.display()))?;
+    if let Some(mask) = &o.avoid_mask {
+        places = unmasked(places, o.patch, (h, w), mask)?;
+        if places.is_empty() {
+            bail!(
+                "cutting {}: every patch covers a pixel of the mask {}",
+                input.display(),
+                mask.display()
+            );
+        }
+    }
     let samples = places.len() * scenes;
     let (ph, pw) = (o.patch.rows, o.patch.cols);
     let bytes = (samples as u128 * (ph * pw) as u128 * 8).min(u64::MAX as u128) as u64;
@@ -358,6 +414,7 @@ mod tests {
             stride: stride.parse().unwrap(),
             window: window.map(|w| w.parse().unwrap()),
             avoid: avoid.iter().map(|a| a.parse().unwrap()).collect(),
+            avoid_mask: None,
         }
     }
 
