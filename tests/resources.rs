@@ -43,6 +43,21 @@ fn stack(dir: &Path) -> String {
     p.to_str().unwrap().to_string()
 }
 
+/// `isar-clutter fit --input INPUT --method METHOD --out OUT` plus `extra`.
+fn fit(input: &str, method: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "fit",
+        "--input",
+        input,
+        "--method",
+        method,
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    bin(&args)
+}
+
 /// Names in `dir` other than `keep`.
 fn left(dir: &Path, keep: &[&str]) -> Vec<String> {
     let mut names: Vec<String> = fs::read_dir(dir)
@@ -60,17 +75,7 @@ fn an_absurd_fit_is_refused_before_it_allocates_and_leaves_no_lock() {
     let input = stack(dir.path());
     for method in ["method1", "method2"] {
         let out = dir.path().join("m");
-        let o = bin(&[
-            "fit",
-            "--input",
-            &input,
-            "--method",
-            method,
-            "--half-width",
-            "1000000000",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = fit(&input, method, &out, &["--half-width", "1000000000"]);
         let msg = text(&o);
         assert_eq!(o.status.code(), Some(2), "{method}: {msg}");
         assert!(
@@ -92,20 +97,7 @@ fn generating_more_than_the_disk_holds_is_refused_before_writing() {
     let dir = tempfile::tempdir().unwrap();
     let input = stack(dir.path());
     let model = dir.path().join("m");
-    let o = bin(&[
-        "fit",
-        "--input",
-        &input,
-        "--method",
-        "method1",
-        "--half-width",
-        "2",
-        "--out",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .chain([model.to_str().unwrap().to_string()])
-    .collect::<Vec<_>>());
+    let o = fit(&input, "method1", &model, &["--half-width", "2"]);
     assert!(o.status.success(), "{}", text(&o));
     let out = dir.path().join("x.npy");
     let o = bin(&[
@@ -179,15 +171,7 @@ fn planted_symlinks_in_place_of_lock_files_are_refused_and_their_targets_untouch
     let input = stack(dir.path());
     let model = dir.path().join("m");
     std::os::unix::fs::symlink(&victim, dir.path().join(".m.lock")).unwrap();
-    let o = bin(&[
-        "fit",
-        "--input",
-        &input,
-        "--method",
-        "method1",
-        "--out",
-        model.to_str().unwrap(),
-    ]);
+    let o = fit(&input, "method1", &model, &[]);
     let msg = text(&o);
     assert_eq!(o.status.code(), Some(2), "{msg}");
     assert!(msg.contains(".m.lock is a symbolic link"), "{msg}");
@@ -238,22 +222,9 @@ fn jobs_that_do_not_fit_together_run_one_after_the_other_with_the_same_tables() 
     let bytes = isar_clutter::run::estimate::parse_size(&peak.replace(' ', "")).unwrap();
     let limit = (bytes * 3 / 2).to_string();
     let (one, two) = (dir.path().join("one"), dir.path().join("two"));
-    for (out, extra) in [
-        (&one, vec!["--jobs", "1"]),
-        (&two, vec!["--jobs", "2", "--max-memory", &limit]),
-    ] {
-        let mut args = vec![
-            "run",
-            &spec,
-            "--out",
-            out.to_str().unwrap(),
-            "--no-report",
-            "--quiet",
-        ];
-        args.extend(extra);
-        let o = bin(&args);
-        assert!(o.status.success(), "{}", text(&o));
-    }
+    common::run_spec(Path::new(&spec), &one, &["--no-report", "--jobs", "1"]);
+    let tight = ["--no-report", "--jobs", "2", "--max-memory", &limit];
+    common::run_spec(Path::new(&spec), &two, &tight);
     same_tables(&one, &two);
 }
 
@@ -262,15 +233,7 @@ fn a_report_of_a_damaged_manifest_is_drawn_with_allow_incomplete_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let spec = spec(dir.path());
     let out = dir.path().join("out");
-    let o = bin(&[
-        "run",
-        &spec,
-        "--out",
-        out.to_str().unwrap(),
-        "--no-report",
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", text(&o));
+    common::run_spec(Path::new(&spec), &out, &["--no-report"]);
     fs::write(out.join("manifest.json"), "{ damaged").unwrap();
     let o = bin(&["report", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
@@ -348,15 +311,7 @@ fn outputs_larger_than_the_free_disk_are_refused_before_anything_is_written() {
     // `generate` of 20000 samples of 8 x 8 (10 MB) into the same kind of disk.
     let input = stack(dir.path());
     let model = dir.path().join("m");
-    let o = common::bin(&[
-        "fit",
-        "--input",
-        &input,
-        "--method",
-        "uncorrelated",
-        "--out",
-        model.to_str().unwrap(),
-    ]);
+    let o = fit(&input, "uncorrelated", &model, &[]);
     assert!(o.status.success(), "{}", text(&o));
     let generate = format!(
         "'{bin}' generate --model '{}' --samples 20000 --seed 1 --out '{{d}}/x.npy'",

@@ -83,7 +83,7 @@ pub fn generate(a: GenerateArgs) -> Result<()> {
 /// From [`isar_clutter::io::cut::cut_npy`], or `--out` locked or not a stack `cut` wrote.
 pub fn cut(a: CutArgs) -> Result<()> {
     use isar_clutter::io::cut;
-    let record = std::path::PathBuf::from(format!("{}.patches.json", a.out.display()));
+    let record = cut::record_path(&a.out);
     let _lock = isar_clutter::io::outdir::lock_output(&a.out, "cut")?;
     isar_clutter::io::outdir::check_file_output(&a.out, "stack .npy", |_| record.is_file())?;
     let options = cut::CutOptions {
@@ -105,7 +105,7 @@ pub fn cut(a: CutArgs) -> Result<()> {
     bar.finish_and_clear();
     eprintln!(
         "{} patch(es) of {}x{} ({} place(s) x {} scene(s)) -> {} (places: {}) in {:.2} s",
-        done.samples,
+        done.samples(),
         options.patch.rows,
         options.patch.cols,
         done.places,

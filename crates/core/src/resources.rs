@@ -98,6 +98,15 @@ pub fn disk_shortfall(path: &Path, needed: u64, what: &str) -> Option<String> {
     })
 }
 
+/// The product of `factors` (a count of values and their size in bytes), saturating at
+/// `u64::MAX`: the size of an output however absurd its arguments.
+pub fn saturating_bytes(factors: &[usize]) -> u64 {
+    let product = factors
+        .iter()
+        .fold(1u128, |p, &f| p.saturating_mul(f as u128));
+    product.min(u64::MAX as u128) as u64
+}
+
 /// Bytes in binary units with three significant digits (`512 B`, `1.50 GiB`, `8.00 EiB`).
 pub fn human_bytes(bytes: u64) -> String {
     const UNITS: [&str; 7] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
@@ -136,6 +145,12 @@ mod tests {
         assert_eq!(human_bytes(3 << 29), "1.50 GiB");
         assert_eq!(human_bytes(200 << 20), "200 MiB");
         assert_eq!(human_bytes(u64::MAX), "16.0 EiB");
+    }
+
+    #[test]
+    fn byte_counts_saturate() {
+        assert_eq!(saturating_bytes(&[20000, 8, 8, 8]), 10_240_000);
+        assert_eq!(saturating_bytes(&[usize::MAX, 64, 8]), u64::MAX);
     }
 
     #[test]

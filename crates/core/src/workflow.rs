@@ -203,10 +203,10 @@ pub fn generate(
 fn check_disk(model: &Model, out: &Path, mat: Option<&MatOutput>, samples: usize) -> Result<()> {
     let (h, w) = model.shape();
     let value = match mat.map(|m| m.class) {
-        Some(MatClass::Double) => 16u128,
+        Some(MatClass::Double) => 16,
         _ => 8,
     };
-    let bytes = (samples as u128 * h as u128 * w as u128 * value).min(u64::MAX as u128) as u64;
+    let bytes = crate::resources::saturating_bytes(&[samples, h, w, value]);
     match crate::resources::disk_shortfall(
         out,
         bytes,

@@ -203,10 +203,21 @@ pub struct Cut {
     pub scenes: usize,
     /// Places of the patches.
     pub places: usize,
-    /// Samples written, `places x scenes`.
-    pub samples: usize,
-    /// The record of the places written beside the stack.
+    /// The record of the places written beside the stack ([`record_path`]).
     pub record: PathBuf,
+}
+
+impl Cut {
+    /// Samples written, `places x scenes`.
+    pub fn samples(&self) -> usize {
+        self.places * self.scenes
+    }
+}
+
+/// The record of the places of the stack `out` (`OUT.patches.json`): written by [`cut_npy`],
+/// and what tells an earlier stack of `cut`'s from a file it must not replace.
+pub fn record_path(out: &Path) -> PathBuf {
+    PathBuf::from(format!("{}.patches.json", out.display()))
 }
 
 /// The record of a cut (`OUT.patches.json`).
@@ -244,7 +255,7 @@ pub fn cut_npy(
             header.shape
         ),
     };
-    if header.fortran_order && header.shape.len() > 1 && h * w > 1 {
+    if header.fortran_order && h * w > 1 {
         bail!(
             "{}: stored in column-major (Fortran) order; save it in C order (numpy's default)",
             input.display()
@@ -263,7 +274,7 @@ pub fn cut_npy(
     }
     let samples = places.len() * scenes;
     let (ph, pw) = (o.patch.rows, o.patch.cols);
-    let bytes = (samples as u128 * (ph * pw) as u128 * 8).min(u64::MAX as u128) as u64;
+    let bytes = crate::resources::saturating_bytes(&[samples, ph, pw, 8]);
     if let Some(why) =
         crate::resources::disk_shortfall(out, bytes, &format!("the {samples} patches"))
     {
@@ -310,7 +321,7 @@ pub fn cut_npy(
         )?;
         Ok(())
     })?;
-    let record = PathBuf::from(format!("{}.patches.json", out.display()));
+    let record = record_path(out);
     let text = serde_json::to_vec_pretty(&Record {
         input: input.display().to_string(),
         scene_shape: &header.shape,
@@ -322,7 +333,6 @@ pub fn cut_npy(
     Ok(Cut {
         scenes,
         places: places.len(),
-        samples,
         record,
     })
 }
