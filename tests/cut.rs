@@ -74,8 +74,18 @@ fn a_time_stack_is_cut_place_by_place_around_the_boxes() {
         model.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
-    // Cutting again into the same file replaces it (the tool wrote it); a foreign file is kept.
-    assert!(bin(&args).status.success());
+    // Cutting again into the same file replaces it (the tool wrote it), and the temporary a
+    // killed cut left (its pid gone) is removed; a foreign file is kept.
+    let dead = dir.path().join(".stack.npy.tmp-4194303");
+    fs::write(&dead, b"half").unwrap();
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("removed .stack.npy.tmp-4194303: a killed writer"),
+        "{}",
+        text(&o)
+    );
+    assert!(!dead.exists());
     let foreign = dir.path().join("mine.npy");
     fs::write(&foreign, b"mine").unwrap();
     let mut again = args.to_vec();

@@ -80,12 +80,18 @@ pub fn generate(a: GenerateArgs) -> Result<()> {
 /// `cut`: a scene into a stack of clutter patches, with a line saying what was written.
 ///
 /// # Errors
-/// From [`isar_clutter::io::cut::cut_npy`], or `--out` locked or not a stack `cut` wrote.
+/// From [`isar_clutter::io::cut::cut_npy`], or `--out` locked or not a stack `cut` wrote, or
+/// a killed writer's temporary that cannot be removed.
 pub fn cut(a: CutArgs) -> Result<()> {
     use isar_clutter::io::cut;
     let record = cut::record_path(&a.out);
     let _lock = isar_clutter::io::outdir::lock_output(&a.out, "cut")?;
     isar_clutter::io::outdir::check_file_output(&a.out, "stack .npy", |_| record.is_file())?;
+    // As `generate` and `fit`: the temporary of a killed `cut` of the same output goes.
+    say_removed(
+        &isar_clutter::io::outdir::remove_dead_temporaries_of(&a.out)?,
+        &a.out,
+    );
     let options = cut::CutOptions {
         patch: a.patch,
         stride: a.stride.unwrap_or(a.patch),
