@@ -130,6 +130,31 @@ pub(super) fn cells(layout: &Layout) -> (Vec<usize>, &'static str) {
     )
 }
 
+/// The [`super::SynthesisMethod`] methods that a model holding its [`Filtered`] in a field
+/// `filtered` hands to it word for word: its moments, its sample format, and generation in
+/// both precisions. Methods 1 and 2 write `delegate_to_filtered!();` in their impls instead of
+/// repeating the four.
+macro_rules! delegate_to_filtered {
+    () => {
+        fn moments(&self) -> &Moments {
+            &self.filtered.moments
+        }
+
+        fn set_sample_format(&mut self, format: u32) {
+            self.filtered.moments.sample_format = format;
+        }
+
+        fn generate_c128(&self, seed: u64, first: usize, out: &mut [Complex64]) {
+            self.filtered.generate_c128(seed, first, out)
+        }
+
+        fn generate_c64(&self, seed: u64, first: usize, out: &mut [Complex32]) {
+            self.filtered.generate_c64(seed, first, out)
+        }
+    };
+}
+pub(super) use delegate_to_filtered;
+
 /// A fitted filter model (Method 1 or 2) with its moments.
 #[derive(Debug, Clone)]
 pub struct Filtered {

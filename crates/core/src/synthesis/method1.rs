@@ -2,7 +2,7 @@
 //! cell and direction found by inverting the filter's lag-1 correlation `g(alpha) = rho(1)`
 //! (docs/definitions.md §5). Holds `g`, its peaks and its inverse, and the method itself.
 
-use super::filter::{self, CellParams, FilterModel, Filtered};
+use super::filter::{self, delegate_to_filtered, CellParams, FilterModel, Filtered};
 use super::method::{
     ArrayStore, Cost, CostSize, Layout, Moments, Needs, Recorded, SynthesisMethod,
 };
@@ -282,21 +282,7 @@ impl SynthesisMethod for Exponential {
         })
     }
 
-    fn moments(&self) -> &Moments {
-        &self.filtered.moments
-    }
-
-    fn set_sample_format(&mut self, format: u32) {
-        self.filtered.moments.sample_format = format;
-    }
-
-    fn generate_c128(&self, seed: u64, first: usize, out: &mut [Complex64]) {
-        self.filtered.generate_c128(seed, first, out)
-    }
-
-    fn generate_c64(&self, seed: u64, first: usize, out: &mut [Complex32]) {
-        self.filtered.generate_c64(seed, first, out)
-    }
+    delegate_to_filtered!();
 
     fn recorded(&self) -> Recorded {
         self.filtered.recorded(Some(self.signs()))

@@ -12,7 +12,7 @@ pub fn names() -> Vec<&'static str> {
     standard()
         .iter()
         .map(|d| d.name)
-        .chain(cnn::table::NAMES.iter().copied())
+        .chain(cnn::table::names())
         .collect()
 }
 
@@ -31,7 +31,7 @@ pub fn render_named(
 ) -> Result<Option<String>> {
     match standard().iter().find(|d| d.name == name) {
         Some(def) => render(dir, def, filters, pivot, format, strict),
-        None if cnn::table::NAMES.contains(&name) => {
+        None if cnn::table::names().contains(&name) => {
             cnn::table::render(dir, name, filters, pivot, format, strict)
         }
         None => bail!("no table {name:?}; tables: {}", names().join(", ")),

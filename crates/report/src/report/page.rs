@@ -9,7 +9,7 @@ use super::select::Selection;
 use super::table::{self, escape, Format, RowLimit};
 use super::task::Figure;
 use crate::io::manifest::{Job, Manifest};
-use crate::io::results::{self, Table};
+use crate::io::results;
 use anyhow::Result;
 use serde_json::Value as Json;
 use std::collections::BTreeSet;
@@ -21,25 +21,6 @@ use std::path::Path;
 /// [`RowLimit`]), and the provenance lists the jobs with figures and those not ok. Smaller
 /// runs' tables are shown whole.
 pub const TABLE_ROWS: usize = 500;
-
-/// The tables the page links at its end, when the run wrote them.
-const TABLES: [Table; 15] = [
-    results::ANALYSIS_MAPS,
-    results::ANALYSIS_SUMMARY,
-    results::PIXEL_STATS,
-    results::JOBS,
-    results::SIMILARITY,
-    results::MODEL_ORDER,
-    results::SYNTHESIS_PARAMS,
-    results::FILTER_CORRELATION,
-    results::CALIBRATION,
-    results::CALIBRATION_SUMMARY,
-    results::CLASSIFICATION,
-    results::LOCATION,
-    results::LOCATION_SUMMARY,
-    results::TRAINING_HISTORY,
-    results::CONFUSION,
-];
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:1em 0;font-size:90%}caption{text-align:left;font-weight:bold;padding:.3em 0}
@@ -283,7 +264,7 @@ fn provenance_html(
         h,
         "</tbody></table>\n<p>{note}Full record: {}. Tables: {}.</p>\n</body>\n</html>",
         link(Path::new(crate::io::manifest::FILE)),
-        TABLES
+        results::ALL
             .iter()
             .filter(|t| t.path(dir).exists())
             .map(|t| link(Path::new(&t.file_name())))

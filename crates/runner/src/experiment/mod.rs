@@ -16,8 +16,8 @@ mod metrics;
 mod synthesis;
 
 pub use cnn::{
-    ClassificationPlan, ClassificationSpec, DataRef, LocationPlan, LocationSpec, OneOrMany,
-    MAX_TRAININGS,
+    Applications, ClassificationPlan, ClassificationSpec, DataRef, LocationPlan, LocationSpec,
+    OneOrMany, MAX_TRAININGS,
 };
 pub use datasets::{
     filter_bank, generate, DataError, Dataset, DatasetKind, DatasetSpec, Family, FilterParams,

@@ -126,10 +126,8 @@ pub struct Plan {
     pub model_orders: bool,
     /// Validated similarity metrics (empty: none).
     pub metrics: Vec<crate::stats::metrics::Metric>,
-    /// The validated `classification` section.
-    pub classification: Option<experiment::ClassificationPlan>,
-    /// The validated `location` section.
-    pub location: Option<experiment::LocationPlan>,
+    /// The validated CNN sections (`classification`, `location`).
+    pub cnn: experiment::Applications,
     /// The master seed given in place of the spec's ([`load_seeded`]); `None`: the spec's.
     /// `spec.seed` holds the seed in effect either way.
     pub seed_override: Option<u64>,
@@ -221,28 +219,19 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
     }
     assign_ids(&mut jobs);
     jobs.shrink_to_fit();
-    // The stacks the analysis jobs read, which the CNN sections name by dataset id (only
-    // listed when a CNN section needs them: each holds a copy of its dataset).
-    let cnn = spec.classification.is_some() || spec.location.is_some();
-    let stacks: Vec<crate::experiment::DataRef> = jobs
-        .iter()
-        .filter(|j| cnn && j.method.is_none())
-        .map(|j| crate::experiment::DataRef {
-            id: j.dataset_id.clone(),
-            dataset: j.dataset.clone(),
-            data_seed: j.data_seed,
-        })
-        .collect();
-    let classification = spec
-        .classification
-        .as_ref()
-        .map(|c| c.validate(&ctx, &stacks))
-        .transpose()?;
-    let location = spec
-        .location
-        .as_ref()
-        .map(|l| l.validate(&ctx, &stacks))
-        .transpose()?;
+    // The stacks the analysis jobs read, which the CNN sections name by dataset id (listed
+    // only when a section asks: each holds a copy of its dataset).
+    let stacks = || -> Vec<crate::experiment::DataRef> {
+        jobs.iter()
+            .filter(|j| j.method.is_none())
+            .map(|j| crate::experiment::DataRef {
+                id: j.dataset_id.clone(),
+                dataset: j.dataset.clone(),
+                data_seed: j.data_seed,
+            })
+            .collect()
+    };
+    let cnn = experiment::Applications::validate(&spec, &ctx, stacks)?;
     let mut param_keys: Vec<String> = axes.iter().map(|a| a.short.to_string()).collect();
     param_keys.sort();
     param_keys.dedup();
@@ -267,8 +256,7 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
         param_numeric,
         model_orders,
         metrics,
-        classification,
-        location,
+        cnn,
     })
 }
 

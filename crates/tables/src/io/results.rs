@@ -591,6 +591,47 @@ pub const LOCATION_SUMMARY: Table = Table {
     ],
 };
 
+/// A CNN application's trainings as the report reads them: one table of trainings, split into
+/// groups (tables and figures) by one column and swept along another. A new application is a
+/// variant here, beside its table; the compiler then names each place of the report that shows
+/// it (its section, its tables' layout, its figures' labels).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CnnApp {
+    /// Clutter classification (Tables 19-22, Figs. 66-67): [`CLASSIFICATION`].
+    Classification,
+    /// Target location (Figs. 68-74): [`LOCATION`] (and its summary [`LOCATION_SUMMARY`]).
+    Location,
+}
+
+impl CnnApp {
+    /// Every application, in report order.
+    pub const ALL: [CnnApp; 2] = [CnnApp::Classification, CnnApp::Location];
+
+    /// The table of its trainings.
+    pub fn table(self) -> Table {
+        match self {
+            CnnApp::Classification => CLASSIFICATION,
+            CnnApp::Location => LOCATION,
+        }
+    }
+
+    /// The column that splits its trainings into tables and figures.
+    pub fn group_column(self) -> &'static str {
+        match self {
+            CnnApp::Classification => col::NORMALISE,
+            CnnApp::Location => col::TARGET,
+        }
+    }
+
+    /// The column across the page (tables) and along the x axis (figures).
+    pub fn x_column(self) -> &'static str {
+        match self {
+            CnnApp::Classification => col::TRAIN_SIZE,
+            CnnApp::Location => col::SCR_DB,
+        }
+    }
+}
+
 /// Every table a run can write.
 pub const ALL: [Table; 17] = [
     ANALYSIS_MAPS,

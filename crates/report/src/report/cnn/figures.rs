@@ -9,8 +9,8 @@ use super::super::figures::charts::{self, Point};
 use super::super::figures::heatmap::{heatmap_grid_with, GridOptions};
 use super::super::figures::{Panel, Scale};
 use super::super::task::{rel, Figure};
-use super::{App, Group, Representative};
-use crate::io::results::{self, col};
+use super::{Group, Representative};
+use crate::io::results::{self, col, CnnApp};
 use crate::location_grid::{centre, GRID, TARGET};
 use anyhow::{Context, Result};
 use ndarray::{Array2, Axis};
@@ -82,9 +82,9 @@ pub(super) fn classification(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>
             g,
             &stem,
             (&title, caption),
-            ("training size N", App::Classification),
+            ("training size N", CnnApp::Classification),
         )?);
-        let Some(rep) = g.representative(App::Classification) else {
+        let Some(rep) = g.representative(CnnApp::Classification) else {
             return Ok(out);
         };
         let what = format!(
@@ -101,7 +101,7 @@ pub(super) fn classification(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>
                 &stem,
                 &names,
                 &what,
-                App::Classification,
+                CnnApp::Classification,
             )?);
         }
         if let Some(h) = &history {
@@ -146,9 +146,9 @@ pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
             g,
             &stem,
             (&title, caption),
-            ("SCR (dB)", App::Location),
+            ("SCR (dB)", CnnApp::Location),
         )?);
-        let Some(rep) = g.representative(App::Location) else {
+        let Some(rep) = g.representative(CnnApp::Location) else {
             return Ok(out);
         };
         let what = format!(
@@ -165,7 +165,7 @@ pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
                 &stem,
                 &[],
                 &what,
-                App::Location,
+                CnnApp::Location,
             )?);
         }
         if let Some(h) = &history {
@@ -189,7 +189,7 @@ fn accuracy(
     g: &Group,
     stem: &str,
     (title, caption): (&str, String),
-    (x_label, app): (&str, App),
+    (x_label, app): (&str, CnnApp),
 ) -> Result<Option<Figure>> {
     let curves: Vec<(String, Vec<Point>)> = g
         .methods
@@ -245,7 +245,7 @@ fn confusion_figure(
     stem: &str,
     names: &[String],
     what: &str,
-    app: App,
+    app: CnnApp,
 ) -> Result<Option<Figure>> {
     use super::super::table::{floats, strings};
     let (jobs, t, p, n) = (
@@ -266,14 +266,14 @@ fn confusion_figure(
         map[[a, b]] += v;
     }
     let classes = match app {
-        App::Classification if !names.is_empty() => names
+        CnnApp::Classification if !names.is_empty() => names
             .iter()
             .enumerate()
             .map(|(i, n)| format!("{i} = {n}"))
             .collect::<Vec<_>>()
             .join(", "),
-        App::Classification => "class indices".into(),
-        App::Location => format!(
+        CnnApp::Classification => "class indices".into(),
+        CnnApp::Location => format!(
             "location 5 i + j = target centred at row 8 + 12 i, column 8 + 12 j (i, j < {GRID})"
         ),
     };
@@ -281,7 +281,7 @@ fn confusion_figure(
     let title = format!("confusion matrix: {} ({})", rep.method, app_group(app, rep));
     // The class names over the panel when they fit, else in the caption only.
     let panel = match app {
-        App::Classification if !names.is_empty() && classes.len() <= 32 => classes.clone(),
+        CnnApp::Classification if !names.is_empty() && classes.len() <= 32 => classes.clone(),
         _ => format!("test set, repeat {}", rep.repeat),
     };
     let panels = vec![vec![Panel {
@@ -289,8 +289,8 @@ fn confusion_figure(
         map: map.view(),
     }]];
     let (x_label, y_label) = match app {
-        App::Classification => ("predicted class", "true class"),
-        App::Location => ("predicted location", "true location"),
+        CnnApp::Classification => ("predicted class", "true class"),
+        CnnApp::Location => ("predicted location", "true location"),
     };
     let options = GridOptions {
         x_label,
@@ -316,10 +316,10 @@ fn confusion_figure(
 }
 
 /// Where a representative training sits, for titles.
-fn app_group(app: App, rep: &Representative) -> String {
+fn app_group(app: CnnApp, rep: &Representative) -> String {
     match app {
-        App::Classification => format!("N = {}", rep.x),
-        App::Location => format!("SCR {} dB", rep.x),
+        CnnApp::Classification => format!("N = {}", rep.x),
+        CnnApp::Location => format!("SCR {} dB", rep.x),
     }
 }
 

@@ -9,44 +9,9 @@ pub mod table;
 
 use super::table::{floats, kept_rows, strings, Format};
 use super::task::Figure;
-use crate::io::results::{self, col, Table};
+use crate::io::results::{col, CnnApp};
 use anyhow::{Context, Result};
 use std::path::Path;
-
-/// One of the two CNN applications.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum App {
-    /// Clutter classification (Tables 19-22, Figs. 66-67).
-    Classification,
-    /// Target location (Figs. 68-74).
-    Location,
-}
-
-impl App {
-    /// The table of its trainings.
-    pub fn table(self) -> Table {
-        match self {
-            App::Classification => results::CLASSIFICATION,
-            App::Location => results::LOCATION,
-        }
-    }
-
-    /// The column that splits its trainings into tables and figures.
-    fn group_column(self) -> &'static str {
-        match self {
-            App::Classification => col::NORMALISE,
-            App::Location => col::TARGET,
-        }
-    }
-
-    /// The column across the page (tables) and along the x axis (figures).
-    fn x_column(self) -> &'static str {
-        match self {
-            App::Classification => col::TRAIN_SIZE,
-            App::Location => col::SCR_DB,
-        }
-    }
-}
 
 /// One training's row.
 #[derive(Debug, Clone)]
@@ -159,7 +124,7 @@ impl Group {
 /// the file lacks.
 fn load(
     dir: &Path,
-    app: App,
+    app: CnnApp,
     filters: &[(String, Vec<String>)],
     strict: bool,
 ) -> Result<Option<Vec<Group>>> {
@@ -252,7 +217,7 @@ struct Representative {
 }
 
 impl Group {
-    fn representative(&self, app: App) -> Option<Representative> {
+    fn representative(&self, app: CnnApp) -> Option<Representative> {
         let generated: Vec<&String> = self.methods.iter().filter(|m| *m != "original").collect();
         let candidates = if generated.is_empty() {
             self.methods.iter().collect()
@@ -262,8 +227,8 @@ impl Group {
         let last = *self.xs.last()?;
         let score = |m: &str| -> f64 {
             match app {
-                App::Classification => self.stats(m, last).map_or(f64::NEG_INFINITY, |s| s.mean),
-                App::Location => {
+                CnnApp::Classification => self.stats(m, last).map_or(f64::NEG_INFINITY, |s| s.mean),
+                CnnApp::Location => {
                     let c = self.curve(m);
                     c.iter().map(|p| p.1).sum::<f64>() / c.len().max(1) as f64
                 }
@@ -279,8 +244,8 @@ impl Group {
         }
         let method = best?.0.clone();
         let x = match app {
-            App::Classification => last,
-            App::Location => self
+            CnnApp::Classification => last,
+            CnnApp::Location => self
                 .curve(&method)
                 .iter()
                 .find(|p| p.1 >= 50.0)
@@ -318,29 +283,33 @@ pub struct Section {
 /// If a table cannot be read or a figure cannot be drawn.
 pub fn sections(dir: &Path) -> Result<Vec<Section>> {
     let mut out = vec![];
-    if let Some(groups) = load(dir, App::Classification, &[], false)? {
-        out.push(Section {
-            id: "classification",
-            title: "Clutter classification (Tables 20/22, Figs. 66-67)",
-            intro: "Networks trained on generated samples of each class (and on the few \
-                    originals: method original) predict original data; test accuracy \
-                    against the training size, mean and sample standard deviation over \
-                    repeats."
-                .into(),
-            tables: table::tables(dir, table::CLASSIFICATION_TABLES, &[], Format::Html)?,
-            figures: figures::classification(dir, &groups)?,
-        });
-    }
-    if let Some(groups) = load(dir, App::Location, &[], false)? {
-        out.push(Section {
-            id: "location",
-            title: "Target location (Figs. 72-74)",
-            intro: "Networks locate an 8x8 target on a 5x5 grid in clutter (chance 4 %); test \
-                    accuracy against the signal-to-clutter ratio per method, and the SCR \
-                    where the mean accuracy first reaches 50 % and 90 %."
-                .into(),
-            tables: table::tables(dir, &[table::LOCATION], &[], Format::Html)?,
-            figures: figures::location(dir, &groups)?,
+    for app in CnnApp::ALL {
+        let Some(groups) = load(dir, app, &[], false)? else {
+            continue;
+        };
+        let tables = table::tables(dir, table::names_of(app), &[], Format::Html)?;
+        out.push(match app {
+            CnnApp::Classification => Section {
+                id: "classification",
+                title: "Clutter classification (Tables 20/22, Figs. 66-67)",
+                intro: "Networks trained on generated samples of each class (and on the few \
+                        originals: method original) predict original data; test accuracy \
+                        against the training size, mean and sample standard deviation over \
+                        repeats."
+                    .into(),
+                tables,
+                figures: figures::classification(dir, &groups)?,
+            },
+            CnnApp::Location => Section {
+                id: "location",
+                title: "Target location (Figs. 72-74)",
+                intro: "Networks locate an 8x8 target on a 5x5 grid in clutter (chance 4 %); \
+                        test accuracy against the signal-to-clutter ratio per method, and the \
+                        SCR where the mean accuracy first reaches 50 % and 90 %."
+                    .into(),
+                tables,
+                figures: figures::location(dir, &groups)?,
+            },
         });
     }
     Ok(out)
@@ -407,7 +376,7 @@ mod tests {
             row("method1", 40.0, 0, 90.0),
             row("method2", 40.0, 0, 10.0),
         ]);
-        let r = g.representative(App::Classification).unwrap();
+        let r = g.representative(CnnApp::Classification).unwrap();
         assert_eq!((r.method.as_str(), r.x, r.repeat), ("method2", 100.0, 0));
         assert_eq!(r.job, "method2.100.r0");
         // Location: best mean over the sweep, at the lowest SCR reaching 50 %.
@@ -419,14 +388,14 @@ mod tests {
             row("method1", 0.0, 0, 60.0),
             row("method1", 10.0, 0, 99.0),
         ]);
-        let r = g.representative(App::Location).unwrap();
+        let r = g.representative(CnnApp::Location).unwrap();
         assert_eq!((r.method.as_str(), r.x), ("method1", 0.0));
         // Never 50 %: the highest SCR.
         let g = group(vec![
             row("original", -10.0, 0, 4.0),
             row("original", 0.0, 0, 8.0),
         ]);
-        let r = g.representative(App::Location).unwrap();
+        let r = g.representative(CnnApp::Location).unwrap();
         assert_eq!((r.method.as_str(), r.x), ("original", 0.0));
     }
 }

@@ -7,8 +7,8 @@
 //! over `original`). Their layout is fixed: `--filter` selects rows, `--pivot` does not apply.
 
 use super::super::table::{layout, Format};
-use super::{load, App, Group, Stats};
-use crate::io::results::{self, col};
+use super::{load, Group, Stats};
+use crate::io::results::{self, col, CnnApp};
 use anyhow::{bail, Result};
 use std::path::Path;
 
@@ -18,10 +18,23 @@ pub const CLASSIFICATION: &str = "classification";
 pub const CLASSIFICATION_DETAIL: &str = "classification_detail";
 /// Target x method x SCR, with the SCR at 50 % and 90 % and the gain over `original`.
 pub const LOCATION: &str = "location";
+
+/// The tables of one application, in print order.
+pub fn names_of(app: CnnApp) -> &'static [&'static str] {
+    match app {
+        CnnApp::Classification => &[CLASSIFICATION, CLASSIFICATION_DETAIL],
+        CnnApp::Location => &[LOCATION],
+    }
+}
+
 /// The CNN tables, in print order.
-pub const NAMES: &[&str] = &[CLASSIFICATION, CLASSIFICATION_DETAIL, LOCATION];
-/// The tables of the classification's report section.
-pub(super) const CLASSIFICATION_TABLES: &[&str] = &[CLASSIFICATION, CLASSIFICATION_DETAIL];
+pub fn names() -> Vec<&'static str> {
+    CnnApp::ALL
+        .into_iter()
+        .flat_map(names_of)
+        .copied()
+        .collect()
+}
 
 /// An accuracy in % with one decimal.
 fn pct(v: f64) -> String {
@@ -43,10 +56,10 @@ fn mean_std(s: &Stats, format: Format) -> String {
 }
 
 /// Training sizes and SCRs as printed in headers.
-fn x_label(app: App, x: f64) -> String {
+fn x_label(app: CnnApp, x: f64) -> String {
     match app {
-        App::Classification => format!("N = {x}"),
-        App::Location => format!("{x} dB"),
+        CnnApp::Classification => format!("N = {x}"),
+        CnnApp::Location => format!("{x} dB"),
     }
 }
 
@@ -68,7 +81,7 @@ fn repeats_note(counts: &[usize], spread: &str) -> (String, bool) {
     }
 }
 
-/// Renders the CNN table `name` (one of [`NAMES`]) of `dir`, keeping the rows that pass
+/// Renders the CNN table `name` (one of [`names`]) of `dir`, keeping the rows that pass
 /// `filters`. `Ok(None)` when the file is missing or no row passes, and, unless `strict`,
 /// when a filter names a column the file lacks or a pivot is given.
 ///
@@ -89,22 +102,25 @@ pub fn render(
         }
         return Ok(None);
     }
-    let app = match name {
-        CLASSIFICATION | CLASSIFICATION_DETAIL => App::Classification,
-        LOCATION => App::Location,
-        _ => bail!("no CNN table {name:?}; CNN tables: {}", NAMES.join(", ")),
+    let Some(app) = CnnApp::ALL
+        .into_iter()
+        .find(|&a| names_of(a).contains(&name))
+    else {
+        bail!("no CNN table {name:?}; CNN tables: {}", names().join(", "));
     };
     let Some(groups) = load(dir, app, filters, strict)? else {
         return Ok(None);
     };
-    let text = match name {
-        CLASSIFICATION => groups
+    let text = match app {
+        CnnApp::Classification if name == CLASSIFICATION_DETAIL => {
+            classification_detail(&groups, format)
+        }
+        CnnApp::Classification => groups
             .iter()
             .map(|g| classification(g, format))
             .collect::<Vec<_>>()
             .join("\n"),
-        CLASSIFICATION_DETAIL => classification_detail(&groups, format),
-        _ => location(dir, &groups, format)?,
+        CnnApp::Location => location(dir, &groups, format)?,
     };
     Ok(Some(text))
 }
@@ -172,7 +188,7 @@ fn classification(g: &Group, format: Format) -> String {
         protocols.join(", ")
     );
     let mut header = vec![col::METHOD.to_string()];
-    header.extend(g.xs.iter().map(|&x| x_label(App::Classification, x)));
+    header.extend(g.xs.iter().map(|&x| x_label(CnnApp::Classification, x)));
     layout(&title, &header, &body, 1, format)
 }
 
@@ -263,7 +279,7 @@ fn location(dir: &Path, groups: &[Group], format: Format) -> Result<String> {
     xs.sort_by(f64::total_cmp);
     xs.dedup();
     let mut header = vec![col::TARGET.to_string(), col::METHOD.to_string()];
-    header.extend(xs.iter().map(|&x| x_label(App::Location, x)));
+    header.extend(xs.iter().map(|&x| x_label(CnnApp::Location, x)));
     header.extend(
         [
             "SCR 50 % (dB)",

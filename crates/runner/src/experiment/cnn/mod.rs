@@ -4,7 +4,7 @@
 //! YAML path, before anything runs. This file holds what they share: the datasets they read,
 //! the method list, the training settings and the ceiling on trainings.
 
-use super::{Ctx, Dataset, SpecError};
+use super::{Ctx, Dataset, RawSpec, SpecError};
 mod classification;
 mod location;
 
@@ -60,6 +60,45 @@ fn fit_samples() -> usize {
 }
 fn generated_samples() -> usize {
     5000
+}
+
+/// The validated CNN sections of a spec, one field per application. A new application is a
+/// field here (its section's plan); the compiler then names the two places that list the
+/// applications: [`Applications::validate`] below and the runner's `run::jobs::cnn::jobs`.
+#[derive(Debug, Clone, Default)]
+pub struct Applications {
+    /// The validated `classification` section.
+    pub classification: Option<ClassificationPlan>,
+    /// The validated `location` section.
+    pub location: Option<LocationPlan>,
+}
+
+impl Applications {
+    /// Validates the spec's CNN sections against the stacks of the plan's analysis jobs
+    /// (`stacks` lists them; called once, and only when a section is present).
+    ///
+    /// # Errors
+    /// A [`SpecError`] with the YAML path of the first problem.
+    pub fn validate(
+        spec: &RawSpec,
+        ctx: &Ctx,
+        stacks: impl Fn() -> Vec<DataRef>,
+    ) -> Result<Self, SpecError> {
+        let listed = std::cell::OnceCell::new();
+        let stacks = || listed.get_or_init(&stacks).as_slice();
+        Ok(Applications {
+            classification: spec
+                .classification
+                .as_ref()
+                .map(|c| c.validate(ctx, stacks()))
+                .transpose()?,
+            location: spec
+                .location
+                .as_ref()
+                .map(|l| l.validate(ctx, stacks()))
+                .transpose()?,
+        })
+    }
 }
 
 /// Most trainings one section may ask for.

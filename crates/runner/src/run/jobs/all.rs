@@ -1,10 +1,10 @@
 //! Every job of a plan behind the one seam, in plan order: the dataset jobs (analysis and
 //! synthesis), then the jobs of the run as a whole made from their spec sections (calibration,
-//! hypotheses), then the CNN trainings (classification, location) and the location summary.
-//! [`super::Inputs::Rows`] indices refer to this order.
+//! hypotheses), then the CNN applications' jobs ([`super::cnn::jobs`]: the trainings and the
+//! location summary). [`super::Inputs::Rows`] indices refer to this order.
 
 use super::calibration::CalibrationJob;
-use super::cnn::{ClassificationJob, LocationJob, LocationSummaryJob};
+use super::cnn;
 use super::hypotheses::HypothesesJob;
 use super::JobKind;
 use crate::run::plan::Plan;
@@ -14,9 +14,7 @@ pub struct AllJobs<'a> {
     plan: &'a Plan,
     calibration: Option<CalibrationJob>,
     hypotheses: Option<HypothesesJob>,
-    classification: Vec<ClassificationJob>,
-    location: Vec<LocationJob>,
-    location_summary: Option<LocationSummaryJob>,
+    cnn: Vec<Box<dyn JobKind>>,
 }
 
 impl<'a> AllJobs<'a> {
@@ -31,22 +29,14 @@ impl<'a> AllJobs<'a> {
             .hypotheses
             .as_ref()
             .map(|_| HypothesesJob::new(&plan.jobs));
-        let classification = ClassificationJob::all(plan);
-        let location = LocationJob::all(plan);
-        let first_location = plan.jobs.len()
+        let first_cnn = plan.jobs.len()
             + usize::from(calibration.is_some())
-            + usize::from(hypotheses.is_some())
-            + classification.len();
-        let location_summary = (!location.is_empty()).then(|| LocationSummaryJob {
-            inputs: (first_location..first_location + location.len()).collect(),
-        });
+            + usize::from(hypotheses.is_some());
         AllJobs {
             plan,
             calibration,
             hypotheses,
-            classification,
-            location,
-            location_summary,
+            cnn: cnn::jobs(plan, first_cnn),
         }
     }
 
@@ -59,11 +49,7 @@ impl<'a> AllJobs<'a> {
         if let Some(h) = &self.hypotheses {
             all.push(h);
         }
-        all.extend(self.classification.iter().map(|j| j as &dyn JobKind));
-        all.extend(self.location.iter().map(|j| j as &dyn JobKind));
-        if let Some(s) = &self.location_summary {
-            all.push(s);
-        }
+        all.extend(self.cnn.iter().map(|j| j.as_ref()));
         all
     }
 }

@@ -10,8 +10,8 @@ use super::common::{
 use crate::apps::cnn::classification::{compose, labelled, split_class, Normalise, Source};
 use crate::apps::cnn::train::{train_on_device, Labelled};
 use crate::experiment::datasets::{C128, C64, USUAL_SAMPLES};
-use crate::experiment::DataRef;
 use crate::experiment::Materialised;
+use crate::experiment::{ClassificationPlan, DataRef};
 use crate::io::results::col;
 use crate::run::estimate::Estimate;
 use crate::run::estimate::Sizes;
@@ -51,12 +51,9 @@ pub struct ClassificationJob {
 }
 
 impl ClassificationJob {
-    /// Every training of the plan's `classification` section, in order normalisation,
+    /// Every training of the plan's `classification` section (`cp`), in order normalisation,
     /// method, size, repeat.
-    pub fn all(plan: &Plan) -> Vec<ClassificationJob> {
-        let Some(cp) = &plan.classification else {
-            return vec![];
-        };
+    pub fn all(plan: &Plan, cp: &ClassificationPlan) -> Vec<ClassificationJob> {
         let classes = Arc::new(cp.classes.clone());
         let mut out = vec![];
         for &normalise in &cp.normalise {
@@ -117,6 +114,7 @@ impl ClassificationJob {
     /// generated samples, balanced over the classes.
     fn sets(&self, plan: &Plan, all: &Array3<Complex64>) -> Result<Sets> {
         let cp = plan
+            .cnn
             .classification
             .as_ref()
             .expect("a classification section");
@@ -200,6 +198,7 @@ impl JobKind for ClassificationJob {
 
     fn key_material(&self, plan: &Plan) -> String {
         let cp = plan
+            .cnn
             .classification
             .as_ref()
             .expect("a classification section");
@@ -222,6 +221,7 @@ impl JobKind for ClassificationJob {
     fn run(&self, cx: &JobContext) -> Result<Rows> {
         let plan = cx.plan;
         let cp = plan
+            .cnn
             .classification
             .as_ref()
             .expect("a classification section");
@@ -289,7 +289,7 @@ impl JobKind for ClassificationJob {
     }
 
     fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>> {
-        let cp = plan.classification.as_ref()?;
+        let cp = plan.cnn.classification.as_ref()?;
         let names: Vec<&str> = self.classes.iter().map(|c| c.id.as_str()).collect();
         Some(training_status(
             TrainingRow {
@@ -318,7 +318,7 @@ impl JobKind for ClassificationJob {
 
 /// The estimate of one classification training of `plan`.
 fn estimate(plan: &Plan, job: &ClassificationJob) -> Estimate {
-    let Some(cp) = &plan.classification else {
+    let Some(cp) = &plan.cnn.classification else {
         return Estimate::SMALL;
     };
     let spec = &cp.spec;

@@ -11,8 +11,8 @@ use crate::apps::cnn::classification::Source;
 use crate::apps::cnn::location::{self, Split, TargetKind};
 use crate::apps::cnn::train::train_on_device;
 use crate::experiment::datasets::{C128, C64};
-use crate::experiment::DataRef;
 use crate::experiment::Materialised;
+use crate::experiment::{DataRef, LocationPlan};
 use crate::io::results::col;
 use crate::run::estimate::Estimate;
 use crate::run::estimate::Sizes;
@@ -61,11 +61,8 @@ fn scr_label(x: f64) -> String {
 }
 
 impl LocationJob {
-    /// Every training of the plan's `location` section, in order target, method, SCR, repeat.
-    pub fn all(plan: &Plan) -> Vec<LocationJob> {
-        let Some(lp) = &plan.location else {
-            return vec![];
-        };
+    /// Every training of the plan's `location` section (`lp`), in order target, method, SCR, repeat.
+    pub fn all(plan: &Plan, lp: &LocationPlan) -> Vec<LocationJob> {
         let clutter = Arc::new(vec![lp.clutter.clone()]);
         let mut out = vec![];
         for &target in &lp.spec.targets {
@@ -120,7 +117,7 @@ impl LocationJob {
         split: &Split,
         all: &Array3<Complex64>,
     ) -> Result<(Vec<Complex32>, Vec<Complex32>, usize)> {
-        let lp = plan.location.as_ref().expect("a location section");
+        let lp = plan.cnn.location.as_ref().expect("a location section");
         Ok(match self.source {
             Source::Original => {
                 let originals = split.originals(&all.view());
@@ -182,7 +179,7 @@ impl JobKind for LocationJob {
     }
 
     fn key_material(&self, plan: &Plan) -> String {
-        let lp = plan.location.as_ref().expect("a location section");
+        let lp = plan.cnn.location.as_ref().expect("a location section");
         format!("{self:?}\n{:?}\n{:?}", lp.spec, lp.net)
     }
 
@@ -198,7 +195,7 @@ impl JobKind for LocationJob {
     /// location network, and makes the job's rows.
     fn run(&self, cx: &JobContext) -> Result<Rows> {
         let plan = cx.plan;
-        let lp = plan.location.as_ref().expect("a location section");
+        let lp = plan.cnn.location.as_ref().expect("a location section");
         let mut owned = None;
         let all = stacks_of(cx.shared, &self.clutter, &mut owned)?;
         let (n, h, w) = all.dim();
@@ -283,7 +280,7 @@ impl JobKind for LocationJob {
     }
 
     fn status_row(&self, plan: &Plan, status: &Status) -> Option<Result<DataFrame>> {
-        let lp = plan.location.as_ref()?;
+        let lp = plan.cnn.location.as_ref()?;
         Some(training_status(
             TrainingRow {
                 id: &self.id,
@@ -476,7 +473,7 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
 
 /// The estimate of one location training of `plan`.
 fn estimate(plan: &Plan, job: &LocationJob) -> Estimate {
-    let Some(lp) = &plan.location else {
+    let Some(lp) = &plan.cnn.location else {
         return Estimate::SMALL;
     };
     let spec = &lp.spec;

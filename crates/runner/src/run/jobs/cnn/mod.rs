@@ -20,3 +20,34 @@ mod location;
 pub use classification::ClassificationJob;
 pub use common::{CLASSIFICATION, CONFUSION, HISTORY, LOCATION, LOCATION_SUMMARY};
 pub use location::{location_summary, LocationJob, LocationSummaryJob};
+
+use crate::experiment::Applications;
+use crate::run::jobs::JobKind;
+use crate::run::plan::Plan;
+
+/// The jobs of every CNN section of `plan`, in plan order (classification, then location and
+/// its summary); `first` is the index the first of them takes in the plan's job list. The
+/// applications are destructured whole, so a new one is named here by the compiler.
+pub fn jobs(plan: &Plan, first: usize) -> Vec<Box<dyn JobKind>> {
+    let Applications {
+        classification,
+        location,
+    } = &plan.cnn;
+    let mut out: Vec<Box<dyn JobKind>> = vec![];
+    if let Some(c) = classification {
+        out.extend(ClassificationJob::all(plan, c).into_iter().map(boxed));
+    }
+    if let Some(l) = location {
+        let trainings = LocationJob::all(plan, l);
+        let at = first + out.len();
+        let inputs = (at..at + trainings.len()).collect();
+        out.extend(trainings.into_iter().map(boxed));
+        out.push(Box::new(LocationSummaryJob { inputs }));
+    }
+    out
+}
+
+/// A job behind the seam.
+fn boxed<J: JobKind + 'static>(job: J) -> Box<dyn JobKind> {
+    Box::new(job)
+}
