@@ -591,12 +591,27 @@ pub const LOCATION_SUMMARY: Table = Table {
     ],
 };
 
-/// A CNN application's trainings as the report reads them: one table of trainings, split into
-/// groups (tables and figures) by one column and swept along another. A new application is a
-/// variant here, beside its table; the compiler then names each place of the report that shows
-/// it (its section, its tables' layout, its figures' labels).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CnnApp {
+/// Declares [`CnnApp`] and its list [`CnnApp::ALL`] from one list of variants, so that the
+/// list cannot miss one.
+macro_rules! cnn_apps {
+    ($($(#[$doc:meta])* $variant:ident),* $(,)?) => {
+        /// A CNN application's trainings as the report reads them: one table of trainings,
+        /// split into groups (tables and figures) by one column and swept along another. A new
+        /// application is a variant here, beside its table; the compiler then names each place
+        /// of the report that shows it (its section, its tables' layout, its figures' labels).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum CnnApp {
+            $($(#[$doc])* $variant),*
+        }
+
+        impl CnnApp {
+            /// Every application, in report order.
+            pub const ALL: &'static [CnnApp] = &[$(CnnApp::$variant),*];
+        }
+    };
+}
+
+cnn_apps! {
     /// Clutter classification (Tables 19-22, Figs. 66-67): [`CLASSIFICATION`].
     Classification,
     /// Target location (Figs. 68-74): [`LOCATION`] (and its summary [`LOCATION_SUMMARY`]).
@@ -604,9 +619,6 @@ pub enum CnnApp {
 }
 
 impl CnnApp {
-    /// Every application, in report order.
-    pub const ALL: [CnnApp; 2] = [CnnApp::Classification, CnnApp::Location];
-
     /// The table of its trainings.
     pub fn table(self) -> Table {
         match self {

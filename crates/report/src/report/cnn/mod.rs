@@ -283,7 +283,7 @@ pub struct Section {
 /// If a table cannot be read or a figure cannot be drawn.
 pub fn sections(dir: &Path) -> Result<Vec<Section>> {
     let mut out = vec![];
-    for app in CnnApp::ALL {
+    for &app in CnnApp::ALL {
         let Some(groups) = load(dir, app, &[], false)? else {
             continue;
         };

@@ -30,8 +30,8 @@ pub fn names_of(app: CnnApp) -> &'static [&'static str] {
 /// The CNN tables, in print order.
 pub fn names() -> Vec<&'static str> {
     CnnApp::ALL
-        .into_iter()
-        .flat_map(names_of)
+        .iter()
+        .flat_map(|&a| names_of(a))
         .copied()
         .collect()
 }
@@ -103,7 +103,8 @@ pub fn render(
         return Ok(None);
     }
     let Some(app) = CnnApp::ALL
-        .into_iter()
+        .iter()
+        .copied()
         .find(|&a| names_of(a).contains(&name))
     else {
         bail!("no CNN table {name:?}; CNN tables: {}", names().join(", "));
