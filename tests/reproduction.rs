@@ -3,7 +3,7 @@
 //! runs of the shipped specs, a damaged run folder refused with the file named and no
 //! document written, and a missing one named with its cells and claims not decidable.
 
-use isar_clutter::reproduction::{self as rep, compare::Verdict, render};
+use isar_clutter::reproduction::{self as rep, compare::Verdict, render, runs};
 use std::path::{Path, PathBuf};
 
 fn header() -> render::Header {
@@ -20,8 +20,8 @@ fn header() -> render::Header {
 }
 
 /// The options of a quiet reproduction into `out` from the specs in `specs`, on 2 threads.
-fn options(out: PathBuf, specs: PathBuf, repeats: usize) -> rep::Options {
-    rep::Options {
+fn options(out: PathBuf, specs: PathBuf, repeats: usize) -> runs::Options {
+    runs::Options {
         out,
         specs,
         repeats,
@@ -33,10 +33,10 @@ fn options(out: PathBuf, specs: PathBuf, repeats: usize) -> rep::Options {
     }
 }
 
-fn run(out: &Path, numbers: &[u32]) -> (rep::Coverage, Vec<rep::SpecRuns>) {
-    let recipes = rep::Coverage::tables(numbers);
+fn run(out: &Path, numbers: &[u32]) -> (runs::Coverage, Vec<runs::SpecRuns>) {
+    let recipes = runs::Coverage::tables(numbers);
     let opts = options(out.to_path_buf(), PathBuf::from("experiments"), 2);
-    let runs = rep::run_all(&opts, &recipes).unwrap();
+    let runs = runs::run_all(&opts, &recipes).unwrap();
     (recipes, runs)
 }
 
@@ -60,7 +60,7 @@ fn tables_3_and_4_match_the_dissertation() {
     let text = std::fs::read_to_string(&doc).unwrap();
     assert!(text.contains("## Table 3: Correlation for Pixel Offsets"));
     // The build that computed the results is named (from the run folders' manifests).
-    let builds = rep::builds(&runs);
+    let builds = runs::builds(&runs);
     assert_eq!(builds.len(), 1, "{builds:?}");
     assert!(
         text.contains(&format!("- Results computed by: {} (", builds[0].0)),
@@ -202,8 +202,8 @@ fn every_covered_table_gives_the_numbers_the_document_records() {
     let dir = tempfile::tempdir().unwrap();
     // The CNN tables' specs train hundreds of networks: `cnn_tables_read_every_repeat` checks
     // their reading on a small run instead.
-    let recipes = rep::Coverage {
-        recipes: rep::Coverage::all()
+    let recipes = runs::Coverage {
+        recipes: runs::Coverage::all()
             .recipes
             .into_iter()
             .filter(|r| !r.runs_once())
@@ -212,7 +212,7 @@ fn every_covered_table_gives_the_numbers_the_document_records() {
         solver: false,
     };
     let opts = options(dir.path().to_path_buf(), PathBuf::from("experiments"), 1);
-    let runs = rep::run_all(&opts, &recipes).unwrap();
+    let runs = runs::run_all(&opts, &recipes).unwrap();
     let doc = dir.path().join("reproduction.md");
     rep::write(&recipes, &runs, &doc, &header()).unwrap();
     let read = |p: &Path| -> serde_json::Value {
@@ -299,14 +299,14 @@ fn cnn_tables_read_every_repeat_under_every_protocol() {
         )
         .unwrap();
     }
-    let coverage = rep::Coverage {
+    let coverage = runs::Coverage {
         recipes: rep::cnn::recipes(),
         statements: Vec::new(),
         solver: false,
     };
     assert!(coverage.recipes.iter().all(|r| r.runs_once()));
     let opts = options(dir.path().join("out"), specs, 5);
-    let runs = rep::run_all(&opts, &coverage).unwrap();
+    let runs = runs::run_all(&opts, &coverage).unwrap();
     // Run once each, whatever `repeats` says: the spec repeats inside.
     assert!(runs.iter().all(|r| r.runs.len() == 1), "{runs:?}");
     let doc = dir.path().join("reproduction.md");
@@ -367,13 +367,13 @@ fn fig_74_links_are_differences_of_mean_accuracy_over_the_scr_points() {
         ),
     )
     .unwrap();
-    let coverage = rep::Coverage {
+    let coverage = runs::Coverage {
         recipes: Vec::new(),
         statements: rep::cnn::stochastic_location(),
         solver: false,
     };
     let opts = options(dir.path().join("out"), specs, 2);
-    let runs = rep::run_all(&opts, &coverage).unwrap();
+    let runs = runs::run_all(&opts, &coverage).unwrap();
     assert_eq!(runs.len(), 1);
     assert_eq!(runs[0].runs.len(), 2, "two repeats");
     // The mean test accuracy (%) of `method` in a run, read here directly.
@@ -448,13 +448,13 @@ fn fig_73_gains_count_the_repeats_that_only_bound_them() {
         .filter(|st| st.terms[0].0.spec == name)
         .collect();
     assert_eq!(statements.len(), 2, "the gain at 50 % and at 90 %");
-    let coverage = rep::Coverage {
+    let coverage = runs::Coverage {
         recipes: Vec::new(),
         statements: statements.clone(),
         solver: false,
     };
     let opts = options(dir.path().join("out"), specs, 2);
-    let runs = rep::run_all(&opts, &coverage).unwrap();
+    let runs = runs::run_all(&opts, &coverage).unwrap();
     let read = |folder: &Path, file: &str| {
         let f = std::fs::File::open(folder.join(file)).unwrap();
         ParquetReader::new(f).finish().unwrap()

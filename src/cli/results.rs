@@ -72,8 +72,8 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         only,
         quiet,
     } = a;
-    use isar_clutter::reproduction::{self as rep, render};
-    let opts = rep::Options {
+    use isar_clutter::reproduction::{self as rep, render, runs};
+    let opts = runs::Options {
         out,
         specs,
         repeats,
@@ -84,8 +84,8 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         quiet,
     };
     let start = std::time::Instant::now();
-    let coverage = rep::Coverage::all();
-    let runs = rep::run_all(&opts, &coverage)?;
+    let coverage = runs::Coverage::all();
+    let runs = runs::run_all(&opts, &coverage)?;
     if !only.is_empty() {
         eprintln!(
             "ran {} in {:.1} s; no document written (run without --only, or with --write-only)",
@@ -95,14 +95,14 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     if !write_only {
-        rep::record_wall(&opts.out, start.elapsed().as_secs_f64(), repeats)?;
+        runs::record_wall(&opts.out, start.elapsed().as_secs_f64(), repeats)?;
     }
     let header = render::Header {
         command: match cnn_repeats {
             Some(c) => format!("isar-clutter reproduce --repeats {repeats} --cnn-repeats {c}"),
             None => format!("isar-clutter reproduce --repeats {repeats}"),
         },
-        wall_s: rep::recorded_wall(&opts.out),
+        wall_s: runs::recorded_wall(&opts.out),
         machine: render::machine(),
         tool: format!(
             "isar-clutter {} (commit {})",

@@ -41,7 +41,7 @@ pub struct Evaluated {
     pub protocol: Option<&'static str>,
     /// The KL estimator's floor at the table's sizes, in words ([`super::floors`]; KL tables only).
     pub floor: Option<String>,
-    /// The folders of its specs that are missing or incomplete (`reproduction::Missing::show`): its
+    /// The folders of its specs that are missing or incomplete (`reproduction::runs::Missing::show`): its
     /// cells read the others, and are not computed where none is left.
     pub missing: Vec<String>,
 }
@@ -71,6 +71,6 @@ pub struct Stated {
     pub bounded: usize,
     /// One exact computation (no repeats, no spread).
     pub exact: bool,
-    /// The folders it reads that are missing or incomplete (`reproduction::Missing::show`).
+    /// The folders it reads that are missing or incomplete (`reproduction::runs::Missing::show`).
     pub missing: Vec<String>,
 }
