@@ -2,6 +2,8 @@
 //! results folder's Parquet tables (a module, not a test target).
 #![allow(dead_code)]
 
+pub mod paths;
+
 use ndarray::Array3;
 use num_complex::Complex64;
 use rand::SeedableRng;

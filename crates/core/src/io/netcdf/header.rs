@@ -2,7 +2,7 @@
 //! dimensions, global attributes and variables with every offset and size checked against the
 //! file, and the decoder of stored values into their numeric type.
 
-use super::{AttrValue, Dimension, NcError, NcType, Variable};
+use super::types::{AttrValue, Dimension, NcError, NcType, Variable};
 use std::path::Path;
 
 pub(super) const NC_DIMENSION: u32 = 0x0A;
