@@ -9,7 +9,7 @@ use super::super::figures::charts::{self, Point};
 use super::super::figures::heatmap::{heatmap_grid_with, GridOptions};
 use super::super::figures::{Panel, Scale};
 use super::super::task::{rel, Figure};
-use super::{Group, Representative};
+use super::groups::{Group, Representative};
 use crate::io::results::{self, col, CnnApp};
 use crate::location_grid::{centre, GRID, TARGET};
 use anyhow::{Context, Result};

@@ -7,7 +7,7 @@
 //! over `original`). Their layout is fixed: `--filter` selects rows, `--pivot` does not apply.
 
 use super::super::table::{layout, Format};
-use super::{load, Group, Stats};
+use super::groups::{load, Group, Stats};
 use crate::io::results::{self, col, CnnApp};
 use anyhow::{bail, Result};
 use std::path::Path;

@@ -45,7 +45,7 @@
 //!   its model, the training, validation and test sets (`8 P` plus the prepared input each) and a
 //!   mini-batch's activations (`8 P f_1` a sample, `min(batch_size, training set)` samples).
 //!
-//! The model of a dataset job is [`dataset_job`] (its datasets' own terms come from their
+//! The model of a dataset job is [`dataset::dataset_job`] (its datasets' own terms come from their
 //! kinds, [`crate::experiment::DatasetKind::cost`]); each job of the run as a whole states its
 //! own beside its kind (`run/jobs/calibration.rs`, `hypotheses.rs`, `cnn/`).
 //!
@@ -57,10 +57,9 @@
 //! core of 30 Gflop/s. It is a guide to run time, good to a factor of a few. All arithmetic is in `f64` and converted to `u64` with saturation, so
 //! absurd sizes give huge estimates, never an overflow.
 
-mod dataset;
+pub mod dataset;
 mod outputs;
 
-pub use dataset::{dataset_at, dataset_job};
 pub use outputs::{footprint, Footprint};
 
 use std::fmt;

@@ -56,7 +56,7 @@ impl JobKind for Job {
     }
 
     fn estimate(&self, plan: &Plan) -> crate::run::estimate::Estimate {
-        crate::run::estimate::dataset_job(plan, self)
+        crate::run::estimate::dataset::dataset_job(plan, self)
     }
 
     fn key_material(&self, plan: &Plan) -> String {
