@@ -1,7 +1,7 @@
 //! Parameters that are a scalar or a spatial map (`alpha_h: 0.5`, a pattern, or an `.npy`
 //! file), validated onto an image grid.
 
-use super::{Ctx, SpecError};
+use super::context::{Ctx, SpecError};
 use crate::io::npy;
 use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};

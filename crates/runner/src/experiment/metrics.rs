@@ -1,7 +1,8 @@
 //! The `metrics`, `noise_floor` and `hypotheses` sections: similarity metrics by name or with
 //! parameters, validated into [`crate::stats::metrics::Metric`]s, and the noise floor to measure.
 
-use super::{Ctx, RawSpec, SpecError};
+use super::context::{Ctx, SpecError};
+use super::synthesis::SynthesisSpec;
 use serde::{Deserialize, Serialize};
 
 /// `hypotheses:` section.
@@ -87,18 +88,20 @@ fn kl_options(
     Ok(o)
 }
 
-/// Validates the `metrics:` section into typed metrics.
+/// Validates the `metrics:` section (`metrics`, beside the spec's `synthesis` section) into
+/// typed metrics.
 ///
 /// # Errors
 /// A [`SpecError`] naming `metrics[i]` (and the parameter) for an unknown name, a parameter
 /// the metric does not take, a bad value, a metric listed twice, or metrics without a
 /// `synthesis` section.
 pub fn check_metrics(
-    spec: &RawSpec,
+    metrics: &[serde_yaml_ng::Value],
+    synthesis: Option<&SynthesisSpec>,
     ctx: &Ctx,
 ) -> Result<Vec<crate::stats::metrics::Metric>, SpecError> {
     use crate::stats::metrics::{Metric, MetricKind};
-    if !spec.metrics.is_empty() && spec.synthesis.is_none() {
+    if !metrics.is_empty() && synthesis.is_none() {
         return Err(ctx.err(
             "metrics",
             "metrics compare generated samples with the original: add a `synthesis` section",
@@ -106,7 +109,7 @@ pub fn check_metrics(
     }
     let names = MetricKind::names();
     let mut out: Vec<Metric> = Vec::new();
-    for (i, entry) in spec.metrics.iter().enumerate() {
+    for (i, entry) in metrics.iter().enumerate() {
         let at = format!("metrics[{i}]");
         let (name, params) = match entry {
             serde_yaml_ng::Value::String(s) => (s.clone(), MetricParams::default()),
@@ -160,12 +163,7 @@ pub fn check_metrics(
         if out.iter().any(|m| m.name() == metric.name()) {
             return Err(ctx.err(at, format!("{name} is listed twice")));
         }
-        if metric == Metric::MultiscaleRmse
-            && spec
-                .synthesis
-                .as_ref()
-                .is_some_and(|s| !s.analyse_generated)
-        {
+        if metric == Metric::MultiscaleRmse && synthesis.is_some_and(|s| !s.analyse_generated) {
             return Err(ctx.err(
                 at,
                 "multiscale_rmse needs synthesis.analyse_generated: true",

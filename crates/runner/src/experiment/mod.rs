@@ -4,21 +4,22 @@
 //!
 //! The format is documented with a complete example in `docs/spec.md`.
 
-use crate::stats::analysis::check_levels;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 mod cnn;
+mod context;
 pub mod datasets;
 mod maps;
 mod metrics;
+mod sections;
 mod synthesis;
 
 pub use cnn::{
-    Applications, ClassificationPlan, ClassificationSpec, DataRef, LocationPlan, LocationSpec,
-    OneOrMany, MAX_TRAININGS,
+    Applications, ClassificationPlan, ClassificationSpec, CnnSections, DataRef, LocationPlan,
+    LocationSpec, OneOrMany, MAX_TRAININGS,
 };
+pub use context::{Ctx, SpecError};
 pub use datasets::{
     filter_bank, generate, DataError, Dataset, DatasetKind, DatasetSpec, Family, FilterParams,
     FilteredNoise, KspaceDataset, Layout, MatDataset, Materialised, MeasurementSpec, NetcdfDataset,
@@ -26,44 +27,8 @@ pub use datasets::{
 };
 pub use maps::{Map, ParamMap, PatternKind, PatternSpec, RampAxis};
 pub use metrics::{check_metrics, HypothesesSpec, MetricParams, NoiseFloor};
+pub use sections::{AnalysisSpec, OutputsSpec, SweepSpec};
 pub use synthesis::SynthesisSpec;
-
-/// A spec problem, located in the file.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{file}: {path}{loc}: {message}", file = file.display(), loc = location(*line, *column))]
-pub struct SpecError {
-    /// The spec file.
-    pub file: PathBuf,
-    /// YAML path of the offending value (`.` for the document).
-    pub path: String,
-    /// 1-based line, when the parser reports it.
-    pub line: Option<usize>,
-    /// 1-based column, when the parser reports it.
-    pub column: Option<usize>,
-    /// What is wrong.
-    pub message: String,
-}
-
-fn location(line: Option<usize>, column: Option<usize>) -> String {
-    match (line, column) {
-        (Some(l), Some(c)) => format!(" (line {l}, column {c})"),
-        (Some(l), None) => format!(" (line {l})"),
-        _ => String::new(),
-    }
-}
-
-impl SpecError {
-    /// An error at `path` with no line information.
-    pub fn at(file: &Path, path: impl Into<String>, message: impl Into<String>) -> Self {
-        SpecError {
-            file: file.to_path_buf(),
-            path: path.into(),
-            line: None,
-            column: None,
-            message: message.into(),
-        }
-    }
-}
 
 /// Top level of a spec file, as written.
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -117,56 +82,14 @@ pub struct RawSpec {
     pub outputs: OutputsSpec,
 }
 
-/// `analysis:` section.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct AnalysisSpec {
-    // `Default` (1 level) serves calibration-only specs; with datasets the key is required.
-    /// Number of decomposition levels `L` (maps for levels `1..=L`).
-    pub levels: usize,
-}
-
-impl Default for AnalysisSpec {
-    fn default() -> Self {
-        AnalysisSpec { levels: 1 }
-    }
-}
-
-/// `outputs:` section.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct OutputsSpec {
-    /// Write every map as `.npy` under `maps/<job>/` (default true).
-    #[serde(default = "yes")]
-    pub npy_maps: bool,
-    /// Largest lag of `filter_correlation.parquet` (default: the filter's half-width).
-    #[serde(default)]
-    pub filter_lags: Option<usize>,
-}
-
-fn yes() -> bool {
-    true
-}
-
-impl Default for OutputsSpec {
-    fn default() -> Self {
-        OutputsSpec {
-            npy_maps: true,
-            filter_lags: None,
+impl RawSpec {
+    /// Its CNN sections, for [`Applications::validate`].
+    pub fn cnn(&self) -> CnnSections<'_> {
+        CnnSections {
+            classification: self.classification.as_ref(),
+            location: self.location.as_ref(),
         }
     }
-}
-
-/// `sweep:` section: `grid` axes combine in all combinations, `zip` axes are paired.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SweepSpec {
-    /// Field path -> values; every combination is a sweep point.
-    #[serde(default)]
-    pub grid: BTreeMap<String, Vec<serde_yaml_ng::Value>>,
-    /// Field path -> values; all lists have one length and vary together.
-    #[serde(default)]
-    pub zip: BTreeMap<String, Vec<serde_yaml_ng::Value>>,
 }
 
 pub use crate::io::strip_bom;
@@ -266,43 +189,4 @@ fn parse_typed(text: &str, file: &Path) -> Result<RawSpec, SpecError> {
             message,
         }
     })
-}
-
-/// Validation context: the spec file (for messages and relative paths).
-pub struct Ctx<'a> {
-    /// Spec file.
-    pub file: &'a Path,
-}
-
-impl Ctx<'_> {
-    /// Resolves a path relative to the spec file's folder.
-    pub fn resolve(&self, p: &Path) -> PathBuf {
-        if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            self.file.parent().unwrap_or(Path::new(".")).join(p)
-        }
-    }
-
-    pub(crate) fn err(&self, path: impl Into<String>, msg: impl Into<String>) -> SpecError {
-        SpecError::at(self.file, path, msg)
-    }
-}
-
-/// Merges `over` into `base` key by key (mappings recursively; other values replace).
-pub(crate) fn merge(base: &mut serde_yaml_ng::Value, over: &serde_yaml_ng::Value) {
-    use serde_yaml_ng::Value;
-    match (base, over) {
-        (Value::Mapping(b), Value::Mapping(o)) => {
-            for (k, v) in o {
-                match b.get_mut(k) {
-                    Some(slot) => merge(slot, v),
-                    None => {
-                        b.insert(k.clone(), v.clone());
-                    }
-                }
-            }
-        }
-        (slot, v) => *slot = v.clone(),
-    }
 }

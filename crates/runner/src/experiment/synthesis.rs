@@ -1,6 +1,7 @@
 //! The `synthesis` section: methods, half-width, samples and what to do with them.
 
-use super::{yes, AnalysisSpec, Ctx, SpecError};
+use super::context::{Ctx, SpecError};
+use super::sections::{yes, AnalysisSpec};
 use crate::stats::analysis::check_levels;
 use serde::{Deserialize, Serialize};
 

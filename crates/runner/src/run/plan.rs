@@ -210,7 +210,7 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
         serde_yaml_ng::from_str(&text).map_err(|e| SpecError::at(file, ".", e.to_string()))?;
     let ctx = Ctx { file };
     check_top(&spec, raw.get("analysis").is_some(), &ctx)?;
-    let metrics = experiment::check_metrics(&spec, &ctx)?;
+    let metrics = experiment::check_metrics(&spec.metrics, spec.synthesis.as_ref(), &ctx)?;
     let axes = parse_axes(&spec, &ctx)?;
     let points = sweep_points(&axes, &ctx)?;
     let mut jobs = expand(&spec, &raw, &ctx, &axes, &points)?;
@@ -231,7 +231,7 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
             })
             .collect()
     };
-    let cnn = experiment::Applications::validate(&spec, &ctx, stacks)?;
+    let cnn = experiment::Applications::validate(spec.cnn(), &ctx, stacks)?;
     let mut param_keys: Vec<String> = axes.iter().map(|a| a.short.to_string()).collect();
     param_keys.sort();
     param_keys.dedup();

@@ -194,7 +194,7 @@ mod tests {
                 &h[124..],
                 &[code.to_le_bytes()[0], code.to_le_bytes()[1], b'I', b'M']
             );
-            assert!(super::super::sniff(&h, 128).is_ok());
+            assert!(super::super::sniff::sniff(&h, 128).is_ok());
         }
     }
 }

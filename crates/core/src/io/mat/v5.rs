@@ -6,7 +6,7 @@
 //! is the one being read (its header, to list it, is read from the first bytes of the
 //! stream). Malformed bytes are errors, never panics.
 
-use super::{MatError, Variable, CLASSES};
+use super::variable::{MatError, Variable, CLASSES};
 use num_complex::Complex64;
 use std::io::Read;
 use std::path::Path;

@@ -10,7 +10,7 @@
 //! silenced by `hdf5-metno`.
 
 use super::format::{Blocks, Part};
-use super::{Variable, CLASSES};
+use super::variable::{numeric_class, Variable, CLASSES};
 use anyhow::{Context, Result};
 use hdf5_metno::types::{CompoundField, CompoundType, FixedAscii, TypeDescriptor};
 use hdf5_metno::{H5Type, LocationType};
@@ -255,7 +255,7 @@ fn variable(file: &hdf5_metno::File, name: &str) -> Result<Variable, String> {
                 None => inferred_class(&t),
             };
             v.logical = class.as_deref() == Some("logical");
-            if super::numeric_class(v.class) && !is_numeric(&t) {
+            if numeric_class(v.class) && !is_numeric(&t) {
                 // A numeric MATLAB_class over strings, booleans or another compound: refused
                 // when the variable is listed (at `validate`), not when its data are read.
                 v.stored_as = Some(storage(&t));
@@ -343,7 +343,10 @@ where
         drop(ds);
         file.close().context("closing the HDF5 file")?;
         let mut f = std::fs::OpenOptions::new().write(true).open(tmp)?;
-        std::io::Write::write_all(&mut f, &super::format::header(super::MatVersion::V73))?;
+        std::io::Write::write_all(
+            &mut f,
+            &super::format::header(super::format::MatVersion::V73),
+        )?;
         Ok(())
     })
     .with_context(|| format!("writing the MAT v7.3 file {}", path.display()))

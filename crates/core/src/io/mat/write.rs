@@ -7,7 +7,10 @@
 //! to a temporary name and renamed into place ([`crate::io::atomic`]).
 
 use super::format::{header, Blocks, MatClass, MatVersion, Part, MARK};
+use super::reader::{MatFile, V73_SUPPORTED};
+use super::sniff::{head, sniff};
 use super::v5::MI_MATRIX;
+use super::variable::{MatError, Variable};
 use anyhow::{bail, Context, Result};
 use ndarray::Array3;
 use num_complex::Complex;
@@ -84,7 +87,7 @@ pub fn check_output(out: &MatOutput, (h, w, m): (usize, usize, usize)) -> Result
                 );
             }
         }
-        MatVersion::V73 if !super::V73_SUPPORTED => bail!(
+        MatVersion::V73 if !V73_SUPPORTED => bail!(
             "writing MAT v7.3 needs a build with `--features mat73` (as `make build` does; it \
              needs Debian's libhdf5-dev); --mat-version 5 writes MAT v5 (at most 2 GB)"
         ),
@@ -96,10 +99,10 @@ pub fn check_output(out: &MatOutput, (h, w, m): (usize, usize, usize)) -> Result
 /// Whether the header of `path` names the platform `isar-clutter` (the tool wrote the file,
 /// whatever was added to it since).
 fn has_mark(path: &Path) -> bool {
-    let Ok((head, len)) = super::head(path) else {
+    let Ok((head, len)) = head(path) else {
         return false;
     };
-    super::sniff(&head, len).is_ok()
+    sniff(&head, len).is_ok()
         && head[..116]
             .windows(MARK.len())
             .any(|w| w == MARK.as_bytes())
@@ -107,8 +110,8 @@ fn has_mark(path: &Path) -> bool {
 
 /// The variables of a MAT file besides the one the tool writes (the first complex `single` or
 /// `double` 3-D array; every variable when there is none).
-fn added_variables(path: &Path) -> Result<Vec<super::Variable>, super::MatError> {
-    let file = super::MatFile::open(path)?;
+fn added_variables(path: &Path) -> Result<Vec<Variable>, MatError> {
+    let file = MatFile::open(path)?;
     let ours = file
         .variables()
         .iter()

@@ -2,7 +2,9 @@
 //! manifest lists present and unchanged), the manifest's record of the files a run wrote, and
 //! the check of a single output file's path.
 
-use super::{Holder, STATE};
+use super::lock::Holder;
+use super::temporaries::remove_temporaries;
+use crate::io::journal::STATE;
 use anyhow::{bail, Context, Result};
 use std::fs;
 use std::path::Path;
@@ -283,7 +285,7 @@ pub fn remove_dead_temporaries_of(path: &Path) -> Result<Vec<String>> {
         _ => Path::new("."),
     };
     let me = std::process::id();
-    super::remove_temporaries(dir, |base, pid, _| {
+    remove_temporaries(dir, |base, pid, _| {
         base == name && pid != me && super::lock::is_gone(pid)
     })
 }

@@ -4,7 +4,7 @@
 //! records who holds it ([`Holder`]: pid, host, boot id and process start time), for the
 //! refusal's message and for telling a finished writer from a dead one elsewhere.
 
-use super::STATE;
+use crate::io::journal::STATE;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::fs::{self, File, OpenOptions};

@@ -31,11 +31,14 @@ use std::path::{Path, PathBuf};
 
 mod check;
 mod lock;
+mod temporaries;
 
 pub use check::{
     check_complete, check_file_output, file_record, file_record_hashed, remove_dead_temporaries_of,
 };
 pub use lock::{is_held, take_lock, HeldLock, Holder};
+use temporaries::remove_temporaries;
+pub use temporaries::temporary_of;
 
 use crate::io::journal::{self, safe_relative};
 pub use crate::io::journal::{note, STATE};
@@ -355,68 +358,11 @@ impl OutDir {
     }
 }
 
-/// Removes the temporary files and folders of the tool's writes in `dir` (names that
-/// [`temporary_of`] reads) that `select(base, pid, is_dir)` picks; returns their names, sorted.
-/// Nothing when `dir` cannot be read.
-///
-/// # Errors
-/// When a picked one cannot be removed (one already gone is not an error).
-pub(crate) fn remove_temporaries(
-    dir: &Path,
-    select: impl Fn(&str, u32, bool) -> bool,
-) -> Result<Vec<String>> {
-    let Ok(entries) = fs::read_dir(dir) else {
-        return Ok(Vec::new());
-    };
-    let mut removed = Vec::new();
-    for e in entries.flatten() {
-        let name = e.file_name();
-        let Some(name) = name.to_str() else { continue };
-        let Some((base, pid)) = temporary_of(name) else {
-            continue;
-        };
-        let path = e.path();
-        let Ok(meta) = fs::symlink_metadata(&path) else {
-            continue;
-        };
-        if !select(base, pid, meta.is_dir()) {
-            continue;
-        }
-        let gone = if meta.is_dir() {
-            fs::remove_dir_all(&path)
-        } else {
-            fs::remove_file(&path)
-        };
-        match gone {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                return Err(e).with_context(|| format!("removing temporary {}", path.display()))
-            }
-            _ => removed.push(name.to_string()),
-        }
-    }
-    removed.sort();
-    Ok(removed)
-}
-
 impl Drop for OutDir {
     fn drop(&mut self) {
         journal::close(&self.abs);
         // The lock goes with `_held`, after this.
     }
-}
-
-/// The name a temporary file of the tool's atomic writes stands for, and its writer's pid:
-/// `.a.npy.tmp-12` -> (`a.npy`, 12); `.a.png.12-3.tmp` -> (`a.png`, 12).
-pub fn temporary_of(name: &str) -> Option<(&str, u32)> {
-    let rest = name.strip_prefix('.')?;
-    if let Some((base, pid)) = rest.rsplit_once(".tmp-") {
-        return Some((base, pid.parse().ok()?));
-    }
-    let rest = rest.strip_suffix(".tmp")?;
-    let (base, pid_seq) = rest.rsplit_once('.')?;
-    let (pid, seq) = pid_seq.split_once('-')?;
-    seq.parse::<u64>().ok()?;
-    Some((base, pid.parse().ok()?))
 }
 
 /// The relative paths the tool's records say it wrote in `root`.

@@ -22,7 +22,7 @@
 //! statistic being scale-free). The CNN tables (20, 22) and Figs. 73-74 are never fitted: they
 //! check how far the calibration carries over.
 
-use super::{PlantParams, SceneParams};
+use super::params::{PlantParams, SceneParams, WindParams};
 use crate::physics::isar::{ImagingOptions, Measurement};
 use serde::{Deserialize, Serialize};
 
@@ -329,6 +329,34 @@ pub fn fit_variance(
         });
     }
     Ok(fits)
+}
+
+impl PlantParams {
+    /// Presets "A".."E" (docs/definitions.md §10): A two large canes, very large
+    /// leaves, wide spacing, large leaf motion; B medium leaves, smaller
+    /// spacing and motion; C small dense leaves, little leaf motion, whole
+    /// plant sways; D many small leaves on many small branches; E few large
+    /// leaves on few large stalks. Sized to fit the 0.593 m default image. Calibrated: the
+    /// physical preset ([`PlantParams::uncalibrated`]) with the amplitude and wind-response
+    /// factors fitted to the dissertation's Table 16 ([`calibration`]).
+    pub fn preset(name: &str) -> Option<PlantParams> {
+        Some(calibrate(name, Self::uncalibrated(name)?))
+    }
+}
+
+impl SceneParams {
+    /// Scene from a plant preset ("A".."E") and a wind preset
+    /// ("none", "light", "medium"), with -40 dB receiver noise (or the plant's calibrated
+    /// noise, [`noise_db`]), a -30 dB background residual and 2 s between samples.
+    pub fn preset(plant: &str, wind: &str) -> Option<SceneParams> {
+        Some(SceneParams {
+            plant: PlantParams::preset(plant)?,
+            wind: WindParams::preset(wind)?,
+            noise_db: noise_db(plant).unwrap_or(-40.0),
+            background_residual: 1e-3,
+            sample_interval_s: 2.0,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! by the seed), the wind's gusts and the damped oscillators that move it, and the scatterers
 //! of one pose.
 
-use super::{PlantParams, WindParams};
+use super::params::{PlantParams, WindParams};
 use num_complex::Complex64;
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;

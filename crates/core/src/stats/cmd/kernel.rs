@@ -1,9 +1,7 @@
 //! The micro-kernels of the CMD products: an AVX2+FMA kernel (runtime-detected) and its
 //! portable body, both accumulating f32 products over at most `KC_MAX` terms.
 
-use super::MR;
-use super::NR;
-use super::TILE;
+use super::layout::{MR, NR, TILE};
 // ---------------------------------------------------------------------------
 // Micro-kernels
 // ---------------------------------------------------------------------------

@@ -1,8 +1,7 @@
 //! The slow, literal f64 reference of the CMD: the full P x P correlation matrices and the
 //! distance from them, used by the tests of the fast path.
 
-use super::CmdTerms;
-use super::Form;
+use super::terms::{CmdTerms, Form};
 use num_complex::Complex;
 /// Sample correlation matrix (P x P, row-major) of a row-major N x P stack,
 /// literally: `R[p,q] = (1/N) sum_n conj(x_np - mu_p)(x_nq - mu_q) / (s_p s_q)`.

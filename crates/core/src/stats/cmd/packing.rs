@@ -1,12 +1,8 @@
 //! Packing of the normalised data matrix into f32 panels: the layout of a product (Gram or
 //! pixel-pair form), panel ranges, and the blocks the micro-kernels read.
 
-use super::block_panels;
-use super::Normalised;
-use super::BLOCK;
-use super::KC_MAX;
-use super::MR;
-use super::NR;
+use super::layout::{block_panels, BLOCK, KC_MAX, MR, NR};
+use super::terms::Normalised;
 use rayon::prelude::*;
 use std::ops::Range;
 /// Which axis of A is the item axis of a product.

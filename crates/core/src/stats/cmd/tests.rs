@@ -3,6 +3,7 @@
 //! complex scale), the cost model, and bitwise determinism across rayon
 //! pool sizes.
 
+use super::kernel::kernel_portable;
 use super::*;
 use num_complex::Complex;
 use rand::{RngExt, SeedableRng};

@@ -1,14 +1,14 @@
 //! The `classification` section: clutter classification with CNNs trained on generated clutter
 //! (ch. 5.3.2-5.3.7, Tables 18-22), its fields and their check against the class datasets.
 
-use super::{
+use super::common::{
     check_common, check_methods, data_ref, half_width, holdout, levels, original_fraction, repeats,
     too_many_trainings, zero_mean, DataRef, OneOrMany, MAX_TRAININGS,
 };
 use crate::apps::cnn::classification::{held_out, Normalise, Source};
 use crate::apps::cnn::net::{Arch, NetConfig};
 use crate::apps::cnn::train::TrainingOptions;
-use crate::experiment::{Ctx, SpecError};
+use crate::experiment::context::{Ctx, SpecError};
 use serde::{Deserialize, Serialize};
 
 /// `classification:` section (5.3.2-5.3.7, Tables 19-22).

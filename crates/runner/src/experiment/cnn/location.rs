@@ -2,7 +2,7 @@
 //! (ch. 5.3.8-5.3.9, Table 23, Figs. 73-74), its fields and their check against the clutter
 //! dataset.
 
-use super::{
+use super::common::{
     check_common, check_methods, data_ref, fit_samples, generated_samples, half_width, levels,
     location_repeats, too_many_trainings, DataRef, MAX_TRAININGS,
 };
@@ -10,7 +10,7 @@ use crate::apps::cnn::classification::Source;
 use crate::apps::cnn::location::TargetKind;
 use crate::apps::cnn::net::{Arch, NetConfig};
 use crate::apps::cnn::train::{Protocol, TrainingOptions};
-use crate::experiment::{Ctx, SpecError};
+use crate::experiment::context::{Ctx, SpecError};
 use crate::location_grid::MIN_SIDE;
 use serde::{Deserialize, Serialize};
 

@@ -9,10 +9,11 @@
 //! job.
 
 use super::cost::{Cost, Sizes, C128, USUAL_HALF_WIDTH, USUAL_PIXELS, USUAL_SAMPLES};
-use super::{DataError, DatasetKind, Materialised};
+use super::kind::{DataError, DatasetKind, Materialised};
 use crate::alloc::{try_zeros, AllocError};
+use crate::experiment::context::{Ctx, SpecError};
 use crate::experiment::maps::check_range;
-use crate::experiment::{Ctx, Map, ParamMap, SpecError};
+use crate::experiment::maps::{Map, ParamMap};
 use crate::io::npy::Stack;
 use crate::seeds::{texture, white_seed_into};
 use crate::stats::filters::{bank_bytes, filter_flops};

@@ -4,9 +4,9 @@
 //! the mean k-space image.
 
 use super::cost::{imaging_flops, Cost, Sizes, C128, USUAL_GRID, USUAL_IMAGE_SIZE, USUAL_SAMPLES};
-use super::{DataError, DatasetKind, Materialised};
+use super::kind::{DataError, DatasetKind, Materialised};
 use crate::alloc::try_zeros;
-use crate::experiment::{Ctx, SpecError};
+use crate::experiment::context::{Ctx, SpecError};
 use crate::io::npy::{self, NpyError, NpyHeader, Stack};
 use ndarray::Array3;
 use num_complex::Complex64;

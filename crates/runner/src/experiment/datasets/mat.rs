@@ -3,8 +3,8 @@
 //! at validation and decoded into memory when materialised.
 
 use super::cost::{file_sizes, Cost, Sizes, C128};
-use super::{DataError, DatasetKind, Layout, Materialised};
-use crate::experiment::{Ctx, SpecError};
+use super::kind::{DataError, DatasetKind, Layout, Materialised};
+use crate::experiment::context::{Ctx, SpecError};
 use ndarray::Array3;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};

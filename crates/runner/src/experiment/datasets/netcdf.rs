@@ -8,8 +8,8 @@
 //! ([`NcFile::read_stack`]).
 
 use super::cost::{file_sizes, Cost, Sizes, C128};
-use super::{DataError, DatasetKind, Materialised};
-use crate::experiment::{Ctx, SpecError};
+use super::kind::{DataError, DatasetKind, Materialised};
+use crate::experiment::context::{Ctx, SpecError};
 use crate::io::netcdf::time::months;
 use crate::io::netcdf::{NcError, NcFile};
 use crate::io::npy::{NpyError, Stack};

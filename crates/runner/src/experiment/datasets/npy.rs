@@ -2,8 +2,8 @@
 //! `layout: hwn`), mapped from the file rather than copied.
 
 use super::cost::{file_sizes, Cost, Sizes};
-use super::{DataError, DatasetKind, Layout, Materialised};
-use crate::experiment::{Ctx, SpecError};
+use super::kind::{DataError, DatasetKind, Layout, Materialised};
+use crate::experiment::context::{Ctx, SpecError};
 use crate::io::npy::{self, NpyHeader, Stack};
 use ndarray::Array3;
 use num_complex::Complex64;

@@ -3,9 +3,9 @@
 //! `layout: hwn`; its length is checked against the shape at validation.
 
 use super::cost::{file_sizes, Cost, Sizes, C128};
-use super::{DataError, DatasetKind, Layout, Materialised};
+use super::kind::{DataError, DatasetKind, Layout, Materialised};
 use crate::alloc::try_zeros;
-use crate::experiment::{Ctx, SpecError};
+use crate::experiment::context::{Ctx, SpecError};
 use crate::io::npy::{NpyError, Stack};
 use ndarray::Array3;
 use num_complex::Complex64;

@@ -4,7 +4,9 @@
 //! field as serde refuses it ("unknown field `x`, expected one of ..."), each at its own YAML
 //! path.
 
-use super::{KindSpec, KIND_FIELDS, KIND_NAMES};
+use super::super::context::{Ctx, SpecError};
+use super::registry::{Dataset, KindSpec, KIND_FIELDS, KIND_NAMES};
+use crate::stats::analysis::check_levels;
 use serde::de::{self, DeserializeSeed, IntoDeserializer, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::fmt;
@@ -233,5 +235,45 @@ impl<'de, A: MapAccess<'de>> MapAccess<'de> for Rest<'_, A> {
             Some(v) => seed.deserialize(v).map_err(de::Error::custom),
             None => self.map.next_value_seed(seed),
         }
+    }
+}
+
+impl DatasetSpec {
+    /// Validates one dataset (`at` is its YAML path, e.g. `datasets[0]`): its id, its kind's
+    /// fields, at least 2 samples, and `levels` within its image size.
+    ///
+    /// # Errors
+    /// A [`SpecError`] at the offending field's YAML path.
+    pub fn check(&self, ctx: &Ctx, at: &str, levels: usize) -> Result<Dataset, SpecError> {
+        if self.id.is_empty()
+            || !self
+                .id
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "_-".contains(c))
+        {
+            return Err(ctx.err(
+                format!("{at}.id"),
+                format!(
+                    "dataset id {:?} must be non-empty ASCII letters, digits, `_` or `-`",
+                    self.id
+                ),
+            ));
+        }
+        let dataset = self.kind.check(ctx, at)?;
+        let (n, h, w) = dataset.shape();
+        if n < 2 {
+            return Err(ctx.err(
+                format!("{at}.{}", self.kind.samples_field()),
+                format!("the stack has {n} sample(s); at least 2 are needed"),
+            ));
+        }
+        check_levels(levels, h, w)
+            .map_err(|e| ctx.err("analysis.levels", format!("dataset {}: {e}", self.id)))?;
+        Ok(dataset)
+    }
+
+    /// The fields that apply to this dataset besides `id` and `kind`.
+    pub fn fields(&self) -> &'static [&'static str] {
+        self.kind.applies()
     }
 }

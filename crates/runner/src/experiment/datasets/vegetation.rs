@@ -8,9 +8,9 @@ use super::cost::{
     chain_sizes, imaging_flops, mie, plant, scene_sizes, Cost, Sizes, C128, C64, USUAL_GRID,
     USUAL_IMAGE_SIZE, USUAL_SAMPLES,
 };
-use super::{DataError, DatasetKind, Materialised, SavedKspace};
+use super::kind::{DataError, DatasetKind, Materialised, SavedKspace};
 use crate::alloc::try_zeros;
-use crate::experiment::{merge, Ctx, SpecError};
+use crate::experiment::context::{merge, Ctx, SpecError};
 use crate::io::npy::{NpyError, Stack};
 use ndarray::Array3;
 use num_complex::Complex64;
