@@ -4,7 +4,8 @@
 //! map from a printed table to the tool's columns lives here and nowhere else.
 
 use super::compare::{Spread, Summary};
-use crate::io::results::{self, col, Table};
+use crate::apps::hypotheses::statistic;
+use crate::io::results::{self, col, value, Table};
 use crate::stats::metrics::name as metric_name;
 use anyhow::{bail, Context, Result};
 use polars::prelude::{
@@ -122,7 +123,7 @@ fn sim(
         (col::DATASET, Key::S(dataset)),
         (col::METHOD, Key::S(method)),
         (col::METRIC, Key::S(metric)),
-        (col::REFERENCE, Key::S("in_sample")),
+        (col::REFERENCE, Key::S(value::IN_SAMPLE)),
     ]
 }
 
@@ -132,7 +133,7 @@ pub(super) fn held_out(query: &Query) -> Query {
     let mut q = query.clone();
     for (column, want) in &mut q.filters {
         if *column == col::REFERENCE {
-            *want = Key::S("held_out");
+            *want = Key::S(value::HELD_OUT);
         }
     }
     q
@@ -432,10 +433,10 @@ fn model_order(r: &mut Vec<Recipe>) {
         number: 24,
         spread: Spread::Conclusion,
         cells: vec![
-            vec![h("H1", Key::Prefix("variance_ratio"))],
-            vec![h("H2", Key::S("spearman_distance_vs_magnitude"))],
-            vec![h("H3", Key::Prefix("fraction_of_level_steps"))],
-            vec![h("H4", Key::Prefix("levels_decreasing_fraction"))],
+            vec![h("H1", Key::Prefix(statistic::VARIANCE_RATIO))],
+            vec![h("H2", Key::S(statistic::SPEARMAN_DISTANCE_VS_MAGNITUDE))],
+            vec![h("H3", Key::Prefix(statistic::FRACTION_OF_LEVEL_STEPS))],
+            vec![h("H4", Key::Prefix(statistic::LEVELS_DECREASING_FRACTION))],
         ],
         differs_because: "The stand-in plants are simulated, not the measured ones; the tool's \
             thresholds are its own (docs/hypotheses.md), the dissertation judged by eye from \

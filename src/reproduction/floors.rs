@@ -8,7 +8,7 @@
 
 use super::compare::{num, Summary};
 use super::extract::{kl, Tables};
-use crate::io::results::col;
+use crate::io::results::{col, value};
 use crate::stats::metrics::name as metric_name;
 use anyhow::Result;
 use std::collections::BTreeMap;
@@ -48,7 +48,7 @@ pub fn kl_floors<'a>(
                 (metric_name::KL_PIXEL, "per pixel"),
                 (metric_name::KL_AREA, "per 8x8 area"),
             ] {
-                let query = kl(ds, "noise_floor", metric, "re");
+                let query = kl(ds, value::NOISE_FLOOR, metric, "re");
                 let (mut values, mut c) = (Vec::new(), Vec::new());
                 for dir in folders(query.spec) {
                     let v = tables.value(dir, &query)?;

@@ -7,6 +7,7 @@
 //! out; one that only estimates a few correlations per cell looks alike both ways.
 
 use super::extract::{cmd, held_out, kl, rmse_average, Query, Tables};
+use crate::io::results::value;
 use crate::stats::metrics::name as metric_name;
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -38,7 +39,7 @@ const METHODS: [&str; 5] = [
     "method1",
     "method2",
     "uncorrelated",
-    "noise_floor",
+    value::NOISE_FLOOR,
 ];
 
 /// The query of a measure for a dataset and a method.

@@ -8,6 +8,22 @@ use ndarray::{Array2, ArrayView3};
 use num_complex::Complex64;
 use rayon::prelude::*;
 
+/// The names of the statistics the tests write (the `statistic` column of `hypotheses`), once
+/// for the tests here and the readers of their rows (the reproduction's Table 24). A name that
+/// ends in `_` is a prefix: the rows append what they compare (`variance_ratio_light_over_none`).
+pub mod statistic {
+    /// H1: the ratio of two mean pixel variances (`..._<hi>_over_<lo>`).
+    pub const VARIANCE_RATIO: &str = "variance_ratio";
+    /// H2: the rank correlation of separation with the correlating function's magnitude.
+    pub const SPEARMAN_DISTANCE_VS_MAGNITUDE: &str = "spearman_distance_vs_magnitude";
+    /// H2: the rank correlation of separation with its real part.
+    pub const SPEARMAN_DISTANCE_VS_MEAN_CORRELATION: &str = "spearman_distance_vs_mean_correlation";
+    /// H3: the fraction of level-to-level steps whose mean correlation decreases.
+    pub const FRACTION_OF_LEVEL_STEPS: &str = "fraction_of_level_steps";
+    /// H4: the fraction of levels whose correlation falls with the wind (`..._<hi>_vs_<lo>`).
+    pub const LEVELS_DECREASING_FRACTION: &str = "levels_decreasing_fraction";
+}
+
 /// The mean 2-D correlating function by offset, `(2R+1) x (2R+1)` maps (row `dy + R`,
 /// column `dx + R`).
 #[derive(Debug, Clone, PartialEq)]
@@ -260,7 +276,7 @@ fn h1_variance_rises_with_motion_and_leaf_size(by: &ByPlant) -> Vec<Row> {
         rows.push(row(
             "H1",
             &format!("plant_{p}"),
-            &format!("variance_ratio_{hi}_over_{lo}"),
+            &format!("{}_{hi}_over_{lo}", statistic::VARIANCE_RATIO),
             ratio,
             verdict(ratio > 1.0),
         ));
@@ -274,14 +290,14 @@ fn h1_variance_rises_with_motion_and_leaf_size(by: &ByPlant) -> Vec<Row> {
         rows.push(row(
             "H1",
             "light",
-            "variance_ratio_A_over_B",
+            &format!("{}_A_over_B", statistic::VARIANCE_RATIO),
             va / vb,
             verdict(va > vb),
         ));
         rows.push(row(
             "H1",
             "light",
-            "variance_ratio_B_over_C",
+            &format!("{}_B_over_C", statistic::VARIANCE_RATIO),
             vb / vc,
             verdict(vb > vc),
         ));
@@ -295,8 +311,11 @@ fn h1_variance_rises_with_motion_and_leaf_size(by: &ByPlant) -> Vec<Row> {
 fn h2_correlation_falls_with_separation(s: &PlantStats) -> Vec<Row> {
     let mut rows = vec![];
     for (map, statistic) in [
-        (&s.magnitude, "spearman_distance_vs_magnitude"),
-        (&s.correlating, "spearman_distance_vs_mean_correlation"),
+        (&s.magnitude, statistic::SPEARMAN_DISTANCE_VS_MAGNITUDE),
+        (
+            &s.correlating,
+            statistic::SPEARMAN_DISTANCE_VS_MEAN_CORRELATION,
+        ),
     ] {
         let r = (map.nrows() / 2) as isize;
         let (mut dist, mut corr) = (vec![], vec![]);
@@ -337,7 +356,7 @@ fn h3_correlation_falls_with_level(s: &PlantStats) -> Vec<Row> {
     let mut rows = vec![row(
         "H3",
         &s.dataset,
-        "fraction_of_level_steps_decreasing",
+        &format!("{}_decreasing", statistic::FRACTION_OF_LEVEL_STEPS),
         frac,
         verdict(frac >= 0.75),
     )];
@@ -375,7 +394,7 @@ fn h4_correlation_falls_with_motion(by: &ByPlant) -> Vec<Row> {
         rows.push(row(
             "H4",
             &format!("plant_{p}"),
-            &format!("levels_decreasing_fraction_{hi}_vs_{lo}"),
+            &format!("{}_{hi}_vs_{lo}", statistic::LEVELS_DECREASING_FRACTION),
             down as f64 / levels.max(1) as f64,
             verdict(levels > 0 && down == levels),
         ));

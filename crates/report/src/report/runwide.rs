@@ -118,7 +118,7 @@ pub(super) fn sweep_figures(dir: &Path) -> Result<Vec<Task>> {
                 _ => return None,
             };
             let series = match r.get(col::REFERENCE) {
-                "held_out" => format!("{} (held out)", r.get(col::METHOD)),
+                results::value::HELD_OUT => format!("{} (held out)", r.get(col::METHOD)),
                 _ => r.get(col::METHOD).to_string(),
             };
             Some((format!("{}: {what}", r.get(col::DATASET)), series))

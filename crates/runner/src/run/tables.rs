@@ -8,7 +8,7 @@
 //! `similarity`, `model_order`, and with their sections `correlating_function`, `hypotheses`,
 //! `calibration`, `calibration_summary`.
 
-use crate::io::results;
+use crate::io::results::{self, col};
 use crate::run::plan::{Job, Plan};
 pub use crate::run::result::{FilterRow, JobResult, SimilarityOutcome, SynthesisOutcome};
 use crate::stats::analysis::Direction;
@@ -182,16 +182,16 @@ pub fn analysis_maps<'a>(
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("source", Kind::S),
-            ("level", Kind::I),
-            ("direction", Kind::S),
-            ("row", Kind::I),
-            ("col", Kind::I),
-            ("correlation", Kind::F),
-            ("covariance", Kind::F),
-            ("expected_correlation", Kind::F),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::SOURCE, Kind::S),
+            (col::LEVEL, Kind::I),
+            (col::DIRECTION, Kind::S),
+            (col::ROW, Kind::I),
+            (col::COL, Kind::I),
+            (col::CORRELATION, Kind::F),
+            (col::COVARIANCE, Kind::F),
+            (col::EXPECTED_CORRELATION, Kind::F),
         ],
     );
     for &(job, r) in results {
@@ -206,16 +206,16 @@ pub fn analysis_maps<'a>(
                     .indexed_iter()
                     .zip(lm.covariance(d).iter())
                 {
-                    t.s("job", &job.id);
-                    t.s("dataset", &job.dataset_id);
-                    t.s("source", r.source);
-                    t.i("level", lm.level as i64);
-                    t.s("direction", d.as_str());
-                    t.i("row", rc.0 as i64);
-                    t.i("col", rc.1 as i64);
-                    t.f("correlation", opt(corr));
-                    t.f("covariance", opt(cov));
-                    t.f("expected_correlation", expected.map(|e| e[rc]));
+                    t.s(col::JOB, &job.id);
+                    t.s(col::DATASET, &job.dataset_id);
+                    t.s(col::SOURCE, r.source);
+                    t.i(col::LEVEL, lm.level as i64);
+                    t.s(col::DIRECTION, d.as_str());
+                    t.i(col::ROW, rc.0 as i64);
+                    t.i(col::COL, rc.1 as i64);
+                    t.f(col::CORRELATION, opt(corr));
+                    t.f(col::COVARIANCE, opt(cov));
+                    t.f(col::EXPECTED_CORRELATION, expected.map(|e| e[rc]));
                     t.row(job);
                 }
             }
@@ -232,18 +232,18 @@ pub fn analysis_summary<'a>(
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("source", Kind::S),
-            ("level", Kind::I),
-            ("direction", Kind::S),
-            ("mean_correlation", Kind::F),
-            ("mean_covariance", Kind::F),
-            ("nan_cells", Kind::I),
-            ("cells", Kind::I),
-            ("rows", Kind::I),
-            ("cols", Kind::I),
-            ("expected_mean_correlation", Kind::F),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::SOURCE, Kind::S),
+            (col::LEVEL, Kind::I),
+            (col::DIRECTION, Kind::S),
+            (col::MEAN_CORRELATION, Kind::F),
+            (col::MEAN_COVARIANCE, Kind::F),
+            (col::NAN_CELLS, Kind::I),
+            (col::CELLS, Kind::I),
+            (col::ROWS, Kind::I),
+            (col::COLS, Kind::I),
+            (col::EXPECTED_MEAN_CORRELATION, Kind::F),
         ],
     );
     for &(job, r) in results {
@@ -258,18 +258,18 @@ pub fn analysis_summary<'a>(
                     .expected
                     .as_ref()
                     .map(|e| crate::stats::analysis::nan_mean(&e[lm.level - 1][d as usize]).0);
-                t.s("job", &job.id);
-                t.s("dataset", &job.dataset_id);
-                t.s("source", r.source);
-                t.i("level", lm.level as i64);
-                t.s("direction", d.as_str());
-                t.f("mean_correlation", opt(s.mean_correlation));
-                t.f("mean_covariance", opt(s.mean_covariance));
-                t.i("nan_cells", s.nan_cells as i64);
-                t.i("cells", (rows * cols) as i64);
-                t.i("rows", rows as i64);
-                t.i("cols", cols as i64);
-                t.f("expected_mean_correlation", expected);
+                t.s(col::JOB, &job.id);
+                t.s(col::DATASET, &job.dataset_id);
+                t.s(col::SOURCE, r.source);
+                t.i(col::LEVEL, lm.level as i64);
+                t.s(col::DIRECTION, d.as_str());
+                t.f(col::MEAN_CORRELATION, opt(s.mean_correlation));
+                t.f(col::MEAN_COVARIANCE, opt(s.mean_covariance));
+                t.i(col::NAN_CELLS, s.nan_cells as i64);
+                t.i(col::CELLS, (rows * cols) as i64);
+                t.i(col::ROWS, rows as i64);
+                t.i(col::COLS, cols as i64);
+                t.f(col::EXPECTED_MEAN_CORRELATION, expected);
                 t.row(job);
             }
         }
@@ -282,14 +282,14 @@ pub fn pixel_stats<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("source", Kind::S),
-            ("row", Kind::I),
-            ("col", Kind::I),
-            ("mean_re", Kind::F),
-            ("mean_im", Kind::F),
-            ("variance", Kind::F),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::SOURCE, Kind::S),
+            (col::ROW, Kind::I),
+            (col::COL, Kind::I),
+            (col::MEAN_RE, Kind::F),
+            (col::MEAN_IM, Kind::F),
+            (col::VARIANCE, Kind::F),
         ],
     );
     for &(job, r) in results {
@@ -297,14 +297,14 @@ pub fn pixel_stats<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
             continue;
         };
         for ((rc, m), &v) in analysis.mean.indexed_iter().zip(analysis.variance.iter()) {
-            t.s("job", &job.id);
-            t.s("dataset", &job.dataset_id);
-            t.s("source", r.source);
-            t.i("row", rc.0 as i64);
-            t.i("col", rc.1 as i64);
-            t.f("mean_re", opt(m.re));
-            t.f("mean_im", opt(m.im));
-            t.f("variance", opt(v));
+            t.s(col::JOB, &job.id);
+            t.s(col::DATASET, &job.dataset_id);
+            t.s(col::SOURCE, r.source);
+            t.i(col::ROW, rc.0 as i64);
+            t.i(col::COL, rc.1 as i64);
+            t.f(col::MEAN_RE, opt(m.re));
+            t.f(col::MEAN_IM, opt(m.im));
+            t.f(col::VARIANCE, opt(v));
             t.row(job);
         }
     }
@@ -319,22 +319,22 @@ pub fn filter_correlation<'a>(
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("direction", Kind::S),
-            ("lag", Kind::I),
-            ("filter_coefficient", Kind::F),
-            ("correlation", Kind::F),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::DIRECTION, Kind::S),
+            (col::LAG, Kind::I),
+            (col::FILTER_COEFFICIENT, Kind::F),
+            (col::CORRELATION, Kind::F),
         ],
     );
     for &(job, r) in results {
         for row in &r.filter_rows {
-            t.s("job", &job.id);
-            t.s("dataset", &job.dataset_id);
-            t.s("direction", row.direction.as_str());
-            t.i("lag", row.lag as i64);
-            t.f("filter_coefficient", opt(row.coefficient));
-            t.f("correlation", opt(row.correlation));
+            t.s(col::JOB, &job.id);
+            t.s(col::DATASET, &job.dataset_id);
+            t.s(col::DIRECTION, row.direction.as_str());
+            t.i(col::LAG, row.lag as i64);
+            t.f(col::FILTER_COEFFICIENT, opt(row.coefficient));
+            t.f(col::CORRELATION, opt(row.correlation));
             t.row(job);
         }
     }
@@ -350,38 +350,38 @@ pub fn status_rows<'a>(
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("kind", Kind::S),
-            ("method", Kind::S),
-            ("status", Kind::S),
-            ("error", Kind::S),
-            ("seed", Kind::U),
-            ("data_seed", Kind::U),
-            ("generation_seed", Kind::U),
-            ("samples", Kind::I),
-            ("height", Kind::I),
-            ("width", Kind::I),
-            ("levels", Kind::I),
-            ("elapsed_s", Kind::F),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::KIND, Kind::S),
+            (col::METHOD, Kind::S),
+            (col::STATUS, Kind::S),
+            (col::ERROR, Kind::S),
+            (col::SEED, Kind::U),
+            (col::DATA_SEED, Kind::U),
+            (col::GENERATION_SEED, Kind::U),
+            (col::SAMPLES, Kind::I),
+            (col::HEIGHT, Kind::I),
+            (col::WIDTH, Kind::I),
+            (col::LEVELS, Kind::I),
+            (col::ELAPSED_S, Kind::F),
         ],
     );
     for &(job, error, elapsed_s) in rows {
         let (n, h, w) = job.dataset.shape();
-        t.s("job", &job.id);
-        t.s("dataset", &job.dataset_id);
-        t.s("kind", job.dataset.kind());
-        t.s_opt("method", job.method.map(|m| m.as_str().into()));
-        t.s("status", if error.is_none() { "ok" } else { "failed" });
-        t.s_opt("error", error.map(Cow::Borrowed));
-        t.u("seed", job.seed);
-        t.u("data_seed", job.data_seed);
-        t.u("generation_seed", job.generation_seed);
-        t.i("samples", n as i64);
-        t.i("height", h as i64);
-        t.i("width", w as i64);
-        t.i("levels", job.analysis.levels as i64);
-        t.f("elapsed_s", opt(elapsed_s));
+        t.s(col::JOB, &job.id);
+        t.s(col::DATASET, &job.dataset_id);
+        t.s(col::KIND, job.dataset.kind());
+        t.s_opt(col::METHOD, job.method.map(|m| m.as_str().into()));
+        t.s(col::STATUS, if error.is_none() { "ok" } else { "failed" });
+        t.s_opt(col::ERROR, error.map(Cow::Borrowed));
+        t.u(col::SEED, job.seed);
+        t.u(col::DATA_SEED, job.data_seed);
+        t.u(col::GENERATION_SEED, job.generation_seed);
+        t.i(col::SAMPLES, n as i64);
+        t.i(col::HEIGHT, h as i64);
+        t.i(col::WIDTH, w as i64);
+        t.i(col::LEVELS, job.analysis.levels as i64);
+        t.f(col::ELAPSED_S, opt(elapsed_s));
         t.row(job);
     }
     t.finish()
@@ -414,13 +414,13 @@ pub fn synthesis_params<'a>(
         .max()
         .unwrap_or(0);
     let mut names: Vec<(String, Kind)> = [
-        ("job", Kind::S),
-        ("dataset", Kind::S),
-        ("method", Kind::S),
-        ("row", Kind::I),
-        ("col", Kind::I),
-        ("alpha_h", Kind::F),
-        ("alpha_v", Kind::F),
+        (col::JOB, Kind::S),
+        (col::DATASET, Kind::S),
+        (col::METHOD, Kind::S),
+        (col::ROW, Kind::I),
+        (col::COL, Kind::I),
+        (col::ALPHA_H, Kind::F),
+        (col::ALPHA_V, Kind::F),
     ]
     .iter()
     .map(|(n, k)| (n.to_string(), *k))
@@ -429,35 +429,35 @@ pub fn synthesis_params<'a>(
         names.extend((1..=l_max).map(|l| (format!("r_{dir}{l}"), Kind::F)));
     }
     names.extend([
-        ("residual_h".to_string(), Kind::F),
-        ("residual_v".to_string(), Kind::F),
-        ("clamped".to_string(), Kind::I),
+        (col::RESIDUAL_H.to_string(), Kind::F),
+        (col::RESIDUAL_V.to_string(), Kind::F),
+        (col::CLAMPED.to_string(), Kind::I),
     ]);
     let mut t = Table::new(plan, &names);
     for (job, f) in fits {
         for ((r, c), &clamped) in f.clamped.indexed_iter() {
-            t.s("job", &job.id);
-            t.s("dataset", &job.dataset_id);
-            t.s("method", job.method.map_or("", |m| m.as_str()));
-            t.i("row", r as i64);
-            t.i("col", c as i64);
+            t.s(col::JOB, &job.id);
+            t.s(col::DATASET, &job.dataset_id);
+            t.s(col::METHOD, job.method.map_or("", |m| m.as_str()));
+            t.i(col::ROW, r as i64);
+            t.i(col::COL, c as i64);
             let (alpha, rs) = match &f.params {
                 CellParams::Exponential {
                     alpha_h, alpha_v, ..
                 } => (Some((alpha_h[[r, c]], alpha_v[[r, c]])), None),
                 CellParams::Dyadic { r_h, r_v } => (None, Some((r_h, r_v))),
             };
-            t.f("alpha_h", alpha.map(|a| a.0));
-            t.f("alpha_v", alpha.map(|a| a.1));
+            t.f(col::ALPHA_H, alpha.map(|a| a.0));
+            t.f(col::ALPHA_V, alpha.map(|a| a.1));
             for (dir, idx) in [("h", 0), ("v", 1)] {
                 for l in 0..l_max {
                     let v = rs.and_then(|(h, v)| [h, v][idx].get(l)).map(|m| m[[r, c]]);
                     t.f(&format!("r_{dir}{}", l + 1), v);
                 }
             }
-            t.f("residual_h", opt(f.residual_h[[r, c]]));
-            t.f("residual_v", opt(f.residual_v[[r, c]]));
-            t.i("clamped", clamped as i64);
+            t.f(col::RESIDUAL_H, opt(f.residual_h[[r, c]]));
+            t.f(col::RESIDUAL_V, opt(f.residual_v[[r, c]]));
+            t.i(col::CLAMPED, clamped as i64);
             t.row(job);
         }
     }
@@ -473,62 +473,65 @@ pub fn similarity<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> R
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("method", Kind::S),
-            ("metric", Kind::S),
-            ("level", Kind::I),
-            ("direction", Kind::S),
-            ("component", Kind::S),
-            ("statistic", Kind::S),
-            ("value", Kind::F),
-            ("units", Kind::I),
-            ("samples_original", Kind::I),
-            ("samples_compared", Kind::I),
-            ("noise_floor", Kind::S),
-            ("reference", Kind::S),
-            ("bins", Kind::I),
-            ("smoothing", Kind::F),
-            ("symmetric", Kind::B),
-            ("db", Kind::B),
-            ("mean_over_bins", Kind::B),
-            ("bias_correction", Kind::S),
-            ("block", Kind::I),
-            ("cmd_form", Kind::S),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::METHOD, Kind::S),
+            (col::METRIC, Kind::S),
+            (col::LEVEL, Kind::I),
+            (col::DIRECTION, Kind::S),
+            (col::COMPONENT, Kind::S),
+            (col::STATISTIC, Kind::S),
+            (col::VALUE, Kind::F),
+            (col::UNITS, Kind::I),
+            (col::SAMPLES_ORIGINAL, Kind::I),
+            (col::SAMPLES_COMPARED, Kind::I),
+            (col::NOISE_FLOOR, Kind::S),
+            (col::REFERENCE, Kind::S),
+            (col::BINS, Kind::I),
+            (col::SMOOTHING, Kind::F),
+            (col::SYMMETRIC, Kind::B),
+            (col::DB, Kind::B),
+            (col::MEAN_OVER_BINS, Kind::B),
+            (col::BIAS_CORRECTION, Kind::S),
+            (col::BLOCK, Kind::I),
+            (col::CMD_FORM, Kind::S),
         ],
     );
     let outcomes = results.iter().flat_map(|&(job, r)| {
-        [(&r.similarity, "in_sample"), (&r.held_out, "held_out")]
-            .into_iter()
-            .filter_map(move |(sim, reference)| Some((job, sim.as_ref()?, reference)))
+        [
+            (&r.similarity, results::value::IN_SAMPLE),
+            (&r.held_out, results::value::HELD_OUT),
+        ]
+        .into_iter()
+        .filter_map(move |(sim, reference)| Some((job, sim.as_ref()?, reference)))
     });
     for (job, sim, reference) in outcomes {
         for row in &sim.comparison.rows {
-            t.s("job", &job.id);
-            t.s("dataset", &job.dataset_id);
-            t.s("method", sim.compared);
-            t.s("metric", row.metric);
-            t.i_opt("level", row.level.map(|l| l as i64));
-            t.s_opt("direction", row.direction.map(|d| d.as_str().into()));
-            t.s_opt("component", row.component.map(Into::into));
-            t.s("statistic", row.statistic);
-            t.f("value", Some(row.value).filter(|v| !v.is_nan()));
-            t.i("units", row.units as i64);
-            t.i("samples_original", sim.comparison.samples.0 as i64);
-            t.i("samples_compared", sim.comparison.samples.1 as i64);
-            t.s_opt("noise_floor", sim.noise_floor.map(Into::into));
-            t.s("reference", reference);
-            t.i_opt("bins", row.kl.map(|k| k.bins as i64));
-            t.f("smoothing", row.kl.map(|k| k.smoothing));
-            t.b("symmetric", row.kl.map(|k| k.symmetric));
-            t.b("db", row.kl.map(|k| k.db));
-            t.b("mean_over_bins", row.kl.map(|k| k.mean_over_bins));
+            t.s(col::JOB, &job.id);
+            t.s(col::DATASET, &job.dataset_id);
+            t.s(col::METHOD, sim.compared);
+            t.s(col::METRIC, row.metric);
+            t.i_opt(col::LEVEL, row.level.map(|l| l as i64));
+            t.s_opt(col::DIRECTION, row.direction.map(|d| d.as_str().into()));
+            t.s_opt(col::COMPONENT, row.component.map(Into::into));
+            t.s(col::STATISTIC, row.statistic);
+            t.f(col::VALUE, Some(row.value).filter(|v| !v.is_nan()));
+            t.i(col::UNITS, row.units as i64);
+            t.i(col::SAMPLES_ORIGINAL, sim.comparison.samples.0 as i64);
+            t.i(col::SAMPLES_COMPARED, sim.comparison.samples.1 as i64);
+            t.s_opt(col::NOISE_FLOOR, sim.noise_floor.map(Into::into));
+            t.s(col::REFERENCE, reference);
+            t.i_opt(col::BINS, row.kl.map(|k| k.bins as i64));
+            t.f(col::SMOOTHING, row.kl.map(|k| k.smoothing));
+            t.b(col::SYMMETRIC, row.kl.map(|k| k.symmetric));
+            t.b(col::DB, row.kl.map(|k| k.db));
+            t.b(col::MEAN_OVER_BINS, row.kl.map(|k| k.mean_over_bins));
             t.s_opt(
-                "bias_correction",
+                col::BIAS_CORRECTION,
                 row.kl.map(|k| k.bias_correction.as_str().into()),
             );
-            t.i_opt("block", row.block.map(|b| b as i64));
-            t.s_opt("cmd_form", row.form.as_deref().map(Into::into));
+            t.i_opt(col::BLOCK, row.block.map(|b| b as i64));
+            t.s_opt(col::CMD_FORM, row.form.as_deref().map(Into::into));
             t.row(job);
         }
     }
@@ -544,20 +547,20 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("model_order", Kind::I),
-            ("component", Kind::S),
-            ("kl_mean_db", Kind::F),
-            ("kl_worst_db", Kind::F),
-            ("pixels", Kind::I),
-            ("samples_original", Kind::I),
-            ("samples_compared", Kind::I),
-            ("bins", Kind::I),
-            ("smoothing", Kind::F),
-            ("symmetric", Kind::B),
-            ("mean_over_bins", Kind::B),
-            ("bias_correction", Kind::S),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::MODEL_ORDER, Kind::I),
+            (col::COMPONENT, Kind::S),
+            (col::KL_MEAN_DB, Kind::F),
+            (col::KL_WORST_DB, Kind::F),
+            (col::PIXELS, Kind::I),
+            (col::SAMPLES_ORIGINAL, Kind::I),
+            (col::SAMPLES_COMPARED, Kind::I),
+            (col::BINS, Kind::I),
+            (col::SMOOTHING, Kind::F),
+            (col::SYMMETRIC, Kind::B),
+            (col::MEAN_OVER_BINS, Kind::B),
+            (col::BIAS_CORRECTION, Kind::S),
         ],
     );
     for &(job, r) in results.iter().filter(|_| plan.model_orders) {
@@ -585,26 +588,26 @@ pub fn model_order<'a>(plan: &'a Plan, results: &[(&'a Job, &'a JobResult)]) -> 
                     crate::stats::metrics::db(v)
                 }
             };
-            t.s("job", &job.id);
-            t.s("dataset", &job.dataset_id);
-            t.i_opt("model_order", order);
-            t.s("component", component);
+            t.s(col::JOB, &job.id);
+            t.s(col::DATASET, &job.dataset_id);
+            t.i_opt(col::MODEL_ORDER, order);
+            t.s(col::COMPONENT, component);
             t.f(
-                "kl_mean_db",
+                col::KL_MEAN_DB,
                 Some(to_db(mean.value)).filter(|v| !v.is_nan()),
             );
             t.f(
-                "kl_worst_db",
+                col::KL_WORST_DB,
                 Some(to_db(max.value)).filter(|v| !v.is_nan()),
             );
-            t.i("pixels", mean.units as i64);
-            t.i("samples_original", sim.comparison.samples.0 as i64);
-            t.i("samples_compared", sim.comparison.samples.1 as i64);
-            t.i("bins", kl.bins as i64);
-            t.f("smoothing", Some(kl.smoothing));
-            t.b("symmetric", Some(kl.symmetric));
-            t.b("mean_over_bins", Some(kl.mean_over_bins));
-            t.s("bias_correction", kl.bias_correction.as_str());
+            t.i(col::PIXELS, mean.units as i64);
+            t.i(col::SAMPLES_ORIGINAL, sim.comparison.samples.0 as i64);
+            t.i(col::SAMPLES_COMPARED, sim.comparison.samples.1 as i64);
+            t.i(col::BINS, kl.bins as i64);
+            t.f(col::SMOOTHING, Some(kl.smoothing));
+            t.b(col::SYMMETRIC, Some(kl.symmetric));
+            t.b(col::MEAN_OVER_BINS, Some(kl.mean_over_bins));
+            t.s(col::BIAS_CORRECTION, kl.bias_correction.as_str());
             t.row(job);
         }
     }
@@ -621,14 +624,14 @@ pub fn correlating_function<'a>(
     let mut t = Table::new(
         plan,
         &[
-            ("job", Kind::S),
-            ("dataset", Kind::S),
-            ("dy", Kind::I),
-            ("dx", Kind::I),
-            ("distance", Kind::F),
-            ("mean_correlation", Kind::F),
-            ("mean_magnitude", Kind::F),
-            ("pairs", Kind::I),
+            (col::JOB, Kind::S),
+            (col::DATASET, Kind::S),
+            (col::DY, Kind::I),
+            (col::DX, Kind::I),
+            (col::DISTANCE, Kind::F),
+            (col::MEAN_CORRELATION, Kind::F),
+            (col::MEAN_MAGNITUDE, Kind::F),
+            (col::PAIRS, Kind::I),
         ],
     );
     for &(job, r) in results {
@@ -638,15 +641,15 @@ pub fn correlating_function<'a>(
         let half = (cf.real.nrows() / 2) as i64;
         for ((a, b), &v) in cf.real.indexed_iter() {
             let (dy, dx) = (a as i64 - half, b as i64 - half);
-            t.s("job", &job.id);
-            t.s("dataset", &job.dataset_id);
-            t.i("dy", dy);
-            t.i("dx", dx);
-            t.f("distance", Some(((dy * dy + dx * dx) as f64).sqrt()));
-            t.f("mean_correlation", Some(v).filter(|v| !v.is_nan()));
+            t.s(col::JOB, &job.id);
+            t.s(col::DATASET, &job.dataset_id);
+            t.i(col::DY, dy);
+            t.i(col::DX, dx);
+            t.f(col::DISTANCE, Some(((dy * dy + dx * dx) as f64).sqrt()));
+            t.f(col::MEAN_CORRELATION, Some(v).filter(|v| !v.is_nan()));
             let m = cf.magnitude[[a, b]];
-            t.f("mean_magnitude", Some(m).filter(|m| !m.is_nan()));
-            t.i("pairs", cf.pairs[[a, b]] as i64);
+            t.f(col::MEAN_MAGNITUDE, Some(m).filter(|m| !m.is_nan()));
+            t.i(col::PAIRS, cf.pairs[[a, b]] as i64);
             t.row(job);
         }
     }
@@ -716,7 +719,7 @@ pub fn table_names(plan: &Plan) -> Vec<&'static str> {
 /// # Errors
 /// If the table's builder fails.
 pub fn empty(plan: &Plan, name: &str) -> Result<DataFrame> {
-    if name == "jobs" {
+    if name == results::JOBS.name {
         return status_rows(plan, &[]);
     }
     match dataset_tables(plan).into_iter().find(|(n, _)| *n == name) {

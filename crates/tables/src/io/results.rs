@@ -78,6 +78,18 @@ pub mod maps {
     }
 }
 
+/// The values a reader selects similarity rows by, named once for the job that writes them and
+/// the report and reproduction that read them.
+pub mod value {
+    /// `reference` of a row compared with every original (those the fit saw included).
+    pub const IN_SAMPLE: &str = "in_sample";
+    /// `reference` of a row compared with the half of the originals no fit saw.
+    pub const HELD_OUT: &str = "held_out";
+    /// `method` of the rows that compare two independent draws of the original (the metric's
+    /// floor).
+    pub const NOISE_FLOOR: &str = "noise_floor";
+}
+
 /// The names of the columns, each once (several tables share `job`, `dataset`, ...).
 pub mod col {
     /// `job`: the job's id.

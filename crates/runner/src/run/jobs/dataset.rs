@@ -310,7 +310,7 @@ fn noise_floor(
         }
     };
     Ok(SimilarityOutcome {
-        compared: "noise_floor",
+        compared: crate::io::results::value::NOISE_FLOOR,
         noise_floor: Some(nf.as_str()),
         comparison,
         seconds: t.elapsed().as_secs_f64(),
@@ -394,7 +394,7 @@ fn held_out_floor(
     let (fit, held) = held_out_halves(job.data_seed, original);
     let comparison = compare_stacks(plan, job.analysis.levels, held.view(), fit.view())?;
     Ok(SimilarityOutcome {
-        compared: "noise_floor",
+        compared: crate::io::results::value::NOISE_FLOOR,
         noise_floor: Some("halves"),
         comparison,
         seconds: t.elapsed().as_secs_f64(),
