@@ -47,7 +47,7 @@ fn level_maps(maps: &Path, prefix: &str, kind: &str) -> Result<(Grid, Vec<PathBu
 /// The figures of one job, from `maps/<job>/`, `samples/<job>.npy` and the synthesis
 /// parameters.
 pub(super) fn job_figures(dir: &Path, job: &str, params: Option<&Params>) -> Result<Vec<Task>> {
-    let maps = dir.join("maps").join(job);
+    let maps = crate::io::results::files::maps(dir, job);
     let mut out = correlation_figures(dir, job, &maps)?;
     out.extend(level_figures(dir, job, &maps)?);
     out.extend(moment_figures(dir, job, &maps)?);
@@ -55,7 +55,7 @@ pub(super) fn job_figures(dir: &Path, job: &str, params: Option<&Params>) -> Res
     if let Some(p) = params {
         out.extend(p.figures(dir, job));
     }
-    let sample_file = dir.join("samples").join(format!("{job}.npy"));
+    let sample_file = crate::io::results::files::samples(dir, job);
     if sample_file.exists() {
         out.push(example_sample(dir, job, &sample_file)?);
     }

@@ -293,14 +293,17 @@ fn level_figures(dir: &Path) -> Result<Vec<Task>> {
 /// Fig. 48: `20 log10 |mean E(f, phi)|` of each plant dataset's analysis job (rows frequency,
 /// columns azimuth), a row of panels per wind, on one colour scale.
 fn kspace_figure(dir: &Path) -> Result<Vec<Task>> {
-    let folder = dir.join("kspace");
+    let folder = crate::io::results::files::kspace_root(dir);
     let Ok(entries) = std::fs::read_dir(&folder) else {
         return Ok(vec![]);
     };
     let mut found: BTreeMap<(usize, String), (String, std::path::PathBuf)> = BTreeMap::new();
     for e in entries.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
-        let Some(job) = name.strip_suffix(".mean.npy") else {
+        let Some(job) = name
+            .strip_suffix(".npy")
+            .and_then(|n| n.strip_suffix(crate::io::results::files::KSPACE_MEAN))
+        else {
             continue;
         };
         // The analysis job of a dataset has the dataset's id (plus swept values, if any).

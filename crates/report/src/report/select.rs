@@ -115,12 +115,12 @@ pub fn choose(candidates: &[String], figures_for: FiguresFor) -> Selection {
 /// `maps/<job>/` folder, a `samples/<job>.npy`, or a job of `with_params` (the jobs with rows
 /// in `synthesis_params.parquet`).
 pub fn candidates(dir: &Path, ok: &[String], with_params: &BTreeSet<String>) -> Vec<String> {
-    let (maps, samples) = (dir.join("maps"), dir.join("samples"));
+    use crate::io::results::files;
     ok.iter()
         .filter(|job| {
             with_params.contains(job.as_str())
-                || maps.join(job).is_dir()
-                || samples.join(format!("{job}.npy")).is_file()
+                || files::maps(dir, job).is_dir()
+                || files::samples(dir, job).is_file()
         })
         .cloned()
         .collect()

@@ -376,7 +376,7 @@ fn examples(dir: &Path, g: &Group, rep: &Representative) -> Result<Option<Figure
         let Some(r) = g.at(m, rep.x).find(|r| r.repeat == 0) else {
             continue;
         };
-        let path = dir.join("examples").join(format!("{}.npy", r.job));
+        let path = results::files::example(dir, &r.job);
         if !path.is_file() {
             continue;
         }

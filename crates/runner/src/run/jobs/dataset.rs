@@ -98,7 +98,7 @@ impl JobKind for Job {
         };
         let mut files = result.files.clone();
         if plan.spec.outputs.npy_maps {
-            let dir = cx.out.join("maps").join(&self.id);
+            let dir = crate::io::results::files::maps(cx.out, &self.id);
             crate::run::result::write_job_maps(&dir, &result)?;
             files.push(dir);
         }
@@ -227,11 +227,10 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
     };
     let mut files = vec![];
     if let Some(k) = &data.kspace {
-        let dir = out.join("kspace");
         let k64 = k
             .data
             .mapv(|z| num_complex::Complex::new(z.re as f32, z.im as f32));
-        let path = |suffix: &str| dir.join(format!("{}{suffix}.npy", job.id));
+        let path = |suffix: &str| crate::io::results::files::kspace(out, &job.id, suffix);
         files = vec![path(""), path(".freqs"), path(".azimuths_deg")];
         write_npy(&files[0], &k64)?;
         write_npy(&files[1], &ndarray::Array1::from(k.freqs.clone()))?;
@@ -239,7 +238,8 @@ fn run_job(plan: &Plan, job: &Job, out: &Path, shared: Option<&Materialised>) ->
     }
     if let (Some(m), true) = (&data.mean_kspace, plan.spec.outputs.npy_maps) {
         // The mean k-space image (Fig. 48): rows frequency, columns azimuth.
-        let path = out.join("kspace").join(format!("{}.mean.npy", job.id));
+        let path =
+            crate::io::results::files::kspace(out, &job.id, crate::io::results::files::KSPACE_MEAN);
         write_npy(&path, m)?;
         files.push(path);
     }
@@ -465,13 +465,13 @@ fn run_synthesis_job(
     let fit_s = t.elapsed().as_secs_f64();
     let source = format!("job {} (dataset {})", job.id, job.dataset_id);
     let info = crate::io::model::ModelInfo::new(&model, &original, syn.half_width, levels, source);
-    let mut files = vec![out.join("models").join(&job.id)];
+    let mut files = vec![crate::io::results::files::model(out, &job.id)];
     crate::io::model::save(&model, &info, &files[0])?;
     let t = Instant::now();
     let generated = model.try_generate_c64(job.generation_seed, 0, syn.samples)?;
     let generate_s = t.elapsed().as_secs_f64();
     if syn.save_samples {
-        let path = out.join("samples").join(format!("{}.npy", job.id));
+        let path = crate::io::results::files::samples(out, &job.id);
         write_npy(&path, &generated)?;
         files.push(path);
     }

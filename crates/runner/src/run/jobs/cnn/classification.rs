@@ -239,7 +239,7 @@ impl JobKind for ClassificationJob {
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];
         if cp.spec.save_networks {
-            let dir = cx.out.join("networks").join(&self.id);
+            let dir = crate::io::results::files::network(cx.out, &self.id);
             let names: Vec<String> = self.classes.iter().map(|c| c.id.clone()).collect();
             crate::apps::cnn::store::save(&trained, &names, &self.id, self.seed, &dir)?;
             files.push(dir);
@@ -258,7 +258,7 @@ impl JobKind for ClassificationJob {
             Column::new(col::SEED.into(), [self.seed]),
             Column::new(col::TRAIN_ACCURACY.into(), [trained.train_accuracy]),
             Column::new(
-                "validation_accuracy".into(),
+                col::VALIDATION_ACCURACY.into(),
                 [nan_none(trained.validation_accuracy)],
             ),
             Column::new(col::TEST_ACCURACY.into(), [test_accuracy]),
@@ -266,7 +266,7 @@ impl JobKind for ClassificationJob {
             Column::new(col::EPOCHS.into(), [trained.epochs.len() as i64]),
             Column::new(col::TRAIN_SECONDS.into(), [trained.seconds]),
             Column::new(
-                "train_samples_per_second".into(),
+                col::TRAIN_SAMPLES_PER_SECOND.into(),
                 [trained.samples_per_second],
             ),
             Column::new(col::TRAIN_SAMPLES.into(), [train_set.len() as i64]),

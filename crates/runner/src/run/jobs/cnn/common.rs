@@ -106,7 +106,7 @@ pub(super) fn record_tables(
             e.iter().map(|x| x.batch_accuracy).collect::<Vec<_>>(),
         ),
         Column::new(
-            "validation_accuracy".into(),
+            col::VALIDATION_ACCURACY.into(),
             e.iter()
                 .map(|x| x.validation_accuracy.and_then(nan_none))
                 .collect::<Vec<_>>(),

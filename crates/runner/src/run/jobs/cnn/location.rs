@@ -232,14 +232,14 @@ impl JobKind for LocationJob {
         let (test_accuracy, confusion) = trained.evaluate(&test);
         let mut files = vec![];
         if lp.spec.save_networks {
-            let dir = cx.out.join("networks").join(&self.id);
+            let dir = crate::io::results::files::network(cx.out, &self.id);
             let names = location::output_names();
             crate::apps::cnn::store::save(&trained, &names, &self.id, self.seed, &dir)?;
             files.push(dir);
         }
         // Example training images (one per grid row) for the report (Fig. 72).
         if self.repeat == 0 {
-            let path = cx.out.join("examples").join(format!("{}.npy", self.id));
+            let path = crate::io::results::files::example(cx.out, &self.id);
             crate::io::atomic::write_npy(&path, &location::examples(&train_set, h, w))?;
             files.push(path);
         }
@@ -252,7 +252,7 @@ impl JobKind for LocationJob {
             Column::new(col::SEED.into(), [self.seed]),
             Column::new(col::TRAIN_ACCURACY.into(), [trained.train_accuracy]),
             Column::new(
-                "validation_accuracy".into(),
+                col::VALIDATION_ACCURACY.into(),
                 [nan_none(trained.validation_accuracy)],
             ),
             Column::new(col::TEST_ACCURACY.into(), [test_accuracy]),
@@ -260,7 +260,7 @@ impl JobKind for LocationJob {
             Column::new(col::EPOCHS.into(), [trained.epochs.len() as i64]),
             Column::new(col::TRAIN_SECONDS.into(), [trained.seconds]),
             Column::new(
-                "train_samples_per_second".into(),
+                col::TRAIN_SAMPLES_PER_SECOND.into(),
                 [trained.samples_per_second],
             ),
             Column::new(col::TRAIN_SAMPLES.into(), [train_set.len() as i64]),
@@ -392,10 +392,10 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
     let mut acc: BTreeMap<(String, String), ByScr> = BTreeMap::new();
     let mut order: Vec<(String, String)> = vec![];
     for df in frames {
-        let t = df.column("target")?.str()?.clone();
-        let m = df.column("method")?.str()?.clone();
-        let s = df.column("scr_db")?.f64()?.clone();
-        let a = df.column("test_accuracy")?.f64()?.clone();
+        let t = df.column(col::TARGET)?.str()?.clone();
+        let m = df.column(col::METHOD)?.str()?.clone();
+        let s = df.column(col::SCR_DB)?.f64()?.clone();
+        let a = df.column(col::TEST_ACCURACY)?.f64()?.clone();
         for i in 0..df.height() {
             let (Some(t), Some(m), Some(s), Some(a)) = (t.get(i), m.get(i), s.get(i), a.get(i))
             else {
