@@ -53,7 +53,7 @@ mod plant;
 
 use params::bad;
 pub use params::{parse_dataset_id, PlantParams, SceneParams, VegError, WindParams};
-use plant::*;
+use plant::{build_plant, normal, scatterers, Pose, WindSim};
 
 fn rng_stream(seed: u64, stream: u64) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(seed);
