@@ -1,7 +1,8 @@
 //! The results contract (`crates/tables/src/io/results.rs`) between the runner that writes a results folder
 //! and the report and reproduction that read it: a writer's undeclared column is refused, the
 //! comparison tables read only declared columns, a run's tables hold only declared columns
-//! (and its swept parameters), and its manifest reads back through the contract's struct.
+//! (and its swept parameters, and the levels of its per-level columns), and its manifest reads
+//! back through the contract's struct.
 
 mod common;
 
@@ -22,6 +23,42 @@ fn an_undeclared_column_or_table_is_refused_naming_it() {
     check_columns("similarity", ["r_h", "swept_samples"], &swept).unwrap();
     assert!(check_columns("similarity", ["swept_r_v"], &swept).is_err());
     check_columns("_plant_stats", ["anything"], &[]).unwrap();
+    // Per-level columns: any level of a prefix the table repeats by level, nothing else.
+    check_columns("synthesis_params", ["r_h4", "r_v12"], &[]).unwrap();
+    for bad in ["r_h0", "r_hx", "r_h", "r_h04"] {
+        assert!(
+            check_columns("synthesis_params", [bad], &[]).is_err(),
+            "{bad}"
+        );
+    }
+    assert!(check_columns("similarity", ["r_h4"], &[]).is_err());
+}
+
+#[test]
+fn a_deeper_method_2_writes_its_levels_beyond_the_third() {
+    // A 4-level Method 2 fit (the contract once listed levels 1-3 only, and such a run failed
+    // at the merge on `r_h4`): its parameters reach synthesis_params, every level's.
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("s.yaml");
+    std::fs::write(
+        &spec,
+        "name: deep\nseed: 5\ndatasets:\n  - id: d\n    kind: filtered_noise\n    \
+         family: dyadic\n    r_h: [0.4, 0.3, 0.2, 0.1]\n    r_v: [0.3, 0.2, 0.1, 0.05]\n    \
+         size: [32, 32]\n    samples: 40\n    half_width: 16\nanalysis:\n  levels: 4\n\
+         synthesis:\n  methods: [method2]\n  samples: 10\n  half_width: 16\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    common::run_spec(&spec, &out, &["--no-report"]);
+    let df = isar_clutter::io::parquet::read_parquet(&results::SYNTHESIS_PARAMS.path(&out))
+        .unwrap()
+        .unwrap();
+    for c in ["r_h1", "r_h4", "r_v1", "r_v4"] {
+        let v = df.column(c).unwrap().f64().unwrap();
+        assert!(v.iter().flatten().all(f64::is_finite), "{c}");
+        assert_eq!(v.null_count(), 0, "{c}");
+    }
+    assert!(df.column("r_h5").is_err());
 }
 
 #[test]

@@ -425,8 +425,8 @@ pub fn synthesis_params<'a>(
     .iter()
     .map(|(n, k)| (n.to_string(), *k))
     .collect();
-    for dir in ["h", "v"] {
-        names.extend((1..=l_max).map(|l| (format!("r_{dir}{l}"), Kind::F)));
+    for prefix in [col::R_H, col::R_V] {
+        names.extend((1..=l_max).map(|l| (col::per_level(prefix, l), Kind::F)));
     }
     names.extend([
         (col::RESIDUAL_H.to_string(), Kind::F),
@@ -449,10 +449,10 @@ pub fn synthesis_params<'a>(
             };
             t.f(col::ALPHA_H, alpha.map(|a| a.0));
             t.f(col::ALPHA_V, alpha.map(|a| a.1));
-            for (dir, idx) in [("h", 0), ("v", 1)] {
+            for (prefix, idx) in [(col::R_H, 0), (col::R_V, 1)] {
                 for l in 0..l_max {
                     let v = rs.and_then(|(h, v)| [h, v][idx].get(l)).map(|m| m[[r, c]]);
-                    t.f(&format!("r_{dir}{}", l + 1), v);
+                    t.f(&col::per_level(prefix, l + 1), v);
                 }
             }
             t.f(col::RESIDUAL_H, opt(f.residual_h[[r, c]]));

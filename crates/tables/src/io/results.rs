@@ -237,6 +237,15 @@ pub mod col {
     pub const R_V2: &str = "r_v2";
     /// `r_v3`: Method 2's vertical correlation at level 3.
     pub const R_V3: &str = "r_v3";
+    /// `r_h<level>`: Method 2's horizontal correlation at a level ([`super::PER_LEVEL`]).
+    pub const R_H: &str = "r_h";
+    /// `r_v<level>`: Method 2's vertical correlation at a level ([`super::PER_LEVEL`]).
+    pub const R_V: &str = "r_v";
+
+    /// `<prefix><level>`: a column of [`super::PER_LEVEL`] at `level` (from 1).
+    pub fn per_level(prefix: &str, level: usize) -> String {
+        format!("{prefix}{level}")
+    }
     /// `metric`: the metric's name.
     pub const METRIC: &str = "metric";
     /// `component`: `re`, `im` or `magnitude`.
@@ -737,8 +746,28 @@ pub fn table(name: &str) -> Option<Table> {
     ALL.iter().copied().find(|t| t.name == name)
 }
 
+/// Columns that repeat once per decomposition level, `<prefix><level>` for the levels 1, 2, ...
+/// of the run, by table: Method 2's fitted correlations in `synthesis_params` (its `columns`
+/// list levels 1-3; a deeper analysis writes more, which [`check_columns`] accepts).
+pub const PER_LEVEL: &[(&str, &[&str])] = &[("synthesis_params", &[col::R_H, col::R_V])];
+
+/// Whether `column` is `<prefix><level>` of a prefix [`PER_LEVEL`] gives the table `table`.
+fn is_per_level(table: &str, column: &str) -> bool {
+    PER_LEVEL
+        .iter()
+        .filter(|(t, _)| *t == table)
+        .flat_map(|(_, prefixes)| prefixes.iter())
+        .filter_map(|p| column.strip_prefix(p))
+        .any(|level| {
+            !level.is_empty()
+                && !level.starts_with('0')
+                && level.bytes().all(|b| b.is_ascii_digit())
+        })
+}
+
 /// Checks the columns a writer is about to write as the table `name`: the table must be one of
-/// the contract's and every column one it declares, or a swept parameter's (a key of `swept`,
+/// the contract's and every column one it declares (or a level of one of its [`PER_LEVEL`]
+/// prefixes), or a swept parameter's (a key of `swept`,
 /// or `swept_<key>` where the table has a column of the key's name); intermediate tables,
 /// named `_...`, are the runner's own and not checked.
 ///
@@ -761,7 +790,7 @@ pub fn check_columns<'a>(
         let param = swept
             .iter()
             .any(|k| k == c || c.strip_prefix("swept_") == Some(k.as_str()));
-        if !param && !t.columns.contains(&c) {
+        if !param && !t.columns.contains(&c) && !is_per_level(name, c) {
             bail!(
                 "the table {name:?} would get the column {c:?}, which the results contract \
                  (crates/tables/src/io/results.rs) does not declare"
