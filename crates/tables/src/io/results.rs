@@ -8,6 +8,9 @@
 use anyhow::{bail, Result};
 use std::path::{Path, PathBuf};
 
+pub mod files;
+pub mod maps;
+
 /// A table of a results folder: `<name>.parquet`, with the columns it may hold (a table holds
 /// a subset of them: a column only some datasets or metrics fill is left out when no row has
 /// it).
@@ -36,100 +39,6 @@ impl Table {
     /// If the file exists but cannot be read; the message names it.
     pub fn read(&self, dir: &Path) -> Result<Option<polars::prelude::DataFrame>> {
         super::parquet::read_parquet(&self.path(dir))
-    }
-}
-
-/// Where a run puts its jobs' files beside the tables, named once for the runner that writes
-/// them and the report that reads them (`out` is the run's folder).
-pub mod files {
-    use std::path::{Path, PathBuf};
-
-    /// `maps/`: one folder of `.npy` maps per job ([`super::maps`]).
-    pub fn maps_root(out: &Path) -> PathBuf {
-        out.join("maps")
-    }
-
-    /// `maps/<job>/`: the maps of one job.
-    pub fn maps(out: &Path, job: &str) -> PathBuf {
-        maps_root(out).join(job)
-    }
-
-    /// `samples/`: the generated samples of the synthesis jobs.
-    pub fn samples_root(out: &Path) -> PathBuf {
-        out.join("samples")
-    }
-
-    /// `samples/<job>.npy`: one synthesis job's generated samples.
-    pub fn samples(out: &Path, job: &str) -> PathBuf {
-        samples_root(out).join(format!("{job}.npy"))
-    }
-
-    /// `models/<job>/`: one synthesis job's fitted model.
-    pub fn model(out: &Path, job: &str) -> PathBuf {
-        out.join("models").join(job)
-    }
-
-    /// `kspace/`: the k-space data of imaged datasets' analysis jobs.
-    pub fn kspace_root(out: &Path) -> PathBuf {
-        out.join("kspace")
-    }
-
-    /// The suffix of a job's mean k-space image, `kspace/<job>.mean.npy` (Fig. 48).
-    pub const KSPACE_MEAN: &str = ".mean";
-
-    /// `kspace/<job><suffix>.npy`: one of a job's k-space arrays (`suffix` empty for the
-    /// data, `.freqs`, `.azimuths_deg`, `.mean`).
-    pub fn kspace(out: &Path, job: &str, suffix: &str) -> PathBuf {
-        kspace_root(out).join(format!("{job}{suffix}.npy"))
-    }
-
-    /// `examples/<job>.npy`: a location training's example images (Fig. 72).
-    pub fn example(out: &Path, job: &str) -> PathBuf {
-        out.join("examples").join(format!("{job}.npy"))
-    }
-
-    /// `networks/<job>/`: a CNN training's saved network.
-    pub fn network(out: &Path, job: &str) -> PathBuf {
-        out.join("networks").join(job)
-    }
-}
-
-/// The `.npy` maps a job writes under `maps/<job>/`, named once for the runner that writes them
-/// and the report that draws them.
-pub mod maps {
-    /// The per-pixel sample mean (complex).
-    pub const MEAN: &str = "mean";
-    /// The per-pixel variance.
-    pub const VARIANCE: &str = "variance";
-    /// The prefix of a noise floor's comparison maps (the metric between two independent
-    /// draws of the same data).
-    pub const NOISE_FLOOR: &str = "noise_floor_";
-    /// The prefix of a synthetic model's exact expected maps.
-    pub const EXPECTED: &str = "expected_";
-    /// The components a comparison map is computed on.
-    pub const COMPONENTS: [&str; 2] = ["re", "im"];
-
-    /// `<prefix>level<level>_<kind>_<direction>`: a level's directional map, `kind` the
-    /// column it holds ([`super::col::CORRELATION`] or [`super::col::COVARIANCE`]), `prefix`
-    /// empty or [`EXPECTED`].
-    pub fn level(
-        prefix: &str,
-        level: usize,
-        kind: &str,
-        direction: impl std::fmt::Display,
-    ) -> String {
-        format!("{prefix}level{level}_{kind}_{direction}")
-    }
-
-    /// `<prefix><stem>`: a comparison map of a metric (`stem` its metric's
-    /// `crate::stats::metrics::map_stem`), `prefix` empty or [`NOISE_FLOOR`].
-    pub fn comparison(prefix: &str, stem: &str) -> String {
-        format!("{prefix}{stem}")
-    }
-
-    /// The file of map `name` in a job's maps folder `dir`.
-    pub fn file(dir: &std::path::Path, name: &str) -> std::path::PathBuf {
-        dir.join(format!("{name}.npy"))
     }
 }
 
