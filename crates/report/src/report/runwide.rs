@@ -161,7 +161,7 @@ fn curve_columns(
     let axes: Vec<String> = schema
         .iter()
         .filter(|(name, field)| {
-            !table.columns.contains(&name.as_str()) && field.dtype() == &ArrowDataType::Float64
+            !table.declares(name.as_str()) && field.dtype() == &ArrowDataType::Float64
         })
         .map(|(name, _)| name.to_string())
         .collect();

@@ -20,9 +20,27 @@ pub struct Table {
     pub name: &'static str,
     /// The columns it may hold, in the order the runner writes them.
     pub columns: &'static [&'static str],
+    /// Prefixes of the columns it repeats once per decomposition level, `<prefix><level>` for
+    /// the levels 1, 2, ... of the run (Method 2's `r_h1`, `r_h2`, ... in `synthesis_params`).
+    pub per_level: &'static [&'static str],
 }
 
 impl Table {
+    /// Whether it may hold `column`: one of its columns, or a level (`<prefix><level>`, the
+    /// level from 1, no leading zero) of one of its per-level prefixes.
+    pub fn declares(&self, column: &str) -> bool {
+        self.columns.contains(&column)
+            || self
+                .per_level
+                .iter()
+                .filter_map(|p| column.strip_prefix(p))
+                .any(|level| {
+                    !level.is_empty()
+                        && !level.starts_with('0')
+                        && level.bytes().all(|b| b.is_ascii_digit())
+                })
+    }
+
     /// Its file name, `<name>.parquet`.
     pub fn file_name(&self) -> String {
         format!("{}.parquet", self.name)
@@ -134,24 +152,12 @@ pub mod col {
     pub const RESIDUAL_V: &str = "residual_v";
     /// `clamped`: whether the fit was clamped to its bounds.
     pub const CLAMPED: &str = "clamped";
-    /// `r_h1`: Method 2's horizontal correlation at level 1.
-    pub const R_H1: &str = "r_h1";
-    /// `r_h2`: Method 2's horizontal correlation at level 2.
-    pub const R_H2: &str = "r_h2";
-    /// `r_h3`: Method 2's horizontal correlation at level 3.
-    pub const R_H3: &str = "r_h3";
-    /// `r_v1`: Method 2's vertical correlation at level 1.
-    pub const R_V1: &str = "r_v1";
-    /// `r_v2`: Method 2's vertical correlation at level 2.
-    pub const R_V2: &str = "r_v2";
-    /// `r_v3`: Method 2's vertical correlation at level 3.
-    pub const R_V3: &str = "r_v3";
-    /// `r_h<level>`: Method 2's horizontal correlation at a level ([`super::PER_LEVEL`]).
+    /// `r_h<level>`: Method 2's horizontal correlation at a level ([`super::Table::per_level`]).
     pub const R_H: &str = "r_h";
-    /// `r_v<level>`: Method 2's vertical correlation at a level ([`super::PER_LEVEL`]).
+    /// `r_v<level>`: Method 2's vertical correlation at a level ([`super::Table::per_level`]).
     pub const R_V: &str = "r_v";
 
-    /// `<prefix><level>`: a column of [`super::PER_LEVEL`] at `level` (from 1).
+    /// `<prefix><level>`: a per-level column ([`super::Table::per_level`]) at `level` (from 1).
     pub fn per_level(prefix: &str, level: usize) -> String {
         format!("{prefix}{level}")
     }
@@ -305,6 +311,7 @@ pub const ANALYSIS_MAPS: Table = Table {
         col::COVARIANCE,
         col::EXPECTED_CORRELATION,
     ],
+    per_level: &[],
 };
 
 /// `analysis_summary`: the maps' means, a row per job, source, level and direction.
@@ -324,6 +331,7 @@ pub const ANALYSIS_SUMMARY: Table = Table {
         col::COLS,
         col::EXPECTED_MEAN_CORRELATION,
     ],
+    per_level: &[],
 };
 
 /// `pixel_stats`: every pixel's mean and variance over the samples.
@@ -339,6 +347,7 @@ pub const PIXEL_STATS: Table = Table {
         col::MEAN_IM,
         col::VARIANCE,
     ],
+    per_level: &[],
 };
 
 /// `filter_correlation`: the correlations a dataset's correlating filters give, by lag (Table 3).
@@ -352,6 +361,7 @@ pub const FILTER_CORRELATION: Table = Table {
         col::FILTER_COEFFICIENT,
         col::CORRELATION,
     ],
+    per_level: &[],
 };
 
 /// `jobs`: a row per job: what it was, its seeds and how it ended.
@@ -373,6 +383,7 @@ pub const JOBS: Table = Table {
         col::LEVELS,
         col::ELAPSED_S,
     ],
+    per_level: &[],
 };
 
 /// `synthesis_params`: a fitted model's parameters at every pixel.
@@ -389,13 +400,8 @@ pub const SYNTHESIS_PARAMS: Table = Table {
         col::RESIDUAL_H,
         col::RESIDUAL_V,
         col::CLAMPED,
-        col::R_H1,
-        col::R_H2,
-        col::R_H3,
-        col::R_V1,
-        col::R_V2,
-        col::R_V3,
     ],
+    per_level: &[col::R_H, col::R_V],
 };
 
 /// `similarity`: the metrics between the original and the generated samples.
@@ -425,6 +431,7 @@ pub const SIMILARITY: Table = Table {
         col::BLOCK,
         col::CMD_FORM,
     ],
+    per_level: &[],
 };
 
 /// `model_order`: the model-order KL tests (Tables 24-28).
@@ -446,6 +453,7 @@ pub const MODEL_ORDER: Table = Table {
         col::MEAN_OVER_BINS,
         col::BIAS_CORRECTION,
     ],
+    per_level: &[],
 };
 
 /// `correlating_function`: the plants' correlating function over pixel offsets (Figs. 52-56).
@@ -461,6 +469,7 @@ pub const CORRELATING_FUNCTION: Table = Table {
         col::MEAN_MAGNITUDE,
         col::PAIRS,
     ],
+    per_level: &[],
 };
 
 /// `calibration`: the sphere calibration's spectra (Figs. 11-14).
@@ -474,12 +483,14 @@ pub const CALIBRATION: Table = Table {
         col::ERROR_DB,
         col::PHASE_ERROR_DEG,
     ],
+    per_level: &[],
 };
 
 /// `calibration_summary`: the calibration's error statistics by band.
 pub const CALIBRATION_SUMMARY: Table = Table {
     name: "calibration_summary",
     columns: &[col::BAND, col::STATISTIC, col::VALUE],
+    per_level: &[],
 };
 
 /// `hypotheses`: the hypothesis tests H1-H4 (ch. 5.1).
@@ -492,6 +503,7 @@ pub const HYPOTHESES: Table = Table {
         col::VALUE,
         col::VERDICT,
     ],
+    per_level: &[],
 };
 
 /// `classification`: the clutter classification trainings (Tables 20, 22).
@@ -518,12 +530,14 @@ pub const CLASSIFICATION: Table = Table {
         col::VALIDATION_REUSES_ORIGINALS,
         col::PROTOCOL,
     ],
+    per_level: &[],
 };
 
 /// `confusion`: the classification trainings' confusion counts.
 pub const CONFUSION: Table = Table {
     name: "confusion",
     columns: &[col::JOB, col::TRUE_CLASS, col::PREDICTED_CLASS, col::COUNT],
+    per_level: &[],
 };
 
 /// `training_history`: every training's loss and accuracies by epoch.
@@ -536,6 +550,7 @@ pub const TRAINING_HISTORY: Table = Table {
         col::BATCH_ACCURACY,
         col::VALIDATION_ACCURACY,
     ],
+    per_level: &[],
 };
 
 /// `location`: the target location trainings (Figs. 73-74).
@@ -559,6 +574,7 @@ pub const LOCATION: Table = Table {
         col::TRAIN_GENERATED,
         col::CLUTTER_POWER,
     ],
+    per_level: &[],
 };
 
 /// `location_summary`: the location accuracy's SCR thresholds and gains over the original.
@@ -574,6 +590,7 @@ pub const LOCATION_SUMMARY: Table = Table {
         col::BEST_MEAN_ACCURACY,
         col::SCR_POINTS,
     ],
+    per_level: &[],
 };
 
 /// Declares [`CnnApp`] and its list [`CnnApp::ALL`] from one list of variants, so that the
@@ -655,28 +672,8 @@ pub fn table(name: &str) -> Option<Table> {
     ALL.iter().copied().find(|t| t.name == name)
 }
 
-/// Columns that repeat once per decomposition level, `<prefix><level>` for the levels 1, 2, ...
-/// of the run, by table: Method 2's fitted correlations in `synthesis_params` (its `columns`
-/// list levels 1-3; a deeper analysis writes more, which [`check_columns`] accepts).
-pub const PER_LEVEL: &[(&str, &[&str])] = &[("synthesis_params", &[col::R_H, col::R_V])];
-
-/// Whether `column` is `<prefix><level>` of a prefix [`PER_LEVEL`] gives the table `table`.
-fn is_per_level(table: &str, column: &str) -> bool {
-    PER_LEVEL
-        .iter()
-        .filter(|(t, _)| *t == table)
-        .flat_map(|(_, prefixes)| prefixes.iter())
-        .filter_map(|p| column.strip_prefix(p))
-        .any(|level| {
-            !level.is_empty()
-                && !level.starts_with('0')
-                && level.bytes().all(|b| b.is_ascii_digit())
-        })
-}
-
 /// Checks the columns a writer is about to write as the table `name`: the table must be one of
-/// the contract's and every column one it declares (or a level of one of its [`PER_LEVEL`]
-/// prefixes), or a swept parameter's (a key of `swept`,
+/// the contract's and every column one it declares ([`Table::declares`]), or a swept parameter's (a key of `swept`,
 /// or `swept_<key>` where the table has a column of the key's name); intermediate tables,
 /// named `_...`, are the runner's own and not checked.
 ///
@@ -699,7 +696,7 @@ pub fn check_columns<'a>(
         let param = swept
             .iter()
             .any(|k| k == c || c.strip_prefix("swept_") == Some(k.as_str()));
-        if !param && !t.columns.contains(&c) && !is_per_level(name, c) {
+        if !param && !t.declares(c) {
             bail!(
                 "the table {name:?} would get the column {c:?}, which the results contract \
                  (crates/tables/src/io/results.rs) does not declare"

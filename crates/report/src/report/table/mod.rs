@@ -485,7 +485,7 @@ fn row_keys(def: &TableDef, names: &[String], pivot: &str) -> Vec<String> {
         .filter(|k| k != pivot && names.contains(k))
         .collect();
     for n in names {
-        if !def.table.columns.contains(&n.as_str()) && !keys.contains(n) && n != pivot {
+        if !def.table.declares(n) && !keys.contains(n) && n != pivot {
             keys.push(n.clone());
         }
     }
