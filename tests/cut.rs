@@ -14,6 +14,12 @@ fn pixel(t: usize, r: usize, c: usize) -> Complex32 {
     Complex32::new((t * 1000 + r * 30 + c) as f32, r as f32 - c as f32)
 }
 
+/// The places (top-left row, column) a cut recorded in its `OUT.patches.json`.
+fn recorded_places(record: &std::path::Path) -> Vec<(usize, usize)> {
+    let record: serde_json::Value = serde_json::from_slice(&fs::read(record).unwrap()).unwrap();
+    serde_json::from_value(record["places"].clone()).unwrap()
+}
+
 #[test]
 fn a_time_stack_is_cut_place_by_place_around_the_boxes() {
     let dir = tempfile::tempdir().unwrap();
@@ -46,10 +52,7 @@ fn a_time_stack_is_cut_place_by_place_around_the_boxes() {
     );
     let got: Array3<Complex32> = ndarray_npy::read_npy(&out).unwrap();
     assert_eq!(got.dim(), (38, 4, 6));
-    let record: serde_json::Value =
-        serde_json::from_slice(&fs::read(dir.path().join("stack.npy.patches.json")).unwrap())
-            .unwrap();
-    let places: Vec<(usize, usize)> = serde_json::from_value(record["places"].clone()).unwrap();
+    let places = recorded_places(&dir.path().join("stack.npy.patches.json"));
     assert_eq!(places.len(), 19);
     assert!(!places.contains(&(8, 6)), "the box's place is left out");
     for (p, &(r, c)) in places.iter().enumerate() {
@@ -197,9 +200,7 @@ fn a_mask_of_targets_keeps_patches_off_them() {
     ndarray_npy::write_npy(&mask, &bools).unwrap();
     let o = cut(&mask);
     assert!(o.status.success(), "{}", text(&o));
-    let record: serde_json::Value =
-        serde_json::from_slice(&fs::read(dir.path().join("s.npy.patches.json")).unwrap()).unwrap();
-    let places: Vec<(usize, usize)> = serde_json::from_value(record["places"].clone()).unwrap();
+    let places = recorded_places(&dir.path().join("s.npy.patches.json"));
     assert_eq!(places, vec![(0, 0), (0, 4), (4, 4)]);
     // uint8 works the same; a mask of another shape or type is refused naming it.
     let bytes = bools.mapv(u8::from);
