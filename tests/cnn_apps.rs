@@ -199,29 +199,54 @@ fn ints(t: &DataFrame, c: &str) -> Vec<i64> {
 fn original_samples_sets_the_originals_pool_and_the_test_set() {
     let (_dir, out) = originals_pool_run("");
     let t = read_table(&out, "location.parquet");
-    let methods: Vec<String> = t
-        .column("method")
+    assert_eq!(strings(&t, "method"), ["original", "method2"]);
+    assert_eq!(ints(&t, "test_samples"), [30, 30]);
+    assert_eq!(ints(&t, "train_samples"), [60, 50]);
+}
+
+/// `location.test_sets`: `all` (the dissertation's protocol) tests every network on all the
+/// clutter samples (150 here), those it was fitted or trained on included; both test sets
+/// listed give, from one training each, a row per test set equal to what a run with that test
+/// set alone gives, and a summary row per target, test set and method.
+#[test]
+fn test_sets_read_one_training_on_each_set() {
+    let (_a, alone_all) = originals_pool_run("  test_sets: [all]\n");
+    let t = read_table(&alone_all, "location.parquet");
+    assert_eq!(ints(&t, "test_samples"), [150, 150]);
+    let (_h, alone_held) = originals_pool_run("");
+    let (_b, both) = originals_pool_run("  test_sets: [held_out, all]\n");
+    let t = read_table(&both, "location.parquet");
+    assert_eq!(ints(&t, "test_samples"), [30, 150, 30, 150]);
+    assert_eq!(
+        strings(&t, "test_set"),
+        ["held_out", "all", "held_out", "all"]
+    );
+    let accuracy = |t: &DataFrame| f64s(t, "test_accuracy");
+    let (held, all) = (
+        accuracy(&read_table(&alone_held, "location.parquet")),
+        accuracy(&read_table(&alone_all, "location.parquet")),
+    );
+    assert_eq!(accuracy(&t), [held[0], all[0], held[1], all[1]]);
+    let s = read_table(&both, "location_summary.parquet");
+    assert_eq!(
+        strings(&s, "test_set"),
+        ["held_out", "held_out", "all", "all"]
+    );
+    assert_eq!(
+        strings(&s, "method"),
+        ["original", "method2", "original", "method2"]
+    );
+}
+
+/// The string column `c` of `t`.
+fn strings(t: &DataFrame, c: &str) -> Vec<String> {
+    t.column(c)
         .unwrap()
         .str()
         .unwrap()
         .iter()
         .map(|m| m.unwrap_or_default().to_string())
-        .collect();
-    assert_eq!(methods, ["original", "method2"]);
-    assert_eq!(ints(&t, "test_samples"), [30, 30]);
-    assert_eq!(ints(&t, "train_samples"), [60, 50]);
-}
-
-/// `location.test_all` (the dissertation's protocol): every network is tested on all the
-/// clutter samples (150 here), those it was fitted or trained on included.
-#[test]
-fn test_all_tests_every_network_on_every_clutter_sample() {
-    let (_dir, out) = originals_pool_run(
-        "  test_all: true
-",
-    );
-    let t = read_table(&out, "location.parquet");
-    assert_eq!(ints(&t, "test_samples"), [150, 150]);
+        .collect()
 }
 
 /// The columns of a training table that do not measure time.

@@ -407,6 +407,24 @@ fn duplicate_train_sizes_and_scr_db_are_refused_at_validate_with_the_yaml_path()
         let e = invalid(dir.path(), &location(scr));
         assert!(e.contains(at) && e.contains(what), "{scr}: {e}");
     }
+    for (sets, at, what) in [
+        (
+            "[all, held_out, all]",
+            "location.test_sets[2]",
+            "all is listed twice",
+        ),
+        (
+            "[]",
+            "location.test_sets",
+            "name at least one of held_out, all",
+        ),
+    ] {
+        let e = invalid(
+            dir.path(),
+            &format!("{}  test_sets: {sets}\n", location("[0]")),
+        );
+        assert!(e.contains(at) && e.contains(what), "{sets}: {e}");
+    }
 }
 
 /// A MAT v7.3 file (not written by the tool) holding `x`, 4x5x3 strings, and `flags`, 4x5x3

@@ -52,6 +52,9 @@ pub struct Query {
     /// The value is the least over every selected row (at least one): the lowest SCR a
     /// location experiment swept.
     pub min_rows: bool,
+    /// The value is the greatest over every selected row (at least one): the highest SCR a
+    /// location experiment swept.
+    pub max_rows: bool,
 }
 
 /// How the tool reproduces one dissertation table.
@@ -96,6 +99,7 @@ pub(super) fn q(
         each_row: false,
         mean_rows: false,
         min_rows: false,
+        max_rows: false,
     }
 }
 
@@ -530,6 +534,10 @@ impl Tables {
             let v = column_values(&picked, query)?;
             return Ok(v.iter().copied().fold(f64::INFINITY, f64::min));
         }
+        if query.max_rows && picked.height() > 0 {
+            let v = column_values(&picked, query)?;
+            return Ok(v.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        }
         if picked.height() != 1 {
             bail!(
                 "{}/{}.parquet: {} row(s) where {:?} (expected one)",
@@ -645,6 +653,11 @@ pub struct Statement {
     /// where `b` is at it, the level was already reached at the lowest point swept, and the
     /// repeat's difference `a - b` is a lower bound.
     pub censor: Vec<Query>,
+    /// Per term (or none), the greatest value its `a` can take in the run (a
+    /// [`Query::max_rows`]): where `a` has no value (the level was not reached in the range
+    /// swept, so it lies above that value) and `b` has one, the repeat's difference is taken
+    /// with that value and is a lower bound.
+    pub censor_above: Vec<Query>,
 }
 
 /// A statement the text gives a number for (not an ordering), in the reference's unit.
@@ -662,6 +675,7 @@ pub(super) fn number(
         ordering: false,
         unit: None,
         censor: Vec::new(),
+        censor_above: Vec::new(),
     }
 }
 

@@ -263,10 +263,19 @@ pub fn evaluate_statement(
         let mut bound = false;
         for (i, (a, b)) in st.terms.iter().enumerate() {
             let low = tables.value(folders(runs, b.spec)[k], b)?;
-            sum += tables.value(folders(runs, a.spec)[k], a)? - low;
+            let mut high = tables.value(folders(runs, a.spec)[k], a)?;
             if let Some(c) = st.censor.get(i) {
                 bound |= low == tables.value(folders(runs, c.spec)[k], c)?;
             }
+            if let Some(c) = st
+                .censor_above
+                .get(i)
+                .filter(|_| high.is_nan() && low.is_finite())
+            {
+                high = tables.value(folders(runs, c.spec)[k], c)?;
+                bound = true;
+            }
+            sum += high - low;
         }
         let v = sum / st.terms.len() as f64;
         bounded += usize::from(bound && v.is_finite());

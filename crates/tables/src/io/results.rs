@@ -65,8 +65,12 @@ impl Table {
 pub mod value {
     /// `reference` of a row compared with every original (those the fit saw included).
     pub const IN_SAMPLE: &str = "in_sample";
-    /// `reference` of a row compared with the half of the originals no fit saw.
+    /// `reference` of a row compared with the half of the originals no fit saw; `test_set` of
+    /// a location row tested on the originals no network saw.
     pub const HELD_OUT: &str = "held_out";
+    /// `test_set` of a location row tested on every original, those seen included (the
+    /// dissertation's protocol).
+    pub const ALL: &str = "all";
     /// `method` of the rows that compare two independent draws of the original (the metric's
     /// floor).
     pub const NOISE_FLOOR: &str = "noise_floor";
@@ -246,6 +250,8 @@ pub mod col {
     pub const TEST_ACCURACY: &str = "test_accuracy";
     /// `test_samples`: test samples.
     pub const TEST_SAMPLES: &str = "test_samples";
+    /// `test_set`: the originals a location network was tested on (`held_out` or `all`).
+    pub const TEST_SET: &str = "test_set";
     /// `epochs`: epochs trained.
     pub const EPOCHS: &str = "epochs";
     /// `train_seconds`: the training's wall time in seconds.
@@ -563,6 +569,7 @@ pub const LOCATION: Table = Table {
         col::SCR_DB,
         col::REPEAT,
         col::SEED,
+        col::TEST_SET,
         col::TRAIN_ACCURACY,
         col::VALIDATION_ACCURACY,
         col::TEST_ACCURACY,
@@ -582,6 +589,7 @@ pub const LOCATION_SUMMARY: Table = Table {
     name: "location_summary",
     columns: &[
         col::TARGET,
+        col::TEST_SET,
         col::METHOD,
         col::SCR_50_DB,
         col::SCR_90_DB,

@@ -35,6 +35,28 @@ impl TargetKind {
     }
 }
 
+/// The originals a location network is tested on (5.3.8.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TestSet {
+    /// The clutter samples after those the methods were fitted on and `original` trained and
+    /// validated on: data no network saw.
+    HeldOut,
+    /// Every clutter sample, those seen included (the dissertation's protocol, 5.3.8: its
+    /// networks were tested on all 1000 originals).
+    All,
+}
+
+impl TestSet {
+    /// The name used in specs and tables.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TestSet::HeldOut => "held_out",
+            TestSet::All => "all",
+        }
+    }
+}
+
 /// `TARGET * TARGET` i.i.d. circular complex Gaussian pixels with unit mean power
 /// (`E|t|^2 = 1`), drawn from `rng`.
 pub fn random_pattern(rng: &mut ChaCha20Rng) -> Vec<Complex32> {
@@ -111,22 +133,21 @@ pub fn with_targets(
 /// How a location experiment's clutter stack is split (5.3.8.2): one seeded permutation of its
 /// samples; the methods are fitted on its first `fit` samples, `original`'s network trains and
 /// validates on its first `originals` (the fit part among them), and every network is tested on
-/// the rest (on every sample with `test_all`, the dissertation's own protocol).
+/// the rest ([`TestSet::HeldOut`]) or on every sample ([`TestSet::All`], the dissertation's own
+/// protocol).
 pub struct Split {
     perm: Vec<usize>,
     fit: usize,
     originals: usize,
-    test_all: bool,
 }
 
 impl Split {
     /// The split of `n` samples, permuted with `seed`.
-    pub fn new(n: usize, seed: u64, fit: usize, originals: usize, test_all: bool) -> Self {
+    pub fn new(n: usize, seed: u64, fit: usize, originals: usize) -> Self {
         Split {
             perm: super::classification::permutation(n, seed),
             fit,
             originals,
-            test_all,
         }
     }
 
@@ -140,9 +161,12 @@ impl Split {
         stack.select(Axis(0), &self.perm[..self.originals])
     }
 
-    /// The test samples.
-    pub fn test(&self, stack: &ArrayView3<Complex64>) -> Array3<Complex64> {
-        let from = if self.test_all { 0 } else { self.originals };
+    /// The samples of test set `set`.
+    pub fn test(&self, stack: &ArrayView3<Complex64>, set: TestSet) -> Array3<Complex64> {
+        let from = match set {
+            TestSet::HeldOut => self.originals,
+            TestSet::All => 0,
+        };
         stack.select(Axis(0), &self.perm[from..])
     }
 }

@@ -148,7 +148,7 @@ pub(super) fn location(dir: &Path, groups: &[Group]) -> Result<Vec<Figure>> {
             (&title, caption),
             ("SCR (dB)", CnnApp::Location),
         )?);
-        let Some(rep) = g.representative(CnnApp::Location) else {
+        let Some(rep) = g.representative(CnnApp::Location).filter(|_| g.details) else {
             return Ok(out);
         };
         let what = format!(

@@ -4,7 +4,7 @@
 //! show in detail. The tables ([`super::table`]) and figures read these.
 
 use super::super::table::{floats, kept_rows, strings};
-use crate::io::results::{col, CnnApp};
+use crate::io::results::{col, value, CnnApp};
 use anyhow::{Context, Result};
 use std::path::Path;
 
@@ -35,6 +35,19 @@ pub(super) struct Group {
     /// Distinct x values, ascending.
     pub(super) xs: Vec<f64>,
     pub(super) rows: Vec<Training>,
+    /// Whether the figures of single trainings (confusion, training curves, examples) are
+    /// drawn for this group: not for a location group tested on another test set than the
+    /// table's first, whose trainings (and confusion counts) are the first's.
+    pub(super) details: bool,
+}
+
+/// The name of a group: `group` (a normalisation or a target), and for a location group
+/// tested on every original (`test_set` [`value::ALL`]) that test set.
+pub(super) fn group_name(group: &str, test_set: Option<&str>) -> String {
+    match test_set {
+        Some(value::ALL) => format!("{group} (tested on all originals)"),
+        _ => group.to_string(),
+    }
 }
 
 /// Mean, sample standard deviation (`n - 1`; none for one value), minimum and maximum.
@@ -153,11 +166,18 @@ pub(super) fn load(
     let validation = optional_floats(col::VALIDATION_ACCURACY)?;
     let test_samples = optional_floats(col::TEST_SAMPLES)?;
     let speed = optional_floats(col::TRAIN_SAMPLES_PER_SECOND)?;
-    let protocol = if has(col::PROTOCOL) {
-        strings(&df, col::PROTOCOL)?
-    } else {
-        vec![None; df.height()]
+    let optional_strings = |c: &str| -> Result<Vec<Option<String>>> {
+        if has(c) {
+            strings(&df, c)
+        } else {
+            Ok(vec![None; df.height()])
+        }
     };
+    let protocol = optional_strings(col::PROTOCOL)?;
+    let test_set = optional_strings(col::TEST_SET)?;
+    let first_set = (0..df.height())
+        .find(|&i| keep[i])
+        .and_then(|i| test_set[i].clone());
     let mut groups: Vec<Group> = vec![];
     for i in (0..df.height()).filter(|&i| keep[i]) {
         let (Some(g), Some(m), Some(x), Some(t)) = (&group[i], &method[i], x[i], test[i]) else {
@@ -175,14 +195,16 @@ pub(super) fn load(
             test_samples: test_samples[i],
             samples_per_second: speed[i],
         };
-        let at = match groups.iter().position(|x| x.name == *g) {
+        let name = group_name(g, test_set[i].as_deref());
+        let at = match groups.iter().position(|x| x.name == name) {
             Some(k) => k,
             None => {
                 groups.push(Group {
-                    name: g.clone(),
+                    name,
                     methods: vec![],
                     xs: vec![],
                     rows: vec![],
+                    details: test_set[i] == first_set,
                 });
                 groups.len() - 1
             }
@@ -285,6 +307,7 @@ mod tests {
             methods: vec![],
             xs: vec![],
             rows: vec![],
+            details: true,
         };
         for r in rows {
             if !g.methods.contains(&r.method) {

@@ -7,7 +7,7 @@
 //! over `original`). Their layout is fixed: `--filter` selects rows, `--pivot` does not apply.
 
 use super::super::table::{layout, Format};
-use super::groups::{load, Group, Stats};
+use super::groups::{group_name, load, Group, Stats};
 use crate::io::results::{self, col, CnnApp};
 use anyhow::{bail, Result};
 use std::path::Path;
@@ -245,7 +245,8 @@ fn classification_detail(groups: &[Group], format: Format) -> String {
     )
 }
 
-/// The location summary's `(scr_50, scr_90, gain_50, gain_90)` per `(target, method)`.
+/// The location summary's `(scr_50, scr_90, gain_50, gain_90)` per `(group, method)` (the
+/// group's name as [`group_name`] makes it from the target and test set).
 type Summary = Vec<((String, String), [Option<f64>; 4])>;
 
 /// `location_summary.parquet`, if present.
@@ -256,6 +257,15 @@ fn summary(dir: &Path) -> Result<Summary> {
         return Ok(vec![]);
     };
     let (t, m) = (strings(&df, col::TARGET)?, strings(&df, col::METHOD)?);
+    let has_sets = df
+        .get_column_names()
+        .iter()
+        .any(|c| c.as_str() == col::TEST_SET);
+    let sets = if has_sets {
+        strings(&df, col::TEST_SET)?
+    } else {
+        vec![None; df.height()]
+    };
     let cols = [
         col::SCR_50_DB,
         col::SCR_90_DB,
@@ -267,7 +277,10 @@ fn summary(dir: &Path) -> Result<Summary> {
     .collect::<Result<Vec<_>>>()?;
     Ok((0..df.height())
         .filter_map(|i| {
-            let key = (t[i].clone()?, m[i].clone()?);
+            let key = (
+                group_name(t[i].as_deref()?, sets[i].as_deref()),
+                m[i].clone()?,
+            );
             Some((key, [cols[0][i], cols[1][i], cols[2][i], cols[3][i]]))
         })
         .collect())

@@ -7,7 +7,7 @@ use super::common::{
     location_repeats, too_many_trainings, DataRef, MAX_TRAININGS,
 };
 use crate::apps::cnn::classification::Source;
-use crate::apps::cnn::location::TargetKind;
+use crate::apps::cnn::location::{TargetKind, TestSet};
 use crate::apps::cnn::net::{Arch, NetConfig};
 use crate::apps::cnn::train::{Protocol, TrainingOptions};
 use crate::experiment::context::{Ctx, SpecError};
@@ -31,11 +31,13 @@ pub struct LocationSpec {
     /// 5.3.9.1 compares with "500 samples of the original data") shrinks it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub original_samples: Option<usize>,
-    /// Test every network on all the clutter samples, those the methods were fitted on and
-    /// `original` trained on included (the dissertation's protocol, 5.3.8: its networks were
-    /// tested on all 1000 originals), instead of on the samples after them (default false).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub test_all: bool,
+    /// The originals every network is tested on, each a row of `location.parquet` and of its
+    /// summary (column `test_set`): `held_out`, the samples after those the methods were
+    /// fitted on and `original` trained and validated on (the default), and/or `all`, every
+    /// clutter sample, those seen included (the dissertation's protocol, 5.3.8: its networks
+    /// were tested on all 1000 originals). One training serves every test set.
+    #[serde(default = "test_sets")]
+    pub test_sets: Vec<TestSet>,
     /// `original` and synthesis methods.
     pub methods: Vec<String>,
     /// Samples each method generates, half for training and half for validation (default 5000).
@@ -80,6 +82,30 @@ pub struct LocationPlan {
     /// The training settings every training runs under (`training` with the steps of
     /// `equal_steps` resolved from the largest training set).
     pub training: TrainingOptions,
+}
+
+/// The default of [`LocationSpec::test_sets`]: the held-out originals.
+fn test_sets() -> Vec<TestSet> {
+    vec![TestSet::HeldOut]
+}
+
+/// `items` (the list at YAML path `at`) names at least one of `choices` and none twice.
+fn listed_once<T: PartialEq>(
+    ctx: &Ctx,
+    at: &str,
+    items: &[T],
+    choices: &str,
+    name: impl Fn(&T) -> &'static str,
+) -> Result<(), SpecError> {
+    if items.is_empty() {
+        return Err(ctx.err(at, format!("name at least one of {choices}")));
+    }
+    for (i, t) in items.iter().enumerate() {
+        if items[..i].contains(t) {
+            return Err(ctx.err(format!("{at}[{i}]"), format!("{} is listed twice", name(t))));
+        }
+    }
+    Ok(())
 }
 
 impl LocationSpec {
@@ -181,20 +207,18 @@ impl LocationSpec {
                 "must be in 2..=1000000 (half train, half validate)",
             ));
         }
-        if self.targets.is_empty() {
-            return Err(ctx.err(
-                format!("{at}.targets"),
-                "name at least one of constant, stochastic",
-            ));
-        }
-        for (i, t) in self.targets.iter().enumerate() {
-            if self.targets[..i].contains(t) {
-                return Err(ctx.err(
-                    format!("{at}.targets[{i}]"),
-                    format!("{} is listed twice", t.as_str()),
-                ));
-            }
-        }
+        let targets = "constant, stochastic";
+        listed_once(ctx, &format!("{at}.targets"), &self.targets, targets, |t| {
+            t.as_str()
+        })?;
+        let sets = "held_out, all";
+        listed_once(
+            ctx,
+            &format!("{at}.test_sets"),
+            &self.test_sets,
+            sets,
+            |t| t.as_str(),
+        )?;
         if self.scr_db.is_empty() {
             return Err(ctx.err(
                 format!("{at}.scr_db"),

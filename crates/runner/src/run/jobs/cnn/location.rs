@@ -8,12 +8,12 @@ use super::common::{
     LOCATION, LOCATION_SUMMARY,
 };
 use crate::apps::cnn::classification::Source;
-use crate::apps::cnn::location::{self, Split, TargetKind};
+use crate::apps::cnn::location::{self, Split, TargetKind, TestSet};
 use crate::apps::cnn::train::train_on_device;
 use crate::experiment::datasets::{C128, C64};
 use crate::experiment::Materialised;
 use crate::experiment::{DataRef, LocationPlan};
-use crate::io::results::col;
+use crate::io::results::{col, value};
 use crate::run::estimate::Estimate;
 use crate::run::estimate::Sizes;
 use crate::run::jobs::{Context as JobContext, Inputs, JobKind, Rows, Status};
@@ -27,6 +27,14 @@ use num_complex::{Complex32, Complex64};
 use polars::prelude::*;
 use serde_json::json;
 use std::sync::Arc;
+
+/// The `test_set` value of rows tested on `set`.
+fn test_set_value(set: TestSet) -> &'static str {
+    match set {
+        TestSet::HeldOut => value::HELD_OUT,
+        TestSet::All => value::ALL,
+    }
+}
 
 /// One location training.
 #[derive(Debug, Clone)]
@@ -178,9 +186,27 @@ impl JobKind for LocationJob {
         estimate(plan, self)
     }
 
+    /// The training (its identity, seeds and clutter), the section's settings it reads and the
+    /// resolved training and network; not the section's lists of the other trainings
+    /// (methods, targets, SCRs, repeats), so that a spec grown by an SCR point or a method
+    /// runs only the new trainings on resume.
     fn key_material(&self, plan: &Plan) -> String {
         let lp = plan.cnn.location.as_ref().expect("a location section");
-        format!("{self:?}\n{:?}\n{:?}", lp.spec, lp.net)
+        let s = &lp.spec;
+        format!(
+            "{self:?}\nfit_samples={} originals={} generated_samples={} half_width={} \
+             levels={} negative_signs={:?} test_sets={:?} save_networks={}\n{:?}\n{:?}",
+            s.fit_samples,
+            s.originals(),
+            s.generated_samples,
+            s.half_width,
+            s.levels,
+            s.negative_signs,
+            s.test_sets,
+            s.save_networks,
+            lp.training,
+            lp.net
+        )
     }
 
     fn input_files(&self) -> Vec<std::path::PathBuf> {
@@ -204,7 +230,6 @@ impl JobKind for LocationJob {
             derive_seed(plan.spec.seed, "cnn/location/split", &self.clutter[0].id),
             lp.spec.fit_samples,
             lp.spec.originals(),
-            lp.spec.test_all,
         );
         let p_c = location::clutter_power(&all.view());
         let amp = location::amplitude(p_c, self.scr_db);
@@ -219,17 +244,23 @@ impl JobKind for LocationJob {
             &val_clutter,
             derive_seed(self.seed, "targets", "validation"),
         );
+        let trained = train_on_device(&lp.net, &lp.training, &train_set, &validation, self.seed)?;
+        // Every test set places its targets from the same seed (a set's samples are a
+        // permutation's tail, so the two sets differ in which sample gets which target).
         let test_seed = derive_seed(
             plan.spec.seed,
             "cnn/location/test",
             &format!("{}/{}", self.target.as_str(), self.scr_db),
         );
-        let test = targets(
-            &location::single(&split.test(&all.view()).view()),
-            test_seed,
-        );
-        let trained = train_on_device(&lp.net, &lp.training, &train_set, &validation, self.seed)?;
-        let (test_accuracy, confusion) = trained.evaluate(&test);
+        let mut tests = vec![];
+        for &set in &lp.spec.test_sets {
+            let test = targets(
+                &location::single(&split.test(&all.view(), set).view()),
+                test_seed,
+            );
+            let (accuracy, confusion) = trained.evaluate(&test);
+            tests.push((set, accuracy, test.len(), confusion));
+        }
         let mut files = vec![];
         if lp.spec.save_networks {
             let dir = crate::io::results::files::network(cx.out, &self.id);
@@ -243,32 +274,49 @@ impl JobKind for LocationJob {
             crate::io::atomic::write_npy(&path, &location::examples(&train_set, h, w))?;
             files.push(path);
         }
+        // One row per test set, the training's columns repeated.
+        let k = tests.len();
         let row = DataFrame::new_infer_height(vec![
-            Column::new(col::JOB.into(), [self.id.as_str()]),
-            Column::new(col::TARGET.into(), [self.target.as_str()]),
-            Column::new(col::METHOD.into(), [self.source.as_str()]),
-            Column::new(col::SCR_DB.into(), [self.scr_db]),
-            Column::new(col::REPEAT.into(), [self.repeat as i64]),
-            Column::new(col::SEED.into(), [self.seed]),
-            Column::new(col::TRAIN_ACCURACY.into(), [trained.train_accuracy]),
+            Column::new(col::JOB.into(), vec![self.id.as_str(); k]),
+            Column::new(col::TARGET.into(), vec![self.target.as_str(); k]),
+            Column::new(col::METHOD.into(), vec![self.source.as_str(); k]),
+            Column::new(col::SCR_DB.into(), vec![self.scr_db; k]),
+            Column::new(col::REPEAT.into(), vec![self.repeat as i64; k]),
+            Column::new(col::SEED.into(), vec![self.seed; k]),
+            Column::new(
+                col::TEST_SET.into(),
+                tests
+                    .iter()
+                    .map(|t| test_set_value(t.0))
+                    .collect::<Vec<_>>(),
+            ),
+            Column::new(col::TRAIN_ACCURACY.into(), vec![trained.train_accuracy; k]),
             Column::new(
                 col::VALIDATION_ACCURACY.into(),
-                [nan_none(trained.validation_accuracy)],
+                vec![nan_none(trained.validation_accuracy); k],
             ),
-            Column::new(col::TEST_ACCURACY.into(), [test_accuracy]),
-            Column::new(col::TEST_SAMPLES.into(), [test.len() as i64]),
-            Column::new(col::EPOCHS.into(), [trained.epochs.len() as i64]),
-            Column::new(col::TRAIN_SECONDS.into(), [trained.seconds]),
+            Column::new(
+                col::TEST_ACCURACY.into(),
+                tests.iter().map(|t| t.1).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                col::TEST_SAMPLES.into(),
+                tests.iter().map(|t| t.2 as i64).collect::<Vec<_>>(),
+            ),
+            Column::new(col::EPOCHS.into(), vec![trained.epochs.len() as i64; k]),
+            Column::new(col::TRAIN_SECONDS.into(), vec![trained.seconds; k]),
             Column::new(
                 col::TRAIN_SAMPLES_PER_SECOND.into(),
-                [trained.samples_per_second],
+                vec![trained.samples_per_second; k],
             ),
-            Column::new(col::TRAIN_SAMPLES.into(), [train_set.len() as i64]),
-            Column::new(col::TRAIN_GENERATED.into(), [(generated / 2) as i64]),
-            Column::new(col::CLUTTER_POWER.into(), [p_c]),
+            Column::new(col::TRAIN_SAMPLES.into(), vec![train_set.len() as i64; k]),
+            Column::new(col::TRAIN_GENERATED.into(), vec![(generated / 2) as i64; k]),
+            Column::new(col::CLUTTER_POWER.into(), vec![p_c; k]),
         ])?;
+        // The confusion counts are those of the first test set listed.
+        let confusion = &tests.first().expect("at least one test set").3;
         let mut tables = vec![(LOCATION, row)];
-        tables.extend(record_tables(&self.id, &trained, &confusion)?);
+        tables.extend(record_tables(&self.id, &trained, confusion)?);
         Ok(Rows {
             tables,
             files,
@@ -376,32 +424,38 @@ impl JobKind for LocationSummaryJob {
     }
 }
 
-/// One row of the location summary: target, method, SCR at 50 % and 90 %, best mean
-/// accuracy, SCR points.
-type SummaryRow = (String, String, Option<f64>, Option<f64>, f64, usize);
+/// The identity of a summary row: target, test set, method.
+type SummaryKey = (String, String, String);
 
-/// Mean accuracies by SCR of one (target, method): `(scr_db, accuracies over repeats)`.
+/// One row of the location summary: its key, SCR at 50 % and 90 %, best mean accuracy, SCR
+/// points.
+type SummaryRow = (SummaryKey, Option<f64>, Option<f64>, f64, usize);
+
+/// Mean accuracies by SCR of one key: `(scr_db, accuracies over repeats)`.
 type ByScr = Vec<(f64, Vec<f64>)>;
 
-/// The summary of `location` rows (see [`LocationSummaryJob`]).
+/// The summary of `location` rows (see [`LocationSummaryJob`]): one row per target, test set
+/// and method, each method's gain taken over `original` of the same target and test set.
 ///
 /// # Errors
 /// If the rows lack a column.
 pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
     use std::collections::BTreeMap;
-    let mut acc: BTreeMap<(String, String), ByScr> = BTreeMap::new();
-    let mut order: Vec<(String, String)> = vec![];
+    let mut acc: BTreeMap<SummaryKey, ByScr> = BTreeMap::new();
+    let mut order: Vec<SummaryKey> = vec![];
     for df in frames {
         let t = df.column(col::TARGET)?.str()?.clone();
+        let ts = df.column(col::TEST_SET)?.str()?.clone();
         let m = df.column(col::METHOD)?.str()?.clone();
         let s = df.column(col::SCR_DB)?.f64()?.clone();
         let a = df.column(col::TEST_ACCURACY)?.f64()?.clone();
         for i in 0..df.height() {
-            let (Some(t), Some(m), Some(s), Some(a)) = (t.get(i), m.get(i), s.get(i), a.get(i))
+            let (Some(t), Some(ts), Some(m), Some(s), Some(a)) =
+                (t.get(i), ts.get(i), m.get(i), s.get(i), a.get(i))
             else {
                 continue;
             };
-            let key = (t.to_string(), m.to_string());
+            let key = (t.to_string(), ts.to_string(), m.to_string());
             if !order.contains(&key) {
                 order.push(key.clone());
             }
@@ -412,6 +466,14 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
             }
         }
     }
+    // Grouped by target and test set, the methods in the spec's order within each.
+    let mut groups: Vec<(String, String)> = vec![];
+    for k in &order {
+        if !groups.iter().any(|g| g.0 == k.0 && g.1 == k.1) {
+            groups.push((k.0.clone(), k.1.clone()));
+        }
+    }
+    order.sort_by_key(|k| groups.iter().position(|g| g.0 == k.0 && g.1 == k.1));
     let mut rows: Vec<SummaryRow> = vec![];
     for key in &order {
         let mut pts: Vec<(f64, f64)> = acc[key]
@@ -421,52 +483,48 @@ pub fn location_summary(frames: &[DataFrame]) -> Result<DataFrame> {
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         let best = pts.iter().map(|p| p.1).fold(f64::NAN, f64::max);
         rows.push((
-            key.0.clone(),
-            key.1.clone(),
+            key.clone(),
             location::crossing(&pts, 0.5),
             location::crossing(&pts, 0.9),
             best,
             pts.len(),
         ));
     }
-    let gain = |target: &str, x: Option<f64>, pick: fn(&SummaryRow) -> Option<f64>| {
+    let gain = |key: &SummaryKey, x: Option<f64>, pick: fn(&SummaryRow) -> Option<f64>| {
         let base = rows
             .iter()
-            .find(|r| r.0 == target && r.1 == "original")
+            .find(|r| r.0 .0 == key.0 && r.0 .1 == key.1 && r.0 .2 == "original")
             .and_then(pick);
         match (base, x) {
             (Some(b), Some(x)) => Some(b - x),
             _ => None,
         }
     };
-    let g50: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.2, |r| r.2)).collect();
-    let g90: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.3, |r| r.3)).collect();
+    let g50: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.1, |r| r.1)).collect();
+    let g90: Vec<Option<f64>> = rows.iter().map(|r| gain(&r.0, r.2, |r| r.2)).collect();
+    let text =
+        |f: fn(&SummaryKey) -> &String| rows.iter().map(|r| f(&r.0).clone()).collect::<Vec<_>>();
     Ok(DataFrame::new_infer_height(vec![
+        Column::new(col::TARGET.into(), text(|k| &k.0)),
+        Column::new(col::TEST_SET.into(), text(|k| &k.1)),
+        Column::new(col::METHOD.into(), text(|k| &k.2)),
         Column::new(
-            "target".into(),
-            rows.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+            col::SCR_50_DB.into(),
+            rows.iter().map(|r| r.1).collect::<Vec<_>>(),
         ),
         Column::new(
-            "method".into(),
-            rows.iter().map(|r| r.1.clone()).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "scr_50_db".into(),
+            col::SCR_90_DB.into(),
             rows.iter().map(|r| r.2).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "scr_90_db".into(),
-            rows.iter().map(|r| r.3).collect::<Vec<_>>(),
         ),
         Column::new(col::GAIN_50_DB.into(), g50),
         Column::new(col::GAIN_90_DB.into(), g90),
         Column::new(
-            "best_mean_accuracy".into(),
-            rows.iter().map(|r| r.4).collect::<Vec<_>>(),
+            col::BEST_MEAN_ACCURACY.into(),
+            rows.iter().map(|r| r.3).collect::<Vec<_>>(),
         ),
         Column::new(
-            "scr_points".into(),
-            rows.iter().map(|r| r.5 as i64).collect::<Vec<_>>(),
+            col::SCR_POINTS.into(),
+            rows.iter().map(|r| r.4 as i64).collect::<Vec<_>>(),
         ),
     ])?)
 }
