@@ -434,3 +434,46 @@ analysis:
         "needs at least 60x60",
     );
 }
+
+/// A location training's key names what it reads, not the section's lists of the other
+/// trainings: a spec grown by an SCR point and a target resumes the trainings it had and runs
+/// only the new ones (and the summary over them all).
+#[test]
+fn a_location_spec_grown_by_an_scr_point_reruns_only_the_new_trainings() {
+    let section = |targets: &str, scr: &str| {
+        format!(
+            "  clutter: clutter
+  fit_samples: 100
+  methods: [original, method2]
+  generated_samples: 100
+  targets: {targets}
+  scr_db: {scr}
+  repeats: 1
+  training: {{epochs: 1, batch_size: 64}}
+"
+        )
+    };
+    let (dir, out) = location_run(&section("[constant]", "[0]"));
+    let spec = dir.path().join("location.yaml");
+    let grown = std::fs::read_to_string(&spec).unwrap().replace(
+        &section("[constant]", "[0]"),
+        &section("[constant, stochastic]", "[0, 10]"),
+    );
+    std::fs::write(&spec, grown).unwrap();
+    let o = bin(&[
+        "run",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-report",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // The clutter and the two trainings at 0 dB of the constant target.
+    assert!(
+        text(&o).contains("resumed: 3 job(s) already done"),
+        "{}",
+        text(&o)
+    );
+    let t = read_table(&out, "location.parquet");
+    assert_eq!(t.height(), 8, "2 targets x 2 methods x 2 SCRs");
+}
