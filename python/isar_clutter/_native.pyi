@@ -1,7 +1,7 @@
 """Type hints of the extension module (see the package's docstring)."""
 
 from os import PathLike
-from typing import Dict, Optional, Tuple, Union
+from typing import Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -30,6 +30,13 @@ def fit(
 
 def epoch_seed(seed: int, epoch: int) -> int:
     """The seed of epoch ``epoch`` of a stream seeded by ``seed`` (``seed`` for epoch 0)."""
+
+def load_uavsar(
+    slcs: Sequence[Union[str, PathLike]],
+    annotations: Sequence[Union[str, PathLike]],
+    window: Optional[Tuple[int, int, int, int]] = None,
+) -> np.ndarray:
+    """The window ``(row, col, rows, cols)`` of every UAVSAR scene as complex64 [N, H, W]."""
 
 class Model:
     """A synthesis model: from ``fit``, or ``Model.load`` of a model folder."""

@@ -2,7 +2,8 @@
 //! stack's multiscale maps as numpy arrays (the names and numbers of a run's `maps/`), `fit`
 //! a [`Model`], which saves and loads the command line's model folders and generates samples
 //! straight into a numpy array with the GIL released (sample `i` of a seed is the one
-//! `isar-clutter generate --seed` writes). The Python package `isar_clutter` wraps it.
+//! `isar-clutter generate --seed` writes); `load_uavsar` reads radar scenes (`load.rs`). The
+//! Python package `isar_clutter` wraps it.
 
 use isar_clutter_core::io::model::ModelInfo;
 use isar_clutter_core::stats::analysis::{Analysis, Direction};
@@ -15,6 +16,7 @@ use pyo3::types::PyDict;
 use std::path::PathBuf;
 
 mod input;
+mod load;
 
 /// An error of the core as a Python exception: its message with its causes.
 fn os_error(e: &anyhow::Error) -> PyErr {
@@ -320,6 +322,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(analyse, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(epoch_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(load::load_uavsar, m)?)?;
     m.add_class::<Model>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

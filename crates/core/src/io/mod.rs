@@ -1,7 +1,8 @@
 //! File formats and safe writing: `.npy` stacks (memory-mapped), MATLAB `.mat` stacks (v5, and
 //! v7.3 with the `mat73` feature; read, and written by `generate`), NetCDF-3 files, model folders, Parquet tables, and atomic writes (a temporary name in the same folder,
 //! then a rename), so a reader never sees a half-written file; generated samples streamed with
-//! direct I/O (`stream`); clutter stacks cut from scenes (`cut`); output folders the tool owns
+//! direct I/O (`stream`); clutter stacks cut from scenes (`cut`); UAVSAR single-look complex scenes and
+//! their annotations (`uavsar`); output folders the tool owns
 //! (`outdir`: claim, lock, completeness; `journal`: what the tool wrote there).
 
 pub mod atomic;
@@ -13,6 +14,7 @@ pub mod netcdf;
 pub mod npy;
 pub mod outdir;
 pub mod stream;
+pub mod uavsar;
 
 /// What identifies a file's content without reading it: device, inode, size, and the
 /// modification and change times in nanoseconds (the change time cannot be set back by a

@@ -1,11 +1,13 @@
 //! File formats: everything of the core crate's [`isar_clutter_core::io`] (`.npy`, `.mat`,
-//! NetCDF, model folders, atomic writes, output folders and their journal), re-exported under
-//! the same paths, the runner's Parquet tables ([`parquet`]), which the core crate leaves
-//! out so that it compiles without polars, the job store's fragments ([`frame`]), big tables written a row group at a time ([`groups`]), and the results
-//! folder's contract: its tables ([`results`]) and its manifest ([`manifest`]).
+//! NetCDF, UAVSAR scenes, model folders, atomic writes, output folders and their journal),
+//! re-exported under the same paths, the runner's Parquet tables ([`parquet`]), which the core
+//! crate leaves out so that it compiles without polars, the job store's fragments ([`frame`]),
+//! big tables written a row group at a time ([`groups`]), and the results folder's contract:
+//! its tables ([`results`]) and its manifest ([`manifest`]).
 
 pub use isar_clutter_core::io::{
-    atomic, cut, file_id, journal, mat, model, netcdf, npy, outdir, stream, strip_bom, FileId,
+    atomic, cut, file_id, journal, mat, model, netcdf, npy, outdir, stream, strip_bom, uavsar,
+    FileId,
 };
 
 pub mod frame;

@@ -108,6 +108,9 @@ pub enum DataError {
     /// A stack does not fit in memory.
     #[error(transparent)]
     Alloc(#[from] crate::alloc::AllocError),
+    /// A UAVSAR scene cannot be read.
+    #[error(transparent)]
+    Uavsar(#[from] crate::io::uavsar::UavsarError),
 }
 
 /// Simulated k-space data an analysis job writes (`kspace/<job>.npy`, with the frequencies in

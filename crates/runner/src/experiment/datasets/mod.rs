@@ -19,6 +19,7 @@ mod npy;
 mod raw;
 mod registry;
 mod spec;
+mod uavsar;
 mod vegetation;
 
 pub use cost::{
@@ -34,4 +35,5 @@ pub use npy::NpyDataset;
 pub use raw::RawDataset;
 pub use registry::{Dataset, KindSpec};
 pub use spec::DatasetSpec;
+pub use uavsar::{Paths, UavsarDataset, WindowSpec};
 pub use vegetation::{MeasurementSpec, VegetationDataset};

@@ -172,4 +172,5 @@ register! {
     Netcdf(super::netcdf::NetcdfDataset),
     Vegetation(super::vegetation::VegetationDataset),
     Kspace(super::kspace::KspaceDataset),
+    Uavsar(super::uavsar::UavsarDataset),
 }

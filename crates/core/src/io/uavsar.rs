@@ -1,0 +1,503 @@
+//! UAVSAR single-look complex scenes as NASA JPL's UAVSAR project distributes them: the pixels
+//! in a `.slc` file (little-endian complex64, real then imaginary, row after row: the rows
+//! along track, the columns across) and their sizes in the flight line's annotation file
+//! (`.ann`: `key (unit) = value ; comment` lines, `;` starting a comment line). A window of a
+//! scene is read a row at a time, so a stack of windows from scenes of any size holds only the
+//! windows in memory.
+
+use num_complex::Complex64;
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+/// Why a UAVSAR file cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum UavsarError {
+    /// The file cannot be opened or read.
+    #[error("cannot read {path}: {cause}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause (in the message, so that a chain printed with `{:#}` says it once).
+        cause: std::io::Error,
+    },
+    /// An annotation field is missing or not a size.
+    #[error("{path}: field `{field}` {reason}")]
+    Field {
+        /// The annotation file.
+        path: PathBuf,
+        /// The field's key.
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The `.slc` file's length is not the annotation's rows x columns complex64 values.
+    #[error(
+        "{path} holds {bytes} bytes; its annotation {annotation} gives {rows} rows x {cols} \
+         columns of complex64 values, {want} bytes (a truncated download, or another segment's \
+         or product's annotation)"
+    )]
+    Size {
+        /// The `.slc` file.
+        path: PathBuf,
+        /// Its length.
+        bytes: u64,
+        /// The annotation file.
+        annotation: PathBuf,
+        /// Rows the annotation gives.
+        rows: usize,
+        /// Columns the annotation gives.
+        cols: usize,
+        /// The length they need.
+        want: u64,
+    },
+}
+
+/// An annotation file's fields, in file order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Annotation {
+    /// The file.
+    pub path: PathBuf,
+    /// `(key, value)`: the key without its `(unit)`, the value without its `; comment`.
+    pub fields: Vec<(String, String)>,
+}
+
+impl Annotation {
+    /// Reads and parses the annotation file at `path`.
+    ///
+    /// # Errors
+    /// [`UavsarError::Io`] if it cannot be read (or is not text).
+    pub fn read(path: &Path) -> Result<Annotation, UavsarError> {
+        let io = |cause| UavsarError::Io {
+            path: path.to_path_buf(),
+            cause,
+        };
+        let bytes = std::fs::read(path).map_err(io)?;
+        let text = String::from_utf8_lossy(&bytes);
+        Ok(Annotation::parse(path, super::strip_bom(&text)))
+    }
+
+    /// The fields of annotation `text` (read from `path`): each line `key (unit) = value ;
+    /// comment`, blank lines and lines starting with `;` skipped.
+    pub fn parse(path: &Path, text: &str) -> Annotation {
+        let fields = text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.starts_with(';'))
+            .filter_map(|l| {
+                let (key, value) = l.split_once('=')?;
+                let key = key.split_once('(').map_or(key, |(k, _)| k).trim();
+                let value = value.split_once(';').map_or(value, |(v, _)| v).trim();
+                Some((key.to_string(), value.to_string()))
+            })
+            .collect();
+        Annotation {
+            path: path.to_path_buf(),
+            fields,
+        }
+    }
+
+    /// The value of `key` (compared without case), the first where it repeats.
+    pub fn get(&self, key: &str) -> Option<&str> {
+        self.fields
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case(key))
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// A size field: a positive whole number (written as an integer or a float).
+    fn size(&self, key: &str) -> Result<usize, UavsarError> {
+        let field = |reason: String| UavsarError::Field {
+            path: self.path.clone(),
+            field: key.to_string(),
+            reason,
+        };
+        let text = self
+            .get(key)
+            .ok_or_else(|| field("is missing (is this the scene's annotation?)".into()))?;
+        let x: f64 = text
+            .parse()
+            .map_err(|_| field(format!("is {text:?}, not a number")))?;
+        if !(x >= 1.0 && x.fract() == 0.0 && x <= 1e9) {
+            return Err(field(format!("is {text}, not a size in 1..=1e9")));
+        }
+        Ok(x as usize)
+    }
+
+    /// `(rows, columns)` of segment `segment`'s full-resolution SLC (`slc_<segment>_1x1 Rows`
+    /// and `... Columns`).
+    ///
+    /// # Errors
+    /// [`UavsarError::Field`] naming the missing or bad field.
+    pub fn slc_dims(&self, segment: usize) -> Result<(usize, usize), UavsarError> {
+        Ok((
+            self.size(&format!("slc_{segment}_1x1 Rows"))?,
+            self.size(&format!("slc_{segment}_1x1 Columns"))?,
+        ))
+    }
+}
+
+/// The segment of an SLC file named `..._s<k>_1x1.slc` (UAVSAR's naming), else 1.
+pub fn segment_of(slc: &Path) -> usize {
+    slc_base(slc).map_or(1, |(_, k)| k)
+}
+
+/// `(name before _s<k>, k)` of a file named `<name>_s<k>_1x1.slc`.
+fn slc_base(slc: &Path) -> Option<(String, usize)> {
+    let stem = slc.file_stem()?.to_str()?;
+    let rest = stem.strip_suffix("_1x1")?;
+    let (name, seg) = rest.rsplit_once("_s")?;
+    Some((name.to_string(), seg.parse().ok()?))
+}
+
+/// Where the annotation of `slc` is looked for, in order: UAVSAR's naming (`<name>.ann` beside
+/// `<name>_s<k>_1x1.slc`), then the file's own stem (`<stem>.ann`).
+pub fn annotation_candidates(slc: &Path) -> Vec<PathBuf> {
+    let mut out = vec![];
+    if let Some((name, _)) = slc_base(slc) {
+        out.push(slc.with_file_name(format!("{name}.ann")));
+    }
+    out.push(slc.with_extension("ann"));
+    out
+}
+
+/// A window of a scene: its first row and column and its size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Window {
+    /// First row (along track).
+    pub row: usize,
+    /// First column (across track).
+    pub col: usize,
+    /// Rows.
+    pub rows: usize,
+    /// Columns.
+    pub cols: usize,
+}
+
+impl Window {
+    /// Whether the window lies inside a scene of `(rows, cols)`.
+    pub fn fits(&self, (rows, cols): (usize, usize)) -> bool {
+        self.row
+            .checked_add(self.rows)
+            .is_some_and(|end| end <= rows)
+            && self
+                .col
+                .checked_add(self.cols)
+                .is_some_and(|end| end <= cols)
+    }
+}
+
+/// Checks that `slc` holds `dims` complex64 values, as its `annotation` says.
+///
+/// # Errors
+/// [`UavsarError::Io`] if it cannot be read, [`UavsarError::Size`] if its length differs.
+pub fn check_length(
+    slc: &Path,
+    annotation: &Path,
+    (rows, cols): (usize, usize),
+) -> Result<(), UavsarError> {
+    let bytes = std::fs::metadata(slc)
+        .map_err(|cause| UavsarError::Io {
+            path: slc.to_path_buf(),
+            cause,
+        })?
+        .len();
+    let want = (rows as u64).saturating_mul(cols as u64).saturating_mul(8);
+    if bytes != want {
+        return Err(UavsarError::Size {
+            path: slc.to_path_buf(),
+            bytes,
+            annotation: annotation.to_path_buf(),
+            rows,
+            cols,
+            want,
+        });
+    }
+    Ok(())
+}
+
+/// Reads `window` of the scene in `slc` (`cols` columns a row) into `out` (`window.rows x
+/// window.cols` values, row-major), a row at a time.
+///
+/// # Errors
+/// [`UavsarError::Io`] if the file cannot be read (or ends early).
+pub fn read_window(
+    slc: &Path,
+    cols: usize,
+    window: &Window,
+    out: &mut [Complex64],
+) -> Result<(), UavsarError> {
+    assert_eq!(out.len(), window.rows * window.cols, "the window's values");
+    let io = |cause| UavsarError::Io {
+        path: slc.to_path_buf(),
+        cause,
+    };
+    let mut file = std::fs::File::open(slc).map_err(io)?;
+    let mut row = vec![0u8; 8 * window.cols];
+    for (r, line) in out.chunks_exact_mut(window.cols.max(1)).enumerate() {
+        let at = ((window.row + r) as u64 * cols as u64 + window.col as u64) * 8;
+        file.seek(SeekFrom::Start(at)).map_err(io)?;
+        file.read_exact(&mut row).map_err(io)?;
+        for (z, b) in line.iter_mut().zip(row.chunks_exact(8)) {
+            let re = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            let im = f32::from_le_bytes([b[4], b[5], b[6], b[7]]);
+            *z = Complex64::new(re.into(), im.into());
+        }
+    }
+    Ok(())
+}
+
+/// A stack of coregistered scenes checked against their annotations: the same window of each
+/// is one sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneStack {
+    /// The scenes, one sample each.
+    pub slcs: Vec<PathBuf>,
+    /// Their annotation files.
+    pub annotations: Vec<PathBuf>,
+    /// Each scene's `(rows, columns)`.
+    pub dims: Vec<(usize, usize)>,
+    /// The window read from each.
+    pub window: Window,
+}
+
+/// What a [`SceneStack`] is refused for, and where: the field (`slc`, `annotation` or
+/// `window`) and, for a list, the index of the scene or annotation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StackError {
+    /// `slc`, `annotation` or `window`.
+    pub field: &'static str,
+    /// The index in the field's list (`None`: the field as a whole).
+    pub index: Option<usize>,
+    /// What is wrong, naming the file.
+    pub message: String,
+}
+
+impl std::fmt::Display for StackError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.index {
+            Some(i) => write!(f, "{}[{i}]: {}", self.field, self.message),
+            None => write!(f, "{}: {}", self.field, self.message),
+        }
+    }
+}
+
+impl SceneStack {
+    /// Opens `slcs` with their `annotations` (none: each scene's own, by UAVSAR's naming,
+    /// [`annotation_candidates`]; one: for every scene; else one per scene): reads each
+    /// annotation, checks each file's length against it and `window` (default: the whole
+    /// scene, every scene then of one size) against every scene.
+    ///
+    /// # Errors
+    /// A [`StackError`] naming the field, the scene and the file.
+    pub fn open(
+        slcs: &[PathBuf],
+        annotations: &[PathBuf],
+        window: Option<Window>,
+    ) -> Result<SceneStack, StackError> {
+        let err = |field, index, message: String| StackError {
+            field,
+            index,
+            message,
+        };
+        if slcs.is_empty() {
+            return Err(err("slc", None, "name at least one .slc file".into()));
+        }
+        if annotations.len() > 1 && annotations.len() != slcs.len() {
+            return Err(err(
+                "annotation",
+                None,
+                format!(
+                    "lists {} annotation file(s) for {} scene(s): give one for all, or one per \
+                     scene",
+                    annotations.len(),
+                    slcs.len()
+                ),
+            ));
+        }
+        let (mut anns, mut dims) = (vec![], vec![]);
+        for (i, slc) in slcs.iter().enumerate() {
+            let (path, field, index) = match annotations.len() {
+                0 => {
+                    let tried = annotation_candidates(slc);
+                    let found = tried.iter().find(|p| p.is_file()).cloned();
+                    let found = found.ok_or_else(|| {
+                        let tried: Vec<String> =
+                            tried.iter().map(|p| p.display().to_string()).collect();
+                        err(
+                            "slc",
+                            Some(i),
+                            format!(
+                                "no annotation file found for {} (tried {}); give `annotation`",
+                                slc.display(),
+                                tried.join(", ")
+                            ),
+                        )
+                    })?;
+                    (found, "slc", Some(i))
+                }
+                1 => (annotations[0].clone(), "annotation", None),
+                _ => (annotations[i].clone(), "annotation", Some(i)),
+            };
+            let d = Annotation::read(&path)
+                .and_then(|a| a.slc_dims(segment_of(slc)))
+                .map_err(|e| err(field, index, e.to_string()))?;
+            check_length(slc, &path, d).map_err(|e| err("slc", Some(i), e.to_string()))?;
+            anns.push(path);
+            dims.push(d);
+        }
+        let window = match window {
+            Some(w) => w,
+            None => {
+                if let Some(i) = dims.iter().position(|d| *d != dims[0]) {
+                    return Err(err(
+                        "slc",
+                        Some(i),
+                        format!(
+                            "{} is {} x {} where {} is {} x {}: give a window inside every scene",
+                            slcs[i].display(),
+                            dims[i].0,
+                            dims[i].1,
+                            slcs[0].display(),
+                            dims[0].0,
+                            dims[0].1
+                        ),
+                    ));
+                }
+                Window {
+                    row: 0,
+                    col: 0,
+                    rows: dims[0].0,
+                    cols: dims[0].1,
+                }
+            }
+        };
+        if window.rows == 0 || window.cols == 0 {
+            return Err(err(
+                "window",
+                None,
+                "its size must be at least 1 x 1".into(),
+            ));
+        }
+        if let Some(i) = dims.iter().position(|d| !window.fits(*d)) {
+            return Err(err(
+                "window",
+                None,
+                format!(
+                    "rows {}..{} x columns {}..{} is outside {} ({} x {})",
+                    window.row,
+                    window.row.saturating_add(window.rows),
+                    window.col,
+                    window.col.saturating_add(window.cols),
+                    slcs[i].display(),
+                    dims[i].0,
+                    dims[i].1
+                ),
+            ));
+        }
+        Ok(SceneStack {
+            slcs: slcs.to_vec(),
+            annotations: anns,
+            dims,
+            window,
+        })
+    }
+
+    /// `(N, H, W)`: the scenes and the window's size.
+    pub fn shape(&self) -> (usize, usize, usize) {
+        (self.slcs.len(), self.window.rows, self.window.cols)
+    }
+
+    /// Reads the window of every scene into `out` (`N x H x W` values, sample after sample).
+    ///
+    /// # Errors
+    /// [`UavsarError::Io`] if a file cannot be read.
+    pub fn read_into(&self, out: &mut [Complex64]) -> Result<(), UavsarError> {
+        let pixels = self.window.rows * self.window.cols;
+        assert_eq!(out.len(), self.slcs.len() * pixels, "the stack's values");
+        for ((slc, d), sample) in self
+            .slcs
+            .iter()
+            .zip(&self.dims)
+            .zip(out.chunks_exact_mut(pixels.max(1)))
+        {
+            read_window(slc, d.1, &self.window, sample)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn annotation_lines_give_keys_without_units_and_values_without_comments() {
+        let a = Annotation::parse(
+            Path::new("x.ann"),
+            "; a comment = not a field\n\
+             slc_1_1x1 Rows                (pixels)   = 8460   ; samples along track\n\
+             slc_1_1x1 Columns             (pixels)   = 3300.0\n\
+             Center Wavelength             (cm)       = 23.8403545\n\
+             Site Description              (&)        = Brazos River, TX\n",
+        );
+        assert_eq!(a.slc_dims(1).unwrap(), (8460, 3300));
+        assert_eq!(a.get("center wavelength"), Some("23.8403545"));
+        assert_eq!(a.get("Site Description"), Some("Brazos River, TX"));
+        assert_eq!(a.get("a comment"), None);
+        let e = a.slc_dims(2).unwrap_err().to_string();
+        assert!(e.contains("x.ann") && e.contains("slc_2_1x1 Rows"), "{e}");
+        let bad = Annotation::parse(Path::new("y.ann"), "slc_1_1x1 Rows = 12.5\n");
+        let e = bad.slc_dims(1).unwrap_err().to_string();
+        assert!(e.contains("slc_1_1x1 Rows") && e.contains("12.5"), "{e}");
+    }
+
+    #[test]
+    fn segments_and_annotations_follow_uavsar_names() {
+        let slc = Path::new("/d/SanAnd_08525_14084_011_140515_L090HH_03_BC_s2_1x1.slc");
+        assert_eq!(segment_of(slc), 2);
+        assert_eq!(
+            annotation_candidates(slc)[0],
+            Path::new("/d/SanAnd_08525_14084_011_140515_L090HH_03_BC.ann")
+        );
+        assert_eq!(segment_of(Path::new("scene.slc")), 1);
+        assert_eq!(
+            annotation_candidates(Path::new("scene.slc")),
+            [PathBuf::from("scene.ann")]
+        );
+    }
+
+    #[test]
+    fn a_window_is_read_as_the_slow_oracle_indexes_it() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let (rows, cols) = (7, 9);
+        let values: Vec<(f32, f32)> = (0..rows * cols)
+            .map(|_| (rng.random(), rng.random()))
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let slc = dir.path().join("s.slc");
+        let bytes: Vec<u8> = values
+            .iter()
+            .flat_map(|(re, im)| [re.to_le_bytes(), im.to_le_bytes()].concat())
+            .collect();
+        std::fs::write(&slc, bytes).unwrap();
+        check_length(&slc, Path::new("s.ann"), (rows, cols)).unwrap();
+        let e = check_length(&slc, Path::new("s.ann"), (rows, cols + 1)).unwrap_err();
+        assert!(e.to_string().contains("s.ann"), "{e}");
+        let w = Window {
+            row: 2,
+            col: 3,
+            rows: 4,
+            cols: 5,
+        };
+        assert!(w.fits((rows, cols)) && !w.fits((5, cols)));
+        let mut out = vec![Complex64::default(); 20];
+        read_window(&slc, cols, &w, &mut out).unwrap();
+        for r in 0..4 {
+            for c in 0..5 {
+                let (re, im) = values[(2 + r) * cols + 3 + c];
+                assert_eq!(out[r * 5 + c], Complex64::new(re.into(), im.into()));
+            }
+        }
+    }
+}

@@ -1,0 +1,181 @@
+//! The `uavsar` dataset kind: UAVSAR single-look complex scenes (`.slc`, little-endian
+//! complex64) with their sizes from the flight line's annotation (`.ann`); one scene is one
+//! sample, so a list of coregistered scenes (a time stack) is a clutter stack, each read in the
+//! same window (`window`, default the whole scene). The files are checked against their
+//! annotations at validation: a truncated file, a wrong or missing annotation field, or a
+//! window outside a scene is refused naming the file and the field.
+
+use super::cost::{file_sizes, Cost, Sizes, C128};
+use super::kind::{DataError, DatasetKind, Materialised};
+use crate::alloc::try_zeros;
+use crate::experiment::context::{Ctx, SpecError};
+use crate::io::npy::Stack;
+use crate::io::uavsar::{SceneStack, Window};
+use ndarray::Array3;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// One path, or a list of them.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum Paths {
+    /// One file.
+    One(PathBuf),
+    /// Several files, in order.
+    Many(Vec<PathBuf>),
+}
+
+impl Paths {
+    /// The paths, in order.
+    fn list(&self) -> Vec<PathBuf> {
+        match self {
+            Paths::One(p) => vec![p.clone()],
+            Paths::Many(v) => v.clone(),
+        }
+    }
+}
+
+/// The window of every scene read: its first row (along track) and column (across track), and
+/// its size `[H, W]`.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct WindowSpec {
+    /// First row.
+    pub row: usize,
+    /// First column.
+    pub col: usize,
+    /// `[rows, columns]`.
+    pub size: [usize; 2],
+}
+
+/// The fields of a `uavsar` dataset as written.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Spec {
+    /// The `.slc` file, or a list of coregistered ones (a stack over time: one sample each),
+    /// relative to the spec file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slc: Option<Paths>,
+    /// The annotation file: one for every scene, or a list with one per scene (default: each
+    /// scene's own, `<name>.ann` beside `<name>_s<k>_1x1.slc`, else `<stem>.ann`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub annotation: Option<Paths>,
+    /// The window read from every scene (default: the whole scene, every scene then of one
+    /// size).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window: Option<WindowSpec>,
+}
+
+/// A validated `uavsar` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UavsarDataset {
+    /// The scenes, checked against their annotations, and the window read from each.
+    pub stack: SceneStack,
+}
+
+impl DatasetKind for UavsarDataset {
+    const NAME: &'static str = "uavsar";
+    const FIELDS: &'static [&'static str] = &["slc", "annotation", "window"];
+    const SAMPLES_FIELD: &'static str = "slc";
+    type Spec = Spec;
+
+    fn applies(_: &Spec) -> &'static [&'static str] {
+        Self::FIELDS
+    }
+
+    /// Reads every scene's annotation, checks its file's length against it and the window
+    /// against every scene.
+    fn check(spec: &Spec, ctx: &Ctx, at: &str) -> Result<Self, SpecError> {
+        let slc = spec.slc.as_ref().ok_or_else(|| {
+            ctx.err(
+                format!("{at}.slc"),
+                "kind uavsar needs `slc` (a file or a list)",
+            )
+        })?;
+        let resolved =
+            |p: &Paths| -> Vec<PathBuf> { p.list().iter().map(|p| ctx.resolve(p)).collect() };
+        let window = spec.window.map(|w| Window {
+            row: w.row,
+            col: w.col,
+            rows: w.size[0],
+            cols: w.size[1],
+        });
+        let annotations = spec.annotation.as_ref().map(resolved).unwrap_or_default();
+        let stack = SceneStack::open(&resolved(slc), &annotations, window).map_err(|e| {
+            // An index into a field written as one path names the field.
+            let listed = match e.field {
+                "slc" => matches!(slc, Paths::Many(_)),
+                "annotation" => matches!(spec.annotation, Some(Paths::Many(_))),
+                _ => false,
+            };
+            let path = match e.index.filter(|_| listed) {
+                Some(i) => format!("{at}.{}[{i}]", e.field),
+                None => format!("{at}.{}", e.field),
+            };
+            ctx.err(path, e.message)
+        })?;
+        Ok(UavsarDataset { stack })
+    }
+
+    fn shape(&self) -> (usize, usize, usize) {
+        self.stack.shape()
+    }
+
+    fn input_files(&self) -> Vec<PathBuf> {
+        let s = &self.stack;
+        s.slcs.iter().chain(&s.annotations).cloned().collect()
+    }
+
+    fn worth_sharing(&self) -> bool {
+        true
+    }
+
+    fn redrawable(&self) -> Option<bool> {
+        None
+    }
+
+    fn kspace_grid(&self) -> Option<(usize, usize)> {
+        None
+    }
+
+    fn known_filter(&self) -> Option<usize> {
+        None
+    }
+
+    fn sizes(&self, at: &str, s: &mut Sizes) {
+        file_sizes(at, self.shape(), s);
+    }
+
+    fn cost(&self) -> Cost {
+        let (n, h, w) = self.shape();
+        let np = n as f64 * h as f64 * w as f64;
+        // The complex128 stack, filled a row of a window at a time.
+        Cost {
+            peak: C128 * np,
+            kept: C128 * np,
+            flops: 2.0 * np,
+            ..Cost::default()
+        }
+    }
+
+    fn redraw_cost(&self, _: usize) -> Cost {
+        Cost::default()
+    }
+
+    fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
+        let mut out: Array3<Complex64> = try_zeros(self.shape(), "the uavsar stack")?;
+        self.stack
+            .read_into(out.as_slice_mut().expect("standard layout"))?;
+        Ok(Materialised::plain(Stack::Generated(out), false))
+    }
+
+    fn redraw(
+        &self,
+        _: usize,
+        _: u64,
+        _: &Materialised,
+    ) -> Option<Result<Array3<Complex64>, DataError>> {
+        None
+    }
+}

@@ -1,0 +1,46 @@
+//! The native readers behind `isar_clutter.load`: radar scenes in the field's formats as numpy
+//! arrays, checked as the command line's dataset kinds check them (UAVSAR `.slc` stacks:
+//! `load_uavsar`, the `uavsar` kind's checks in the core's `io::uavsar`).
+
+use isar_clutter_core::io::uavsar::{SceneStack, Window};
+use ndarray::Array3;
+use num_complex::{Complex32, Complex64};
+use numpy::{IntoPyArray, PyArray3};
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// load_uavsar(slcs, annotations, window=None)
+/// --
+///
+/// The same window `(row, col, rows, cols)` of every UAVSAR scene in `slcs` (default: the
+/// whole scene), as a complex64 `[N, H, W]` array, sizes from `annotations` (none: each
+/// scene's own; one: for all; else one per scene). A bad file is a `ValueError` naming the
+/// field, the scene and the file; an unreadable one an `OSError`.
+#[pyfunction]
+#[pyo3(signature = (slcs, annotations, window = None))]
+pub fn load_uavsar<'py>(
+    py: Python<'py>,
+    slcs: Vec<PathBuf>,
+    annotations: Vec<PathBuf>,
+    window: Option<(usize, usize, usize, usize)>,
+) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
+    let window = window.map(|(row, col, rows, cols)| Window {
+        row,
+        col,
+        rows,
+        cols,
+    });
+    let stack = SceneStack::open(&slcs, &annotations, window)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let mut out: Array3<Complex64> =
+        isar_clutter_core::alloc::try_zeros(stack.shape(), "the UAVSAR stack")
+            .map_err(|e| PyMemoryError::new_err(e.to_string()))?;
+    let values = out.as_slice_mut().expect("standard layout");
+    py.detach(|| stack.read_into(values))
+        .map_err(|e| PyOSError::new_err(e.to_string()))?;
+    // complex64 in the file, so the round trip through complex128 is exact.
+    Ok(out
+        .mapv(|z| Complex32::new(z.re as f32, z.im as f32))
+        .into_pyarray(py))
+}

@@ -1,0 +1,170 @@
+//! The `uavsar` dataset kind against files it did not write: UAVSAR scenes and annotations
+//! written by numpy (`tests/uavsar/make_fixtures.py`, run at test time in the project's
+//! virtualenv `.venv`) give, in a window, the analysis the same pixels give when numpy reads
+//! them and saves them as `.npy`, value for value; a truncated scene, an annotation without a
+//! size, a window outside a scene and a list of annotations of the wrong length are refused at
+//! validation, naming the file and the field.
+
+mod common;
+use common::{bin, text};
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The fixture folder in `dir`; `None` (skip) without numpy in `.venv`.
+fn fixtures(dir: &Path) -> Option<PathBuf> {
+    let python = common::venv_python(&["numpy"])?;
+    let out = dir.join("fixtures");
+    let o = Command::new(&python)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/uavsar/make_fixtures.py"))
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "make_fixtures.py failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    Some(out)
+}
+
+/// The three scenes' file names.
+fn scenes() -> Vec<String> {
+    (0..3)
+        .map(|k| format!("fixtures/testsite_0{k}_L090HH_01_BC_s1_1x1.slc"))
+        .collect()
+}
+
+/// A spec analysing the dataset `dataset` (a flow mapping's fields after `id`).
+fn spec(dir: &Path, name: &str, dataset: &str) -> PathBuf {
+    let path = dir.join(format!("{name}.yaml"));
+    std::fs::write(
+        &path,
+        format!("name: {name}\nseed: 3\ndatasets:\n  - {{id: scene, {dataset}}}\nanalysis:\n  levels: 2\n"),
+    )
+    .unwrap();
+    path
+}
+
+/// The stack of UAVSAR windows, as `kind: uavsar` fields.
+fn uavsar_fields(extra: &str) -> String {
+    format!(
+        "kind: uavsar, slc: [{}], window: {{row: 5, col: 7, size: [16, 16]}}{extra}",
+        scenes().join(", ")
+    )
+}
+
+#[test]
+fn a_uavsar_window_stack_is_analysed_as_numpy_reads_its_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(_) = fixtures(dir.path()) else {
+        return;
+    };
+    let runs = [
+        ("uavsar", uavsar_fields("")),
+        ("npy", "kind: npy, path: fixtures/window.npy".to_string()),
+    ]
+    .map(|(name, fields)| {
+        let s = spec(dir.path(), name, &fields);
+        let out = dir.path().join(format!("out_{name}"));
+        let o = bin(&[
+            "run",
+            s.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--no-report",
+        ]);
+        assert!(o.status.success(), "{name}: {}", text(&o));
+        out
+    });
+    let (a, b) = (common::tables(&runs[0]), common::tables(&runs[1]));
+    let names: Vec<&String> = a.keys().filter(|n| !n.starts_with("jobs")).collect();
+    assert!(names.len() >= 3, "tables: {names:?}");
+    for n in names {
+        assert!(
+            a[n].equals_missing(&b[n]),
+            "{n} differs:\n{}\n{}",
+            a[n],
+            b[n]
+        );
+    }
+}
+
+#[test]
+fn bad_uavsar_files_are_refused_naming_the_file_and_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let refused = |name: &str, fields: &str| -> String {
+        let s = spec(dir.path(), name, fields);
+        let o = bin(&["validate", s.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", text(&o));
+        text(&o)
+    };
+    // The whole stack validates.
+    let s = spec(dir.path(), "good", &uavsar_fields(""));
+    let o = bin(&["validate", s.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    // A truncated scene.
+    let slc = fx.join("testsite_01_L090HH_01_BC_s1_1x1.slc");
+    let bytes = std::fs::read(&slc).unwrap();
+    std::fs::write(&slc, &bytes[..bytes.len() - 8]).unwrap();
+    let e = refused("truncated", &uavsar_fields(""));
+    assert!(
+        e.contains("datasets[0].slc[1]")
+            && e.contains("testsite_01_L090HH_01_BC_s1_1x1.slc")
+            && e.contains("9592 bytes")
+            && e.contains("40 rows x 30 columns"),
+        "{e}"
+    );
+    std::fs::write(&slc, &bytes).unwrap();
+    // An annotation without the scene's columns.
+    let ann = fx.join("testsite_02_L090HH_01_BC.ann");
+    let text_ann = std::fs::read_to_string(&ann).unwrap();
+    let cut: String = text_ann
+        .lines()
+        .filter(|l| !l.starts_with("slc_1_1x1 Columns"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&ann, cut).unwrap();
+    let e = refused("no_columns", &uavsar_fields(""));
+    assert!(
+        e.contains("datasets[0].slc[2]")
+            && e.contains("testsite_02_L090HH_01_BC.ann")
+            && e.contains("slc_1_1x1 Columns")
+            && e.contains("missing"),
+        "{e}"
+    );
+    std::fs::write(&ann, text_ann).unwrap();
+    // A window outside the scenes.
+    let e = refused(
+        "outside",
+        &format!(
+            "kind: uavsar, slc: {}, window: {{row: 30, col: 0, size: [16, 16]}}",
+            scenes()[0]
+        ),
+    );
+    assert!(
+        e.contains("datasets[0].window") && e.contains("rows 30..46") && e.contains("40 x 30"),
+        "{e}"
+    );
+    // Two annotations for three scenes.
+    let e = refused(
+        "annotations",
+        &uavsar_fields(", annotation: [fixtures/testsite_00_L090HH_01_BC.ann, fixtures/testsite_01_L090HH_01_BC.ann]"),
+    );
+    assert!(
+        e.contains("datasets[0].annotation") && e.contains("2 annotation file(s) for 3 scene(s)"),
+        "{e}"
+    );
+    // A scene without an annotation beside it.
+    std::fs::rename(&ann, fx.join("elsewhere.ann")).unwrap();
+    let e = refused("no_annotation", &uavsar_fields(""));
+    assert!(
+        e.contains("datasets[0].slc[2]")
+            && e.contains("no annotation file found")
+            && e.contains("testsite_02_L090HH_01_BC.ann"),
+        "{e}"
+    );
+}
