@@ -316,60 +316,13 @@ impl SceneStack {
         }
         let (mut anns, mut dims) = (vec![], vec![]);
         for (i, slc) in slcs.iter().enumerate() {
-            let (path, field, index) = match annotations.len() {
-                0 => {
-                    let tried = annotation_candidates(slc);
-                    let found = tried.iter().find(|p| p.is_file()).cloned();
-                    let found = found.ok_or_else(|| {
-                        let tried: Vec<String> =
-                            tried.iter().map(|p| p.display().to_string()).collect();
-                        err(
-                            "slc",
-                            Some(i),
-                            format!(
-                                "no annotation file found for {} (tried {}); give `annotation`",
-                                slc.display(),
-                                tried.join(", ")
-                            ),
-                        )
-                    })?;
-                    (found, "slc", Some(i))
-                }
-                1 => (annotations[0].clone(), "annotation", None),
-                _ => (annotations[i].clone(), "annotation", Some(i)),
-            };
-            let d = Annotation::read(&path)
-                .and_then(|a| a.slc_dims(segment_of(slc)))
-                .map_err(|e| err(field, index, e.to_string()))?;
-            check_length(slc, &path, d).map_err(|e| err("slc", Some(i), e.to_string()))?;
+            let (path, d) = scene_size(slc, i, annotations)?;
             anns.push(path);
             dims.push(d);
         }
         let window = match window {
             Some(w) => w,
-            None => {
-                if let Some(i) = dims.iter().position(|d| *d != dims[0]) {
-                    return Err(err(
-                        "slc",
-                        Some(i),
-                        format!(
-                            "{} is {} x {} where {} is {} x {}: give a window inside every scene",
-                            slcs[i].display(),
-                            dims[i].0,
-                            dims[i].1,
-                            slcs[0].display(),
-                            dims[0].0,
-                            dims[0].1
-                        ),
-                    ));
-                }
-                Window {
-                    row: 0,
-                    col: 0,
-                    rows: dims[0].0,
-                    cols: dims[0].1,
-                }
-            }
+            None => whole_scene(slcs, &dims)?,
         };
         if window.rows == 0 || window.cols == 0 {
             return Err(err(
@@ -424,6 +377,71 @@ impl SceneStack {
         }
         Ok(())
     }
+}
+
+/// The annotation of scene `i` (`slc`; see [`SceneStack::open`] for `annotations`), and the
+/// scene's `(rows, columns)` from it, its file's length checked.
+fn scene_size(
+    slc: &Path,
+    i: usize,
+    annotations: &[PathBuf],
+) -> Result<(PathBuf, (usize, usize)), StackError> {
+    let err = |field, index, message: String| StackError {
+        field,
+        index,
+        message,
+    };
+    let (path, field, index) = match annotations.len() {
+        0 => {
+            let tried = annotation_candidates(slc);
+            let found = tried.iter().find(|p| p.is_file()).cloned();
+            let found = found.ok_or_else(|| {
+                let tried: Vec<String> = tried.iter().map(|p| p.display().to_string()).collect();
+                err(
+                    "slc",
+                    Some(i),
+                    format!(
+                        "no annotation file found for {} (tried {}); give `annotation`",
+                        slc.display(),
+                        tried.join(", ")
+                    ),
+                )
+            })?;
+            (found, "slc", Some(i))
+        }
+        1 => (annotations[0].clone(), "annotation", None),
+        _ => (annotations[i].clone(), "annotation", Some(i)),
+    };
+    let d = Annotation::read(&path)
+        .and_then(|a| a.slc_dims(segment_of(slc)))
+        .map_err(|e| err(field, index, e.to_string()))?;
+    check_length(slc, &path, d).map_err(|e| err("slc", Some(i), e.to_string()))?;
+    Ok((path, d))
+}
+
+/// The whole scene as the window, when every scene of `slcs` (of `dims`) has one size.
+fn whole_scene(slcs: &[PathBuf], dims: &[(usize, usize)]) -> Result<Window, StackError> {
+    if let Some(i) = dims.iter().position(|d| *d != dims[0]) {
+        return Err(StackError {
+            field: "slc",
+            index: Some(i),
+            message: format!(
+                "{} is {} x {} where {} is {} x {}: give a window inside every scene",
+                slcs[i].display(),
+                dims[i].0,
+                dims[i].1,
+                slcs[0].display(),
+                dims[0].0,
+                dims[0].1
+            ),
+        });
+    }
+    Ok(Window {
+        row: 0,
+        col: 0,
+        rows: dims[0].0,
+        cols: dims[0].1,
+    })
 }
 
 #[cfg(test)]

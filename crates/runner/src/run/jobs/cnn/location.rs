@@ -9,7 +9,7 @@ use super::common::{
 };
 use crate::apps::cnn::classification::Source;
 use crate::apps::cnn::location::{self, Split, TargetKind, TestSet};
-use crate::apps::cnn::train::train_on_device;
+use crate::apps::cnn::train::{train_on_device, Trained};
 use crate::experiment::datasets::{C128, C64};
 use crate::experiment::Materialised;
 use crate::experiment::{DataRef, LocationPlan};
@@ -27,6 +27,10 @@ use num_complex::{Complex32, Complex64};
 use polars::prelude::*;
 use serde_json::json;
 use std::sync::Arc;
+
+/// A test set's reading of a training: the set, the accuracy, its samples, its confusion
+/// counts.
+type Tested = (TestSet, f64, usize, Vec<Vec<usize>>);
 
 /// The `test_set` value of rows tested on `set`.
 fn test_set_value(set: TestSet) -> &'static str {
@@ -156,6 +160,56 @@ impl LocationJob {
             }
         })
     }
+
+    /// The training's rows of `location.parquet`: one per test set (`tests`: the set, its
+    /// accuracy, its samples and confusion), the training's columns repeated; `train_n`: the
+    /// training samples, `generated` how many of them were generated.
+    fn rows(
+        &self,
+        trained: &Trained,
+        tests: &[Tested],
+        (train_n, generated): (usize, usize),
+        p_c: f64,
+    ) -> Result<DataFrame> {
+        let k = tests.len();
+        Ok(DataFrame::new_infer_height(vec![
+            Column::new(col::JOB.into(), vec![self.id.as_str(); k]),
+            Column::new(col::TARGET.into(), vec![self.target.as_str(); k]),
+            Column::new(col::METHOD.into(), vec![self.source.as_str(); k]),
+            Column::new(col::SCR_DB.into(), vec![self.scr_db; k]),
+            Column::new(col::REPEAT.into(), vec![self.repeat as i64; k]),
+            Column::new(col::SEED.into(), vec![self.seed; k]),
+            Column::new(
+                col::TEST_SET.into(),
+                tests
+                    .iter()
+                    .map(|t| test_set_value(t.0))
+                    .collect::<Vec<_>>(),
+            ),
+            Column::new(col::TRAIN_ACCURACY.into(), vec![trained.train_accuracy; k]),
+            Column::new(
+                col::VALIDATION_ACCURACY.into(),
+                vec![nan_none(trained.validation_accuracy); k],
+            ),
+            Column::new(
+                col::TEST_ACCURACY.into(),
+                tests.iter().map(|t| t.1).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                col::TEST_SAMPLES.into(),
+                tests.iter().map(|t| t.2 as i64).collect::<Vec<_>>(),
+            ),
+            Column::new(col::EPOCHS.into(), vec![trained.epochs.len() as i64; k]),
+            Column::new(col::TRAIN_SECONDS.into(), vec![trained.seconds; k]),
+            Column::new(
+                col::TRAIN_SAMPLES_PER_SECOND.into(),
+                vec![trained.samples_per_second; k],
+            ),
+            Column::new(col::TRAIN_SAMPLES.into(), vec![train_n as i64; k]),
+            Column::new(col::TRAIN_GENERATED.into(), vec![generated as i64; k]),
+            Column::new(col::CLUTTER_POWER.into(), vec![p_c; k]),
+        ])?)
+    }
 }
 
 impl JobKind for LocationJob {
@@ -274,45 +328,7 @@ impl JobKind for LocationJob {
             crate::io::atomic::write_npy(&path, &location::examples(&train_set, h, w))?;
             files.push(path);
         }
-        // One row per test set, the training's columns repeated.
-        let k = tests.len();
-        let row = DataFrame::new_infer_height(vec![
-            Column::new(col::JOB.into(), vec![self.id.as_str(); k]),
-            Column::new(col::TARGET.into(), vec![self.target.as_str(); k]),
-            Column::new(col::METHOD.into(), vec![self.source.as_str(); k]),
-            Column::new(col::SCR_DB.into(), vec![self.scr_db; k]),
-            Column::new(col::REPEAT.into(), vec![self.repeat as i64; k]),
-            Column::new(col::SEED.into(), vec![self.seed; k]),
-            Column::new(
-                col::TEST_SET.into(),
-                tests
-                    .iter()
-                    .map(|t| test_set_value(t.0))
-                    .collect::<Vec<_>>(),
-            ),
-            Column::new(col::TRAIN_ACCURACY.into(), vec![trained.train_accuracy; k]),
-            Column::new(
-                col::VALIDATION_ACCURACY.into(),
-                vec![nan_none(trained.validation_accuracy); k],
-            ),
-            Column::new(
-                col::TEST_ACCURACY.into(),
-                tests.iter().map(|t| t.1).collect::<Vec<_>>(),
-            ),
-            Column::new(
-                col::TEST_SAMPLES.into(),
-                tests.iter().map(|t| t.2 as i64).collect::<Vec<_>>(),
-            ),
-            Column::new(col::EPOCHS.into(), vec![trained.epochs.len() as i64; k]),
-            Column::new(col::TRAIN_SECONDS.into(), vec![trained.seconds; k]),
-            Column::new(
-                col::TRAIN_SAMPLES_PER_SECOND.into(),
-                vec![trained.samples_per_second; k],
-            ),
-            Column::new(col::TRAIN_SAMPLES.into(), vec![train_set.len() as i64; k]),
-            Column::new(col::TRAIN_GENERATED.into(), vec![(generated / 2) as i64; k]),
-            Column::new(col::CLUTTER_POWER.into(), vec![p_c; k]),
-        ])?;
+        let row = self.rows(&trained, &tests, (train_set.len(), generated / 2), p_c)?;
         // The confusion counts are those of the first test set listed.
         let confusion = &tests.first().expect("at least one test set").3;
         let mut tables = vec![(LOCATION, row)];
