@@ -551,7 +551,8 @@ fn figures(s: &mut String, dissertation: &Dissertation, stated: &[Stated]) {
                     if st.bounded > 0 {
                         over = format!(
                             "{over}; a lower bound in {} of them: the level was already \
-                             reached at the lowest point swept",
+                             reached at the lowest point swept, or not yet at the highest by \
+                             the network compared with",
                             st.bounded
                         );
                     }
