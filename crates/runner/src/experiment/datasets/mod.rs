@@ -11,6 +11,7 @@
 
 mod cost;
 mod filtered_noise;
+mod hdf5;
 mod kind;
 mod kspace;
 mod mat;
@@ -27,6 +28,7 @@ pub use cost::{
     C128, C64, USUAL_GRID, USUAL_HALF_WIDTH, USUAL_IMAGE_SIZE, USUAL_PIXELS, USUAL_SAMPLES,
 };
 pub use filtered_noise::{filter_bank, generate, Family, FilterParams, FilteredNoise};
+pub use hdf5::Hdf5Dataset;
 pub use kind::{DataError, DatasetKind, Layout, Materialised, SavedKspace};
 pub use kspace::{KspaceDataset, Vector};
 pub use mat::MatDataset;

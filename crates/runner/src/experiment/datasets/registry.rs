@@ -173,4 +173,5 @@ register! {
     Vegetation(super::vegetation::VegetationDataset),
     Kspace(super::kspace::KspaceDataset),
     Uavsar(super::uavsar::UavsarDataset),
+    Hdf5(super::hdf5::Hdf5Dataset),
 }

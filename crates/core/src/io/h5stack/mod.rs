@@ -1,0 +1,68 @@
+//! Complex image stacks in HDF5 files (h5py's files, and the products of NISAR, ICEYE and OPERA
+//! that store single-look complex data in HDF5). A stack is one dataset at a path in the file,
+//! `[N, H, W]` (or `[H, W, N]`), whose elements are complex (a compound of two numbers named
+//! `r`/`i`, as h5py and NISAR write them, `real`/`imag` or `re`/`im`), real (a second dataset
+//! of the same shape may hold the imaginary parts), or float pairs (a last dimension of 2:
+//! real, imaginary). Read with libhdf5 through `hdf5-metno` in a build with the cargo feature
+//! `mat73` (`read.rs`), the samples one at a time (a hyperslab each, chunked and compressed
+//! datasets included), so memory holds the stack and one sample, never the file; a build
+//! without it refuses such a stack, saying so.
+
+use num_complex::Complex64;
+use std::path::Path;
+
+#[cfg(feature = "mat73")]
+mod read;
+mod types;
+
+pub use types::{Form, H5Stack, OpenError};
+
+impl H5Stack {
+    /// Opens the stack `dataset` of `path` (with the imaginary parts in `imag`, for real
+    /// data; samples last with `hwn`).
+    ///
+    /// # Errors
+    /// The field and what is wrong, naming the file and the dataset: not HDF5 (or
+    /// truncated), no such dataset (the file's top-level members listed), not numbers, not a
+    /// stack's shape, `imag` of another shape or given for complex data; in a build without
+    /// HDF5, that.
+    pub fn open(
+        path: &Path,
+        dataset: &str,
+        imag: Option<&str>,
+        hwn: bool,
+    ) -> Result<H5Stack, OpenError> {
+        #[cfg(feature = "mat73")]
+        {
+            read::open(path, dataset, imag, hwn)
+        }
+        #[cfg(not(feature = "mat73"))]
+        {
+            let _ = (dataset, imag, hwn);
+            Err((
+                "path",
+                format!(
+                    "{}: this build reads no HDF5 (build with the `mat73` feature: make build)",
+                    path.display()
+                ),
+            ))
+        }
+    }
+
+    /// Reads the stack into `out` (`N x H x W` values, sample after sample), a sample at a
+    /// time.
+    ///
+    /// # Errors
+    /// What libhdf5 says, naming the file and the dataset.
+    pub fn read_into(&self, out: &mut [Complex64]) -> Result<(), String> {
+        #[cfg(feature = "mat73")]
+        {
+            read::read_into(self, out)
+        }
+        #[cfg(not(feature = "mat73"))]
+        {
+            let _ = out;
+            Err(format!("{}: this build reads no HDF5", self.path.display()))
+        }
+    }
+}

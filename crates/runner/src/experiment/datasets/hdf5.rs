@@ -1,0 +1,135 @@
+//! The `hdf5` dataset kind: a stack in an HDF5 file (h5py's files; NISAR, ICEYE or OPERA
+//! products), one dataset at a path in the file: complex compounds, real numbers (with the
+//! imaginary parts in `imag`, or none) or float pairs, `[N, H, W]` or `[H, W, N]` with
+//! `layout: hwn`; checked at validation (the dataset, its element type and shape), read a
+//! sample at a time by the core's `io::h5stack` (a build with the `mat73` feature, which links
+//! libhdf5).
+
+use super::cost::{file_sizes, Cost, Sizes, C128};
+use super::kind::{DataError, DatasetKind, Layout, Materialised};
+use crate::alloc::try_zeros;
+use crate::experiment::context::{Ctx, SpecError};
+use crate::io::h5stack::H5Stack;
+use crate::io::npy::{NpyError, Stack};
+use ndarray::Array3;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// The fields of an `hdf5` dataset as written.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Spec {
+    /// Path of the file, relative to the spec file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathBuf>,
+    /// The stack's dataset in the file (`/science/LSAR/SLC/HH`, or a top-level name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<String>,
+    /// The dataset of the imaginary parts, for a real `dataset`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imag: Option<String>,
+    /// Axis order (`nhw` default, `hwn`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout: Option<Layout>,
+}
+
+/// A validated `hdf5` dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hdf5Dataset {
+    /// The stack, checked.
+    pub stack: H5Stack,
+}
+
+impl DatasetKind for Hdf5Dataset {
+    const NAME: &'static str = "hdf5";
+    const FIELDS: &'static [&'static str] = &["path", "dataset", "imag", "layout"];
+    const SAMPLES_FIELD: &'static str = "dataset";
+    type Spec = Spec;
+
+    fn applies(_: &Spec) -> &'static [&'static str] {
+        Self::FIELDS
+    }
+
+    fn check(spec: &Spec, ctx: &Ctx, at: &str) -> Result<Self, SpecError> {
+        let need = |key: &str, what: &str| {
+            ctx.err(
+                format!("{at}.{key}"),
+                format!("kind hdf5 needs `{key}` ({what})"),
+            )
+        };
+        let rel = spec.path.as_ref().ok_or_else(|| need("path", "the file"))?;
+        let dataset = spec
+            .dataset
+            .as_deref()
+            .ok_or_else(|| need("dataset", "the stack's path in the file"))?;
+        let hwn = spec.layout.unwrap_or_default() == Layout::Hwn;
+        let stack = H5Stack::open(&ctx.resolve(rel), dataset, spec.imag.as_deref(), hwn)
+            .map_err(|(field, message)| ctx.err(format!("{at}.{field}"), message))?;
+        Ok(Hdf5Dataset { stack })
+    }
+
+    fn shape(&self) -> (usize, usize, usize) {
+        self.stack.shape()
+    }
+
+    fn input_files(&self) -> Vec<PathBuf> {
+        vec![self.stack.path.clone()]
+    }
+
+    fn worth_sharing(&self) -> bool {
+        true
+    }
+
+    fn redrawable(&self) -> Option<bool> {
+        None
+    }
+
+    fn kspace_grid(&self) -> Option<(usize, usize)> {
+        None
+    }
+
+    fn known_filter(&self) -> Option<usize> {
+        None
+    }
+
+    fn sizes(&self, at: &str, s: &mut Sizes) {
+        file_sizes(at, self.shape(), s);
+    }
+
+    fn cost(&self) -> Cost {
+        let (n, h, w) = self.shape();
+        let np = n as f64 * h as f64 * w as f64;
+        // The complex128 stack and one sample as libhdf5 hands it over.
+        Cost {
+            peak: C128 * (np + 2.0 * h as f64 * w as f64),
+            kept: C128 * np,
+            flops: 2.0 * np,
+            ..Cost::default()
+        }
+    }
+
+    fn redraw_cost(&self, _: usize) -> Cost {
+        Cost::default()
+    }
+
+    fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
+        let mut out: Array3<Complex64> = try_zeros(self.shape(), "the hdf5 stack")?;
+        self.stack
+            .read_into(out.as_slice_mut().expect("standard layout"))
+            .map_err(|reason| NpyError::Data {
+                path: self.stack.path.clone(),
+                reason,
+            })?;
+        Ok(Materialised::plain(Stack::Generated(out), false))
+    }
+
+    fn redraw(
+        &self,
+        _: usize,
+        _: u64,
+        _: &Materialised,
+    ) -> Option<Result<Array3<Complex64>, DataError>> {
+        None
+    }
+}

@@ -1,0 +1,145 @@
+//! The `hdf5` dataset kind against files it did not write (`tests/hdf5/make_fixtures.py`,
+//! h5py in the project's virtualenv `.venv`, run at test time): one stack stored as h5py's
+//! complex compound (chunked, gzip), as float pairs, as real and imaginary datasets and with
+//! the samples last gives, in each form, the analysis the same pixels give as `.npy` (read back
+//! by h5py), value for value; a missing dataset, strings, a single scene, an imaginary part of
+//! another shape and a truncated file are refused at validation naming the file and the field.
+#![cfg(feature = "mat73")]
+
+mod common;
+use common::{bin, text};
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The fixture folder in `dir`; `None` (skip) without h5py in `.venv`.
+fn fixtures(dir: &Path) -> Option<PathBuf> {
+    let python = common::venv_python(&["numpy", "h5py"])?;
+    let out = dir.join("fixtures");
+    let o = Command::new(&python)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/hdf5/make_fixtures.py"))
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "make_fixtures.py failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    Some(out)
+}
+
+/// A spec analysing the dataset `fields` (a flow mapping's fields after `id`).
+fn spec(dir: &Path, name: &str, fields: &str) -> PathBuf {
+    let path = dir.join(format!("{name}.yaml"));
+    std::fs::write(
+        &path,
+        format!(
+            "name: {name}\nseed: 3\ndatasets:\n  - {{id: stack, {fields}}}\nanalysis:\n  levels: 2\n"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn every_form_of_an_hdf5_stack_is_analysed_as_its_pixels_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(_) = fixtures(dir.path()) else {
+        return;
+    };
+    let h5 = "kind: hdf5, path: fixtures/stack.h5";
+    let forms = [
+        ("npy", "kind: npy, path: fixtures/stack.npy".to_string()),
+        ("compound", format!("{h5}, dataset: /science/slc/HH")),
+        ("pairs", format!("{h5}, dataset: pairs")),
+        ("parts", format!("{h5}, dataset: /re, imag: /im")),
+        ("hwn", format!("{h5}, dataset: hwn, layout: hwn")),
+    ];
+    let mut tables = vec![];
+    for (name, fields) in &forms {
+        let s = spec(dir.path(), name, fields);
+        let out = dir.path().join(format!("out_{name}"));
+        let o = bin(&[
+            "run",
+            s.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--no-report",
+        ]);
+        assert!(o.status.success(), "{name}: {}", text(&o));
+        tables.push(common::tables(&out));
+    }
+    let names: Vec<&String> = tables[0]
+        .keys()
+        .filter(|n| !n.starts_with("jobs"))
+        .collect();
+    assert!(names.len() >= 3, "tables: {names:?}");
+    for (k, (form, _)) in forms.iter().enumerate().skip(1) {
+        for n in &names {
+            assert!(
+                tables[0][*n].equals_missing(&tables[k][*n]),
+                "{form}: {n} differs:\n{}\n{}",
+                tables[0][*n],
+                tables[k][*n]
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_hdf5_stacks_are_refused_naming_the_file_and_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(_) = fixtures(dir.path()) else {
+        return;
+    };
+    let refused = |name: &str, fields: &str| -> String {
+        let s = spec(dir.path(), name, fields);
+        let o = bin(&["validate", s.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", text(&o));
+        text(&o)
+    };
+    let h5 = "kind: hdf5, path: fixtures/stack.h5";
+    for (name, fields, want) in [
+        (
+            "missing",
+            format!("{h5}, dataset: /science/slc/VV"),
+            &[
+                "datasets[0].dataset",
+                "stack.h5",
+                "no dataset \"/science/slc/VV\"",
+                "science",
+            ][..],
+        ),
+        (
+            "text",
+            format!("{h5}, dataset: text"),
+            &["datasets[0].dataset", "\"text\" holds", "not numbers"][..],
+        ),
+        (
+            "scene",
+            format!("{h5}, dataset: scene"),
+            &["datasets[0].dataset", "[16, 12]", "isar-clutter cut"][..],
+        ),
+        (
+            "imag",
+            format!("{h5}, dataset: re, imag: im_short"),
+            &["datasets[0].imag", "[3, 16, 12]", "one shape"][..],
+        ),
+        (
+            "truncated",
+            "kind: hdf5, path: fixtures/truncated.h5, dataset: pairs".to_string(),
+            &["datasets[0].path", "truncated.h5", "libhdf5 cannot open it"][..],
+        ),
+        (
+            "no_dataset",
+            h5.to_string(),
+            &["datasets[0].dataset", "kind hdf5 needs `dataset`"][..],
+        ),
+    ] {
+        let e = refused(name, &fields);
+        for w in want {
+            assert!(e.contains(w), "{name}: {w:?} not in {e}");
+        }
+    }
+}

@@ -1,0 +1,42 @@
+"""HDF5 fixtures for tests/hdf5.rs, written with h5py and numpy (not by the tool).
+
+`stack.h5` holds one complex64 stack [4, 16, 12] in the forms HDF5 files use:
+`/science/slc/HH` (h5py's complex compound {r, i}, chunked a sample at a time and gzip
+compressed), `/pairs` (float32 [4, 16, 12, 2]: real, imaginary), `/re` and `/im` (float64
+real and imaginary parts), `/hwn` (complex128 [16, 12, 4], samples last); and what the
+refusals need: `/text` (strings), `/scene` (a single [16, 12] scene), `/im_short` (float64 of
+another shape). `stack.npy` is the stack as h5py reads `/science/slc/HH` back; `truncated.h5`
+the first half of `stack.h5`'s bytes.
+
+Usage: python make_fixtures.py OUT_DIR
+"""
+
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+
+def main(out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(20261129)
+    shape = (4, 16, 12)
+    x = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)).astype(np.complex64)
+    with h5py.File(out / "stack.h5", "w") as f:
+        f.create_dataset("science/slc/HH", data=x, chunks=(1, 16, 12), compression="gzip")
+        f["pairs"] = np.stack([x.real, x.imag], axis=-1).astype(np.float32)
+        f["re"] = x.real.astype(np.float64)
+        f["im"] = x.imag.astype(np.float64)
+        f["hwn"] = np.ascontiguousarray(np.transpose(x, (1, 2, 0))).astype(np.complex128)
+        f["text"] = np.array([b"abc"] * 6).reshape(1, 2, 3)
+        f["scene"] = x[0]
+        f["im_short"] = x.imag[:3].astype(np.float64)
+    with h5py.File(out / "stack.h5", "r") as f:
+        np.save(out / "stack.npy", f["science/slc/HH"][...])
+    data = (out / "stack.h5").read_bytes()
+    (out / "truncated.h5").write_bytes(data[: len(data) // 2])
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]))
