@@ -10,23 +10,14 @@ mod common;
 use common::{bin, text};
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-/// The fixture folder in `dir`; `None` (skip) without h5py in `.venv`.
+/// The fixture folder in `dir`; `None` (skip) without numpy, h5py in `.venv`.
 fn fixtures(dir: &Path) -> Option<PathBuf> {
-    let python = common::venv_python(&["numpy", "h5py"])?;
-    let out = dir.join("fixtures");
-    let o = Command::new(&python)
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/hdf5/make_fixtures.py"))
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "make_fixtures.py failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    Some(out)
+    common::python_fixtures(
+        "tests/hdf5/make_fixtures.py",
+        &["numpy", "h5py"],
+        &dir.join("fixtures"),
+    )
 }
 
 /// A spec analysing the dataset `fields` (a flow mapping's fields after `id`).

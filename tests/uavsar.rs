@@ -9,23 +9,14 @@ mod common;
 use common::{bin, text};
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// The fixture folder in `dir`; `None` (skip) without numpy in `.venv`.
 fn fixtures(dir: &Path) -> Option<PathBuf> {
-    let python = common::venv_python(&["numpy"])?;
-    let out = dir.join("fixtures");
-    let o = Command::new(&python)
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/uavsar/make_fixtures.py"))
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "make_fixtures.py failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    Some(out)
+    common::python_fixtures(
+        "tests/uavsar/make_fixtures.py",
+        &["numpy"],
+        &dir.join("fixtures"),
+    )
 }
 
 /// The three scenes' file names.

@@ -108,6 +108,27 @@ pub fn venv_python(modules: &[&str]) -> Option<std::path::PathBuf> {
     None
 }
 
+/// Runs the fixture script `script` (relative to the project) with the virtualenv's Python
+/// (which must import `modules`) to fill `out`; `None` (skip) where [`venv_python`] says so.
+pub fn python_fixtures(
+    script: &str,
+    modules: &[&str],
+    out: &std::path::Path,
+) -> Option<std::path::PathBuf> {
+    let python = venv_python(modules)?;
+    let o = std::process::Command::new(&python)
+        .arg(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(script))
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{script} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    Some(out.to_path_buf())
+}
+
 /// The tool's binary, as cargo built it for the integration tests.
 pub const BIN: &str = env!("CARGO_BIN_EXE_isar-clutter");
 
