@@ -4,7 +4,7 @@
 
 use isar_clutter_core::io::uavsar::{SceneStack, Window};
 use ndarray::Array3;
-use num_complex::{Complex32, Complex64};
+use num_complex::Complex32;
 use numpy::{IntoPyArray, PyArray3};
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -33,14 +33,11 @@ pub fn load_uavsar<'py>(
     });
     let stack = SceneStack::open(&slcs, &annotations, window)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let mut out: Array3<Complex64> =
+    let mut out: Array3<Complex32> =
         isar_clutter_core::alloc::try_zeros(stack.shape(), "the UAVSAR stack")
             .map_err(|e| PyMemoryError::new_err(e.to_string()))?;
     let values = out.as_slice_mut().expect("standard layout");
     py.detach(|| stack.read_into(values))
         .map_err(|e| PyOSError::new_err(e.to_string()))?;
-    // complex64 in the file, so the round trip through complex128 is exact.
-    Ok(out
-        .mapv(|z| Complex32::new(z.re as f32, z.im as f32))
-        .into_pyarray(py))
+    Ok(out.into_pyarray(py))
 }

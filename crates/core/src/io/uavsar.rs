@@ -5,7 +5,7 @@
 //! scene is read a row at a time, so a stack of windows from scenes of any size holds only the
 //! windows in memory.
 
-use num_complex::Complex64;
+use num_complex::Complex32;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
@@ -216,7 +216,7 @@ pub fn check_length(
 }
 
 /// Reads `window` of the scene in `slc` (`cols` columns a row) into `out` (`window.rows x
-/// window.cols` values, row-major), a row at a time.
+/// window.cols` values, row-major, as stored: complex64), a row at a time.
 ///
 /// # Errors
 /// [`UavsarError::Io`] if the file cannot be read (or ends early).
@@ -224,7 +224,7 @@ pub fn read_window(
     slc: &Path,
     cols: usize,
     window: &Window,
-    out: &mut [Complex64],
+    out: &mut [Complex32],
 ) -> Result<(), UavsarError> {
     assert_eq!(out.len(), window.rows * window.cols, "the window's values");
     let io = |cause| UavsarError::Io {
@@ -240,7 +240,7 @@ pub fn read_window(
         for (z, b) in line.iter_mut().zip(row.chunks_exact(8)) {
             let re = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
             let im = f32::from_le_bytes([b[4], b[5], b[6], b[7]]);
-            *z = Complex64::new(re.into(), im.into());
+            *z = Complex32::new(re, im);
         }
     }
     Ok(())
@@ -360,11 +360,12 @@ impl SceneStack {
         (self.slcs.len(), self.window.rows, self.window.cols)
     }
 
-    /// Reads the window of every scene into `out` (`N x H x W` values, sample after sample).
+    /// Reads the window of every scene into `out` (`N x H x W` values, sample after sample),
+    /// in the files' single precision.
     ///
     /// # Errors
     /// [`UavsarError::Io`] if a file cannot be read.
-    pub fn read_into(&self, out: &mut [Complex64]) -> Result<(), UavsarError> {
+    pub fn read_into(&self, out: &mut [Complex32]) -> Result<(), UavsarError> {
         let pixels = self.window.rows * self.window.cols;
         assert_eq!(out.len(), self.slcs.len() * pixels, "the stack's values");
         for ((slc, d), sample) in self
@@ -509,12 +510,12 @@ mod tests {
             cols: 5,
         };
         assert!(w.fits((rows, cols)) && !w.fits((5, cols)));
-        let mut out = vec![Complex64::default(); 20];
+        let mut out = vec![Complex32::default(); 20];
         read_window(&slc, cols, &w, &mut out).unwrap();
         for r in 0..4 {
             for c in 0..5 {
                 let (re, im) = values[(2 + r) * cols + 3 + c];
-                assert_eq!(out[r * 5 + c], Complex64::new(re.into(), im.into()));
+                assert_eq!(out[r * 5 + c], Complex32::new(re, im));
             }
         }
     }
