@@ -2,7 +2,8 @@
 //! arrays, checked as the command line's dataset kinds check them (UAVSAR `.slc` stacks:
 //! `load_uavsar`, the `uavsar` kind's checks in the core's `io::uavsar`).
 
-use isar_clutter_core::io::uavsar::{SceneStack, Window};
+use isar_clutter_core::io::cut::Window;
+use isar_clutter_core::io::uavsar::SceneStack;
 use ndarray::Array3;
 use num_complex::Complex32;
 use numpy::{IntoPyArray, PyArray3};
@@ -25,12 +26,7 @@ pub fn load_uavsar<'py>(
     annotations: Vec<PathBuf>,
     window: Option<(usize, usize, usize, usize)>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    let window = window.map(|(row, col, rows, cols)| Window {
-        row,
-        col,
-        rows,
-        cols,
-    });
+    let window = window.map(|(row, col, rows, cols)| Window::at(row, col, rows, cols));
     let stack = SceneStack::open(&slcs, &annotations, window)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let mut out: Array3<Complex32> =

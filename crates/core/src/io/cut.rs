@@ -15,7 +15,8 @@ use anyhow::{bail, Context, Result};
 use num_complex::{Complex, Complex32};
 use std::path::{Path, PathBuf};
 
-/// A rectangle of pixels, rows `r0..r1` and columns `c0..c1` (half-open, from 0).
+/// A rectangle of pixels, rows `r0..r1` and columns `c0..c1` (half-open, from 0): a cut's
+/// window and boxes to avoid, and the window of a UAVSAR stack ([`super::uavsar`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct Window {
     /// First row.
@@ -52,6 +53,42 @@ impl std::str::FromStr for Window {
 }
 
 impl Window {
+    /// The whole of a scene of `h x w` pixels.
+    pub fn whole(h: usize, w: usize) -> Window {
+        Window {
+            r0: 0,
+            r1: h,
+            c0: 0,
+            c1: w,
+        }
+    }
+
+    /// The `rows x cols` pixels from `(row, col)` (an end past `usize::MAX` saturates, so that
+    /// [`Window::inside`] refuses it).
+    pub fn at(row: usize, col: usize, rows: usize, cols: usize) -> Window {
+        Window {
+            r0: row,
+            r1: row.saturating_add(rows),
+            c0: col,
+            c1: col.saturating_add(cols),
+        }
+    }
+
+    /// Rows.
+    pub fn rows(&self) -> usize {
+        self.r1 - self.r0
+    }
+
+    /// Columns.
+    pub fn cols(&self) -> usize {
+        self.c1 - self.c0
+    }
+
+    /// Whether the window lies inside a scene of `h x w` pixels.
+    pub fn inside(&self, h: usize, w: usize) -> bool {
+        self.r1 <= h && self.c1 <= w
+    }
+
     fn overlaps(&self, other: &Window) -> bool {
         self.r0 < other.r1 && other.r0 < self.r1 && self.c0 < other.c1 && other.c0 < self.c1
     }
@@ -147,13 +184,8 @@ pub fn unmasked(
 /// # Errors
 /// When the window leaves the scene or holds no patch, naming the sizes.
 pub fn places(h: usize, w: usize, o: &CutOptions) -> Result<Vec<(usize, usize)>> {
-    let win = o.window.unwrap_or(Window {
-        r0: 0,
-        r1: h,
-        c0: 0,
-        c1: w,
-    });
-    if win.r1 > h || win.c1 > w {
+    let win = o.window.unwrap_or(Window::whole(h, w));
+    if !win.inside(h, w) {
         bail!(
             "--window {}:{},{}:{} leaves the {h}x{w} scene",
             win.r0,

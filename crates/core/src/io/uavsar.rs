@@ -5,6 +5,7 @@
 //! scene is read a row at a time, so a stack of windows from scenes of any size holds only the
 //! windows in memory.
 
+use super::cut::Window;
 use num_complex::Complex32;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
@@ -160,32 +161,6 @@ pub fn annotation_candidates(slc: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// A window of a scene: its first row and column and its size.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Window {
-    /// First row (along track).
-    pub row: usize,
-    /// First column (across track).
-    pub col: usize,
-    /// Rows.
-    pub rows: usize,
-    /// Columns.
-    pub cols: usize,
-}
-
-impl Window {
-    /// Whether the window lies inside a scene of `(rows, cols)`.
-    pub fn fits(&self, (rows, cols): (usize, usize)) -> bool {
-        self.row
-            .checked_add(self.rows)
-            .is_some_and(|end| end <= rows)
-            && self
-                .col
-                .checked_add(self.cols)
-                .is_some_and(|end| end <= cols)
-    }
-}
-
 /// Checks that `slc` holds `dims` complex64 values, as its `annotation` says.
 ///
 /// # Errors
@@ -215,8 +190,8 @@ pub fn check_length(
     Ok(())
 }
 
-/// Reads `window` of the scene in `slc` (`cols` columns a row) into `out` (`window.rows x
-/// window.cols` values, row-major, as stored: complex64), a row at a time.
+/// Reads `window` of the scene in `slc` (`cols` columns a row) into `out` (the window's rows x
+/// columns values, row-major, as stored: complex64), a row at a time.
 ///
 /// # Errors
 /// [`UavsarError::Io`] if the file cannot be read (or ends early).
@@ -226,15 +201,19 @@ pub fn read_window(
     window: &Window,
     out: &mut [Complex32],
 ) -> Result<(), UavsarError> {
-    assert_eq!(out.len(), window.rows * window.cols, "the window's values");
+    assert_eq!(
+        out.len(),
+        window.rows() * window.cols(),
+        "the window's values"
+    );
     let io = |cause| UavsarError::Io {
         path: slc.to_path_buf(),
         cause,
     };
     let mut file = std::fs::File::open(slc).map_err(io)?;
-    let mut row = vec![0u8; 8 * window.cols];
-    for (r, line) in out.chunks_exact_mut(window.cols.max(1)).enumerate() {
-        let at = ((window.row + r) as u64 * cols as u64 + window.col as u64) * 8;
+    let mut row = vec![0u8; 8 * window.cols()];
+    for (r, line) in out.chunks_exact_mut(window.cols().max(1)).enumerate() {
+        let at = ((window.r0 + r) as u64 * cols as u64 + window.c0 as u64) * 8;
         file.seek(SeekFrom::Start(at)).map_err(io)?;
         file.read_exact(&mut row).map_err(io)?;
         for (z, b) in line.iter_mut().zip(row.chunks_exact(8)) {
@@ -324,23 +303,23 @@ impl SceneStack {
             Some(w) => w,
             None => whole_scene(slcs, &dims)?,
         };
-        if window.rows == 0 || window.cols == 0 {
+        if window.rows() == 0 || window.cols() == 0 {
             return Err(err(
                 "window",
                 None,
                 "its size must be at least 1 x 1".into(),
             ));
         }
-        if let Some(i) = dims.iter().position(|d| !window.fits(*d)) {
+        if let Some(i) = dims.iter().position(|d| !window.inside(d.0, d.1)) {
             return Err(err(
                 "window",
                 None,
                 format!(
                     "rows {}..{} x columns {}..{} is outside {} ({} x {})",
-                    window.row,
-                    window.row.saturating_add(window.rows),
-                    window.col,
-                    window.col.saturating_add(window.cols),
+                    window.r0,
+                    window.r1,
+                    window.c0,
+                    window.c1,
                     slcs[i].display(),
                     dims[i].0,
                     dims[i].1
@@ -357,7 +336,7 @@ impl SceneStack {
 
     /// `(N, H, W)`: the scenes and the window's size.
     pub fn shape(&self) -> (usize, usize, usize) {
-        (self.slcs.len(), self.window.rows, self.window.cols)
+        (self.slcs.len(), self.window.rows(), self.window.cols())
     }
 
     /// Reads the window of every scene into `out` (`N x H x W` values, sample after sample),
@@ -366,7 +345,7 @@ impl SceneStack {
     /// # Errors
     /// [`UavsarError::Io`] if a file cannot be read.
     pub fn read_into(&self, out: &mut [Complex32]) -> Result<(), UavsarError> {
-        let pixels = self.window.rows * self.window.cols;
+        let pixels = self.window.rows() * self.window.cols();
         assert_eq!(out.len(), self.slcs.len() * pixels, "the stack's values");
         for ((slc, d), sample) in self
             .slcs
@@ -437,12 +416,7 @@ fn whole_scene(slcs: &[PathBuf], dims: &[(usize, usize)]) -> Result<Window, Stac
             ),
         });
     }
-    Ok(Window {
-        row: 0,
-        col: 0,
-        rows: dims[0].0,
-        cols: dims[0].1,
-    })
+    Ok(Window::whole(dims[0].0, dims[0].1))
 }
 
 #[cfg(test)]
@@ -503,13 +477,8 @@ mod tests {
         check_length(&slc, Path::new("s.ann"), (rows, cols)).unwrap();
         let e = check_length(&slc, Path::new("s.ann"), (rows, cols + 1)).unwrap_err();
         assert!(e.to_string().contains("s.ann"), "{e}");
-        let w = Window {
-            row: 2,
-            col: 3,
-            rows: 4,
-            cols: 5,
-        };
-        assert!(w.fits((rows, cols)) && !w.fits((5, cols)));
+        let w = Window::at(2, 3, 4, 5);
+        assert!(w.inside(rows, cols) && !w.inside(5, cols));
         let mut out = vec![Complex32::default(); 20];
         read_window(&slc, cols, &w, &mut out).unwrap();
         for r in 0..4 {

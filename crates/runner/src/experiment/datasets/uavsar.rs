@@ -9,8 +9,9 @@ use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Materialised};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
+use crate::io::cut::Window;
 use crate::io::npy::Stack;
-use crate::io::uavsar::{SceneStack, Window};
+use crate::io::uavsar::SceneStack;
 use ndarray::Array3;
 use num_complex::{Complex32, Complex64};
 use serde::{Deserialize, Serialize};
@@ -95,12 +96,9 @@ impl DatasetKind for UavsarDataset {
         })?;
         let resolved =
             |p: &Paths| -> Vec<PathBuf> { p.list().iter().map(|p| ctx.resolve(p)).collect() };
-        let window = spec.window.map(|w| Window {
-            row: w.row,
-            col: w.col,
-            rows: w.size[0],
-            cols: w.size[1],
-        });
+        let window = spec
+            .window
+            .map(|w| Window::at(w.row, w.col, w.size[0], w.size[1]));
         let annotations = spec.annotation.as_ref().map(resolved).unwrap_or_default();
         let stack = SceneStack::open(&resolved(slc), &annotations, window).map_err(|e| {
             // An index into a field written as one path names the field.
