@@ -3,7 +3,7 @@
 //! SCR; repeats) summarised over repeats, and the representative training a group's figures
 //! show in detail. The tables ([`super::table`]) and figures read these.
 
-use super::super::table::{floats, kept_rows, strings};
+use super::super::table::{floats, kept_rows, optional_floats, optional_strings, strings};
 use crate::io::results::{col, value, CnnApp};
 use anyhow::{Context, Result};
 use std::path::Path;
@@ -148,33 +148,18 @@ pub(super) fn load(
         return Ok(None);
     };
     let context = || format!("reading {}", path.display());
-    let has = |c: &str| df.get_column_names().iter().any(|n| n.as_str() == c);
-    let optional_floats = |c: &str| -> Result<Vec<Option<f64>>> {
-        if has(c) {
-            floats(&df, c)
-        } else {
-            Ok(vec![None; df.height()])
-        }
-    };
     let job = strings(&df, col::JOB).with_context(context)?;
     let method = strings(&df, col::METHOD).with_context(context)?;
     let group = strings(&df, app.group_column()).with_context(context)?;
     let x = floats(&df, app.x_column()).with_context(context)?;
     let repeat = floats(&df, col::REPEAT).with_context(context)?;
     let test = floats(&df, col::TEST_ACCURACY).with_context(context)?;
-    let train = optional_floats(col::TRAIN_ACCURACY)?;
-    let validation = optional_floats(col::VALIDATION_ACCURACY)?;
-    let test_samples = optional_floats(col::TEST_SAMPLES)?;
-    let speed = optional_floats(col::TRAIN_SAMPLES_PER_SECOND)?;
-    let optional_strings = |c: &str| -> Result<Vec<Option<String>>> {
-        if has(c) {
-            strings(&df, c)
-        } else {
-            Ok(vec![None; df.height()])
-        }
-    };
-    let protocol = optional_strings(col::PROTOCOL)?;
-    let test_set = optional_strings(col::TEST_SET)?;
+    let train = optional_floats(&df, col::TRAIN_ACCURACY)?;
+    let validation = optional_floats(&df, col::VALIDATION_ACCURACY)?;
+    let test_samples = optional_floats(&df, col::TEST_SAMPLES)?;
+    let speed = optional_floats(&df, col::TRAIN_SAMPLES_PER_SECOND)?;
+    let protocol = optional_strings(&df, col::PROTOCOL)?;
+    let test_set = optional_strings(&df, col::TEST_SET)?;
     let first_set = (0..df.height())
         .find(|&i| keep[i])
         .and_then(|i| test_set[i].clone());

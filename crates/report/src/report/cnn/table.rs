@@ -251,21 +251,13 @@ type Summary = Vec<((String, String), [Option<f64>; 4])>;
 
 /// `location_summary.parquet`, if present.
 fn summary(dir: &Path) -> Result<Summary> {
-    use super::super::table::{floats, strings};
+    use super::super::table::{floats, optional_strings, strings};
     let path = results::LOCATION_SUMMARY.path(dir);
     let Some(df) = crate::io::parquet::read_parquet(&path)? else {
         return Ok(vec![]);
     };
     let (t, m) = (strings(&df, col::TARGET)?, strings(&df, col::METHOD)?);
-    let has_sets = df
-        .get_column_names()
-        .iter()
-        .any(|c| c.as_str() == col::TEST_SET);
-    let sets = if has_sets {
-        strings(&df, col::TEST_SET)?
-    } else {
-        vec![None; df.height()]
-    };
+    let sets = optional_strings(&df, col::TEST_SET)?;
     let cols = [
         col::SCR_50_DB,
         col::SCR_90_DB,

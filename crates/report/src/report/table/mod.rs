@@ -172,6 +172,36 @@ pub(super) fn strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>>
     Ok(s.str()?.iter().map(|v| v.map(str::to_string)).collect())
 }
 
+/// Column `name` as [`strings`], or all null where the table has no such column (one written
+/// before the column existed).
+///
+/// # Errors
+/// As [`strings`].
+pub(super) fn optional_strings(df: &DataFrame, name: &str) -> Result<Vec<Option<String>>> {
+    if has_column(df, name) {
+        strings(df, name)
+    } else {
+        Ok(vec![None; df.height()])
+    }
+}
+
+/// Column `name` as [`floats`], or all null where the table has no such column.
+///
+/// # Errors
+/// As [`floats`].
+pub(super) fn optional_floats(df: &DataFrame, name: &str) -> Result<Vec<Option<f64>>> {
+    if has_column(df, name) {
+        floats(df, name)
+    } else {
+        Ok(vec![None; df.height()])
+    }
+}
+
+/// Whether `df` has a column `name`.
+fn has_column(df: &DataFrame, name: &str) -> bool {
+    df.get_column_names().iter().any(|c| c.as_str() == name)
+}
+
 /// A column read as display strings in place (`None` for null): a row's value is borrowed
 /// with `get`, not copied (a sweep of 100,000 jobs has 3 million rows of `analysis_summary`).
 pub(super) fn texts(df: &DataFrame, name: &str) -> Result<StringChunked> {
