@@ -1,9 +1,10 @@
 //! The `hdf5` dataset kind against files it did not write (`tests/hdf5/make_fixtures.py`,
 //! h5py in the project's virtualenv `.venv`, run at test time): one stack stored as h5py's
-//! complex compound (chunked, gzip), as float pairs, as real and imaginary datasets and with
-//! the samples last gives, in each form, the analysis the same pixels give as `.npy` (read back
-//! by h5py), value for value; a missing dataset, strings, a single scene, an imaginary part of
-//! another shape and a truncated file are refused at validation naming the file and the field.
+//! complex compound (chunked, gzip), as MATLAB's `{real, imag}` compound, as float pairs, as
+//! real and imaginary datasets and with the samples last gives, in each form, the analysis the
+//! same pixels give as `.npy` (read back by h5py), value for value; a missing dataset,
+//! strings, a single scene, an imaginary part of another shape and a truncated file are
+//! refused at validation naming the file and the field.
 #![cfg(feature = "mat73")]
 
 mod common;
@@ -46,6 +47,7 @@ fn every_form_of_an_hdf5_stack_is_analysed_as_its_pixels_are() {
         ("pairs", format!("{h5}, dataset: pairs")),
         ("parts", format!("{h5}, dataset: /re, imag: /im")),
         ("hwn", format!("{h5}, dataset: hwn, layout: hwn")),
+        ("matlab", format!("{h5}, dataset: matlab")),
     ];
     let mut tables = vec![];
     for (name, fields) in &forms {

@@ -3,7 +3,8 @@
 `stack.h5` holds one complex64 stack [4, 16, 12] in the forms HDF5 files use:
 `/science/slc/HH` (h5py's complex compound {r, i}, chunked a sample at a time and gzip
 compressed), `/pairs` (float32 [4, 16, 12, 2]: real, imaginary), `/re` and `/im` (float64
-real and imaginary parts), `/hwn` (complex128 [16, 12, 4], samples last); and what the
+real and imaginary parts), `/hwn` (complex128 [16, 12, 4], samples last), `/matlab` (a
+compound of float32 `real` and `imag`, MATLAB's names); and what the
 refusals need: `/text` (strings), `/scene` (a single [16, 12] scene), `/im_short` (float64 of
 another shape). `stack.npy` is the stack as h5py reads `/science/slc/HH` back; `truncated.h5`
 the first half of `stack.h5`'s bytes.
@@ -29,6 +30,9 @@ def main(out: Path) -> None:
         f["re"] = x.real.astype(np.float64)
         f["im"] = x.imag.astype(np.float64)
         f["hwn"] = np.ascontiguousarray(np.transpose(x, (1, 2, 0))).astype(np.complex128)
+        parts = np.empty(shape, dtype=[("real", "<f4"), ("imag", "<f4")])
+        parts["real"], parts["imag"] = x.real, x.imag
+        f["matlab"] = parts
         f["text"] = np.array([b"abc"] * 6).reshape(1, 2, 3)
         f["scene"] = x[0]
         f["im_short"] = x.imag[:3].astype(np.float64)

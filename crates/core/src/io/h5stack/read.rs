@@ -2,6 +2,7 @@
 //! and the read of its samples, one hyperslab each, converted by libhdf5 to `f64`.
 
 use super::types::{Form, H5Stack, OpenError};
+use crate::io::mat::v73::{is_number, Parts};
 use hdf5_metno::types::{CompoundField, CompoundType, TypeDescriptor};
 use hdf5_metno::H5Type;
 use ndarray::{s, Array2, Array3};
@@ -9,7 +10,8 @@ use num_complex::Complex64;
 use std::path::Path;
 
 /// A compound of two `f64` with the field names `$re`, `$im`, read from a file's complex
-/// compound of those names (libhdf5 converts the numbers' widths).
+/// compound of those names (libhdf5 converts the numbers' widths); MATLAB's `{real, imag}`
+/// is the MAT v7.3 reader's [`Parts`].
 macro_rules! pair_type {
     ($name:ident, $re:literal, $im:literal) => {
         #[doc = concat!("A complex value as the compound `{", $re, ", ", $im, "}` holds it.")]
@@ -36,7 +38,6 @@ macro_rules! pair_type {
 }
 
 pair_type!(PairRI, "r", "i");
-pair_type!(PairRealImag, "real", "imag");
 pair_type!(PairReIm, "re", "im");
 
 /// The field names of the complex compounds read.
@@ -134,7 +135,7 @@ pub(super) fn read_into(st: &H5Stack, out: &mut [Complex64]) -> Result<(), Strin
         let values: Array2<Complex64> = match st.form {
             Form::Compound(0) => compound(&ds, k, hwn, |p: PairRI| Complex64::new(p.re, p.im)),
             Form::Compound(1) => {
-                compound(&ds, k, hwn, |p: PairRealImag| Complex64::new(p.re, p.im))
+                compound(&ds, k, hwn, |p: Parts<f64>| Complex64::new(p.real, p.imag))
             }
             Form::Compound(_) => compound(&ds, k, hwn, |p: PairReIm| Complex64::new(p.re, p.im)),
             Form::Real => {
@@ -189,19 +190,13 @@ fn shape_of(file: &hdf5_metno::File, name: &str) -> Result<(Form, [usize; 3]), S
         .and_then(|t| t.to_descriptor())
         .map_err(|e| format!("{name:?}: an unreadable element type: {}", h5(e)))?;
     let shape = ds.shape();
-    let number = |t: &TypeDescriptor| {
-        matches!(
-            t,
-            TypeDescriptor::Float(_) | TypeDescriptor::Integer(_) | TypeDescriptor::Unsigned(_)
-        )
-    };
     let form = match &t {
         TypeDescriptor::Compound(c) => {
             let names: Vec<&str> = c.fields.iter().map(|f| f.name.as_str()).collect();
             let i = COMPOUND_NAMES
                 .iter()
                 .position(|(re, im)| names == [*re, *im])
-                .filter(|_| c.fields.iter().all(|f| number(&f.ty)));
+                .filter(|_| c.fields.iter().all(|f| is_number(&f.ty)));
             Form::Compound(i.ok_or_else(|| {
                 format!(
                     "{name:?} holds a compound of {}; complex data are a compound of two \
@@ -210,8 +205,8 @@ fn shape_of(file: &hdf5_metno::File, name: &str) -> Result<(Form, [usize; 3]), S
                 )
             })?)
         }
-        t if number(t) && shape.len() == 4 && shape[3] == 2 => Form::Pairs,
-        t if number(t) => Form::Real,
+        t if is_number(t) && shape.len() == 4 && shape[3] == 2 => Form::Pairs,
+        t if is_number(t) => Form::Real,
         t => return Err(format!("{name:?} holds {t}, not numbers")),
     };
     let dims: Vec<usize> = match form {

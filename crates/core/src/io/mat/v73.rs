@@ -143,28 +143,25 @@ fn descriptor(ds: &hdf5_metno::Dataset) -> Result<TypeDescriptor, String> {
         .map_err(|e| format!("an unreadable data type: {}", h5(e)))
 }
 
+/// Whether an element type is a number: an integer or a float (HDF5 stacks read these too).
+pub(crate) fn is_number(t: &TypeDescriptor) -> bool {
+    matches!(
+        t,
+        TypeDescriptor::Float(_) | TypeDescriptor::Integer(_) | TypeDescriptor::Unsigned(_)
+    )
+}
+
 /// Whether a compound type is MATLAB's complex: numeric fields `real` and `imag`.
 fn is_complex(c: &CompoundType) -> bool {
-    let numeric = |name: &str| {
-        c.fields.iter().any(|f| {
-            f.name == name
-                && matches!(
-                    f.ty,
-                    TypeDescriptor::Float(_)
-                        | TypeDescriptor::Integer(_)
-                        | TypeDescriptor::Unsigned(_)
-                )
-        })
-    };
+    let numeric = |name: &str| c.fields.iter().any(|f| f.name == name && is_number(&f.ty));
     c.fields.len() == 2 && numeric("real") && numeric("imag")
 }
 
 /// Whether an element type holds numbers: integers, floats, or MATLAB's complex compound.
 fn is_numeric(t: &TypeDescriptor) -> bool {
     match t {
-        TypeDescriptor::Float(_) | TypeDescriptor::Integer(_) | TypeDescriptor::Unsigned(_) => true,
         TypeDescriptor::Compound(c) => is_complex(c),
-        _ => false,
+        t => is_number(t),
     }
 }
 
