@@ -19,7 +19,7 @@ torch).
 
 import os
 from pathlib import Path
-from typing import Optional, Sequence, Tuple, Union  # noqa: F401
+from typing import Optional, Sequence, Tuple, Union
 
 from ._native import Model, __version__, analyse, epoch_seed, fit, load_uavsar
 
