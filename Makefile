@@ -75,15 +75,18 @@ test-cuda: hdf5
 
 ## python: the Python package isar_clutter (python/: maturin and pyo3 over the core crate)
 ## installed into PYVENV, a virtualenv under $HOME like the target directory, with what its tests
-## need (pinned): pytest, numpy and PyTorch (the PyPI wheel, a large CUDA build; its CPU path is
-## what the tests use). A user's own environment: pip install ./python
+## need (pinned): pytest, numpy, rasterio (GDAL) and sarpy (NGA's SICD library), which write
+## the GeoTIFF and SICD test files, and PyTorch
+## (the PyPI wheel, a large CUDA build; its CPU path is what the tests use). A user's own
+## environment: pip install ./python
 PYVENV ?= $(HOME)/.cache/isar-clutter/venv-python
-PYVENV_DEPS := maturin==1.16.0 pytest==8.4.2 numpy==2.3.5 torch==2.15.0
-$(PYVENV)/.deps-1:
+PYVENV_DEPS := maturin==1.16.0 pytest==8.4.2 numpy==2.3.5 torch==2.15.0 rasterio==1.4.3 \
+	sarpy==1.3.64
+$(PYVENV)/.deps-2:
 	$(PYTHON) -m venv $(PYVENV)
 	$(PYVENV)/bin/pip install --quiet $(PYVENV_DEPS)
 	touch $@
-python: $(PYVENV)/.deps-1
+python: $(PYVENV)/.deps-2
 	PATH=$(PYVENV)/bin:$$PATH $(PYVENV)/bin/pip install --quiet --no-build-isolation ./python
 
 ## hdf5: Debian's libhdf5-dev (and pkg-config) for the mat73 feature, installed with apt when
@@ -112,14 +115,15 @@ hdf5:
 		echo "no libhdf5 found (Debian's libhdf5-dev, or pkg-config): set HDF5_DIR to an HDF5 installation, or build without mat73: make FEATURES="; exit 1; \
 	fi
 
-## test-deps: libhdf5-dev (`hdf5`); SciPy and h5py (pinned) in .venv for the MATLAB .mat tests;
+## test-deps: libhdf5-dev (`hdf5`); SciPy, h5py, rasterio and sarpy (pinned) in .venv for the
+## MATLAB .mat, HDF5, GeoTIFF and SICD tests;
 ## headless Chromium for the report's browser test (Debian's `chromium`; installed with apt
 ## when running as root, otherwise a hint). Under CI=true the browser and .mat tests fail
 ## without them rather than skipping.
 test-deps: hdf5 $(VENV)/bin/python
-	@$(VENV)/bin/python -c 'import sys, scipy, h5py; sys.exit(scipy.__version__ != "1.15.3" or h5py.__version__ != "3.13.0")' 2>/dev/null || \
-	{ echo "installing scipy and h5py into $(VENV) for the .mat tests (pip)"; \
-	  $(VENV)/bin/pip install --quiet scipy==1.15.3 h5py==3.13.0; }
+	@$(VENV)/bin/python -c 'import sys, scipy, h5py, rasterio, sarpy; sys.exit(scipy.__version__ != "1.15.3" or h5py.__version__ != "3.13.0" or rasterio.__version__ != "1.4.3" or sarpy.__version__ != "1.3.64")' 2>/dev/null || \
+	{ echo "installing scipy, h5py, rasterio and sarpy into $(VENV) for the .mat, HDF5, GeoTIFF and SICD tests (pip)"; \
+	  $(VENV)/bin/pip install --quiet scipy==1.15.3 h5py==3.13.0 rasterio==1.4.3 sarpy==1.3.64; }
 	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || \
 	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 		echo "installing chromium for the browser test (apt-get)"; \

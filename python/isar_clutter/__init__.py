@@ -9,7 +9,7 @@ The analysis, the fit and the generation of the isar-clutter command line, in pr
     model.save("models/m2")                     # a model folder the command line reads
 
 ``isar_clutter.load`` reads radar scenes in the field's formats into the same arrays (UAVSAR
-``.slc`` stacks; checked as the command line's dataset kinds check them).
+``.slc`` stacks, complex GeoTIFF scenes, SICD images; checked as the command line's dataset kinds check them).
 
 Sample ``i`` of a seed is byte for byte the one ``isar-clutter generate --seed`` writes,
 whether drawn alone, in blocks or by the command line. ``isar_clutter.torch.ClutterDataset``
@@ -21,7 +21,7 @@ import os
 from pathlib import Path
 from typing import Optional, Sequence, Tuple, Union
 
-from ._native import Model, __version__, analyse, epoch_seed, fit, load_uavsar
+from ._native import Model, __version__, analyse, epoch_seed, fit, load_geotiff, load_sicd, load_uavsar
 
 __all__ = ["Model", "__version__", "analyse", "epoch_seed", "fit", "load"]
 
@@ -50,15 +50,29 @@ def load(
       annotation (``annotation``: one for all, one per scene, or none: each scene's own,
       ``<name>.ann`` beside ``<name>_s<k>_1x1.slc``); every scene is one sample, read in
       ``window`` ``(row, col, rows, cols)`` (default: the whole scene). complex64.
+    - Complex GeoTIFF scenes (``.tif``, ``.tiff``: Sentinel-1 SLC measurement files, Capella
+      SLCs; complex int16 / int32 / float32 / float64, or two int16 / float32 samples a pixel;
+      strips or tiles, uncompressed or deflate); every scene is one sample, read in
+      ``window`` as above. complex64.
+    - SICD images (``.nitf``, ``.ntf``: NITF 2.1 with SICD XML, Umbra's and Capella's
+      single-look complex deliveries; ``RE32F_IM32F``, ``RE16I_IM16I``, ``AMP8I_PHS8I``);
+      every image is one sample, read in ``window`` as above. complex64.
 
-    A bad file raises ``ValueError`` naming the field (``slc[i]``, ``annotation``, ``window``)
-    and the file, as ``kind: uavsar`` in a spec does.
+    A bad file raises ``ValueError`` naming the field (``slc[i]``, ``annotation``, ``path[i]``,
+    ``window``), the file and the format's field at fault (a TIFF tag, a NITF field, a SICD XML
+    element), as ``kind: uavsar``, ``kind: geotiff`` and ``kind: sicd`` in a spec do.
     """
     paths = _paths(path)
     kinds = {Path(p).suffix.lower() for p in paths}
     if kinds == {".slc"}:
         return load_uavsar(paths, _paths(annotation), window)
+    if kinds and kinds <= {".tif", ".tiff"} and annotation is None:
+        return load_geotiff(paths, window)
+    if kinds and kinds <= {".nitf", ".ntf"} and annotation is None:
+        return load_sicd(paths, window)
     raise ValueError(
-        f"load reads UAVSAR .slc files; {sorted(kinds) or 'no path'} given "
+        "load reads UAVSAR .slc files (with an annotation), GeoTIFF .tif/.tiff and SICD "
+        f".nitf/.ntf files; "
+        f"{sorted(kinds) or 'no path'} given "
         "(other formats: the command line's dataset kinds, docs/spec.md)"
     )

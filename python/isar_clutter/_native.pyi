@@ -38,6 +38,18 @@ def load_uavsar(
 ) -> np.ndarray:
     """The window ``(row, col, rows, cols)`` of every UAVSAR scene as complex64 [N, H, W]."""
 
+def load_geotiff(
+    paths: Sequence[Union[str, PathLike]],
+    window: Optional[Tuple[int, int, int, int]] = None,
+) -> np.ndarray:
+    """The window ``(row, col, rows, cols)`` of every complex GeoTIFF scene as complex64 [N, H, W]."""
+
+def load_sicd(
+    paths: Sequence[Union[str, PathLike]],
+    window: Optional[Tuple[int, int, int, int]] = None,
+) -> np.ndarray:
+    """The window ``(row, col, rows, cols)`` of every SICD image as complex64 [N, H, W]."""
+
 class Model:
     """A synthesis model: from ``fit``, or ``Model.load`` of a model folder."""
 

@@ -2,8 +2,8 @@
 //! stack's multiscale maps as numpy arrays (the names and numbers of a run's `maps/`), `fit`
 //! a [`Model`], which saves and loads the command line's model folders and generates samples
 //! straight into a numpy array with the GIL released (sample `i` of a seed is the one
-//! `isar-clutter generate --seed` writes); `load_uavsar` reads radar scenes (`load.rs`). The
-//! Python package `isar_clutter` wraps it.
+//! `isar-clutter generate --seed` writes); `load_uavsar`, `load_geotiff` and `load_sicd` read radar
+//! scenes (`load.rs`). The Python package `isar_clutter` wraps it.
 
 use isar_clutter_core::io::model::ModelInfo;
 use isar_clutter_core::stats::analysis::{Analysis, Direction};
@@ -323,6 +323,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(epoch_seed, m)?)?;
     m.add_function(wrap_pyfunction!(load::load_uavsar, m)?)?;
+    m.add_function(wrap_pyfunction!(load::load_geotiff, m)?)?;
+    m.add_function(wrap_pyfunction!(load::load_sicd, m)?)?;
     m.add_class::<Model>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -1,8 +1,13 @@
 //! The native readers behind `isar_clutter.load`: radar scenes in the field's formats as numpy
 //! arrays, checked as the command line's dataset kinds check them (UAVSAR `.slc` stacks:
-//! `load_uavsar`, the `uavsar` kind's checks in the core's `io::uavsar`).
+//! `load_uavsar`, the `uavsar` kind's checks in the core's `io::uavsar`; complex GeoTIFF
+//! scenes: `load_geotiff`, the `geotiff` kind's reader in the core's `io::geotiff`; SICD
+//! images: `load_sicd`, the core's `io::sicd`).
 
 use isar_clutter_core::io::cut::Window;
+use isar_clutter_core::io::geotiff::{GeoTiff, TiffError};
+use isar_clutter_core::io::scenes::{Scene, Scenes};
+use isar_clutter_core::io::sicd::{Sicd, SicdError};
 use isar_clutter_core::io::uavsar::SceneStack;
 use ndarray::Array3;
 use num_complex::Complex32;
@@ -35,5 +40,70 @@ pub fn load_uavsar<'py>(
     let values = out.as_slice_mut().expect("standard layout");
     py.detach(|| stack.read_into(values))
         .map_err(|e| PyOSError::new_err(e.to_string()))?;
+    Ok(out.into_pyarray(py))
+}
+
+/// load_geotiff(paths, window=None)
+/// --
+///
+/// The same window `(row, col, rows, cols)` of every complex GeoTIFF scene in `paths`
+/// (default: the whole scene), as a complex64 `[N, H, W]` array. A bad file is a `ValueError`
+/// naming the field, the scene, the file and the TIFF tag; an unreadable one an `OSError`.
+#[pyfunction]
+#[pyo3(signature = (paths, window = None))]
+pub fn load_geotiff<'py>(
+    py: Python<'py>,
+    paths: Vec<PathBuf>,
+    window: Option<(usize, usize, usize, usize)>,
+) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
+    load_scenes::<GeoTiff>(py, &paths, window, "GeoTIFF", |e| {
+        matches!(e, TiffError::Io { .. })
+    })
+}
+
+/// load_sicd(paths, window=None)
+/// --
+///
+/// The same window `(row, col, rows, cols)` of every SICD image in `paths` (default: the whole
+/// image), as a complex64 `[N, H, W]` array. A bad file is a `ValueError` naming the field,
+/// the image, the file and the NITF field or XML element; an unreadable one an `OSError`.
+#[pyfunction]
+#[pyo3(signature = (paths, window = None))]
+pub fn load_sicd<'py>(
+    py: Python<'py>,
+    paths: Vec<PathBuf>,
+    window: Option<(usize, usize, usize, usize)>,
+) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
+    load_scenes::<Sicd>(py, &paths, window, "SICD", |e| {
+        matches!(e, SicdError::Io { .. })
+    })
+}
+
+/// The window of every scene of format `S` in `paths` (`what` names the format; `is_io`: an
+/// error that is the file's reading, an `OSError`, rather than its content's).
+fn load_scenes<'py, S: Scene + Sync>(
+    py: Python<'py>,
+    paths: &[PathBuf],
+    window: Option<(usize, usize, usize, usize)>,
+    what: &str,
+    is_io: fn(&S::Error) -> bool,
+) -> PyResult<Bound<'py, PyArray3<Complex32>>>
+where
+    S::Error: Send,
+{
+    let window = window.map(|(row, col, rows, cols)| Window::at(row, col, rows, cols));
+    let stack =
+        Scenes::<S>::open(paths, window).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let mut out: Array3<Complex32> =
+        isar_clutter_core::alloc::try_zeros(stack.shape(), &format!("the {what} stack"))
+            .map_err(|e| PyMemoryError::new_err(e.to_string()))?;
+    let values = out.as_slice_mut().expect("standard layout");
+    py.detach(|| stack.read_into(values)).map_err(|e| {
+        if is_io(&e) {
+            PyOSError::new_err(e.to_string())
+        } else {
+            PyValueError::new_err(e.to_string())
+        }
+    })?;
     Ok(out.into_pyarray(py))
 }

@@ -1,5 +1,12 @@
-"""``isar_clutter.load`` reads UAVSAR scenes written by numpy (not by the tool) as numpy reads
-them, and refuses bad files naming the field and the file."""
+"""``isar_clutter.load`` reads UAVSAR scenes written by numpy, GeoTIFF scenes written by GDAL
+(rasterio) and SICD images written by sarpy, not by the tool, as those read them, and refuses
+bad files naming the field and the file; the SICD example goes from images to a model and a
+DataLoader."""
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -51,4 +58,76 @@ def test_bad_uavsar_files_are_refused_naming_the_field_and_the_file(tmp_path):
     with pytest.raises(ValueError, match=r"annotation: .*bad.ann: field `slc_1_1x1 Columns` is missing"):
         ic.load(paths, annotation=tmp_path / "bad.ann")
     with pytest.raises(ValueError, match="load reads UAVSAR .slc files"):
-        ic.load(tmp_path / "x.tif")
+        ic.load(tmp_path / "x.dat")
+
+
+def geotiffs(tmp_path, dtype, n=2, **options):
+    """``n`` complex GeoTIFF scenes written by GDAL (rasterio); rasterio's reading."""
+    rasterio = pytest.importorskip("rasterio")
+    rng = np.random.default_rng(5)
+    paths, read = [], []
+    for k in range(n):
+        ints = rng.integers(-3000, 3000, (2, ROWS, COLS))
+        path = tmp_path / f"scene_{k}.tif"
+        with rasterio.open(path, "w", driver="GTiff", width=COLS, height=ROWS, count=1,
+                           dtype=dtype, **options) as f:
+            f.write((ints[0] + 1j * ints[1]).astype(np.complex64), 1)
+        with rasterio.open(path) as f:
+            read.append(f.read(1))
+        paths.append(path)
+    return paths, np.stack(read).astype(np.complex64)
+
+
+@pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+def test_geotiff_scenes_are_read_as_rasterio_reads_them(tmp_path):
+    paths, want = geotiffs(tmp_path, "complex_int16")
+    x = ic.load(paths)
+    assert x.dtype == np.complex64 and x.shape == (2, ROWS, COLS)
+    np.testing.assert_array_equal(x, want)
+    np.testing.assert_array_equal(ic.load(paths, window=(2, 3, 6, 5)), want[:, 2:8, 3:8])
+    tiled = tmp_path / "tiled"
+    tiled.mkdir()
+    paths, want = geotiffs(tiled, "complex64", tiled=True, blockxsize=16, blockysize=16,
+                           compress="deflate")
+    np.testing.assert_array_equal(ic.load(paths), want)
+    paths[1].write_bytes(paths[1].read_bytes()[:-64])
+    with pytest.raises(ValueError, match=r"path\[1\]: .*scene_1.tif: TileByteCounts: block \d+ holds"):
+        ic.load(paths)
+
+
+def sicd_fixtures(tmp_path):
+    """The SICD images of tests/sicd/make_fixtures.py (written by sarpy) in ``tmp_path``."""
+    pytest.importorskip("sarpy")
+    path = Path(__file__).resolve().parents[2] / "tests" / "sicd" / "make_fixtures.py"
+    spec = importlib.util.spec_from_file_location("sicd_fixtures", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(tmp_path)
+    return tmp_path
+
+
+def test_sicd_images_are_read_as_sarpy_reads_them(tmp_path):
+    fx = sicd_fixtures(tmp_path)
+    for prefix, window in [("scene", "window.npy"), ("float", "float_window.npy")]:
+        paths = [fx / f"{prefix}_0{k}.nitf" for k in range(3)]
+        x = ic.load(paths, window=(5, 7, 16, 16))
+        assert x.dtype == np.complex64 and x.shape == (3, 16, 16)
+        np.testing.assert_array_equal(x, np.load(fx / window))
+        assert ic.load(paths).shape == (3, 40, 30)
+    data = (fx / "scene_01.nitf").read_bytes()
+    (fx / "scene_01.nitf").write_bytes(data[:-100])
+    with pytest.raises(ValueError, match=r"path\[1\]: .*scene_01.nitf: NITF header: .*truncated"):
+        ic.load([fx / f"scene_0{k}.nitf" for k in range(3)])
+
+
+def test_the_sicd_example_fits_a_model_and_fills_a_dataloader(tmp_path):
+    pytest.importorskip("torch")
+    fx = sicd_fixtures(tmp_path)
+    example = Path(__file__).resolve().parents[2] / "examples" / "sicd_to_dataloader.py"
+    images = [str(fx / f"scene_0{k}.nitf") for k in range(3)]
+    o = subprocess.run([sys.executable, str(example), "--window", "5", "7", "16", "16",
+                        "--out", str(tmp_path / "model"), "--batch-size", "4", *images],
+                       capture_output=True, text=True, check=True)
+    assert "read 3 windows of 16 x 16" in o.stdout, o.stdout
+    assert "first batch: (4, 16, 16)" in o.stdout, o.stdout
+    assert ic.Model.load(tmp_path / "model").method == "method2"

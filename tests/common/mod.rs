@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod paths;
+pub mod scenes;
 
 use ndarray::Array3;
 use num_complex::Complex64;

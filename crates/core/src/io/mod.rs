@@ -7,6 +7,7 @@
 
 pub mod atomic;
 pub mod cut;
+pub mod geotiff;
 pub mod h5stack;
 pub mod journal;
 pub mod mat;
@@ -14,6 +15,8 @@ pub mod model;
 pub mod netcdf;
 pub mod npy;
 pub mod outdir;
+pub mod scenes;
+pub mod sicd;
 pub mod stream;
 pub mod uavsar;
 

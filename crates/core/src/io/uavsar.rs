@@ -239,26 +239,7 @@ pub struct SceneStack {
     pub window: Window,
 }
 
-/// What a [`SceneStack`] is refused for, and where: the field (`slc`, `annotation` or
-/// `window`) and, for a list, the index of the scene or annotation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StackError {
-    /// `slc`, `annotation` or `window`.
-    pub field: &'static str,
-    /// The index in the field's list (`None`: the field as a whole).
-    pub index: Option<usize>,
-    /// What is wrong, naming the file.
-    pub message: String,
-}
-
-impl std::fmt::Display for StackError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.index {
-            Some(i) => write!(f, "{}[{i}]: {}", self.field, self.message),
-            None => write!(f, "{}: {}", self.field, self.message),
-        }
-    }
-}
+pub use super::scenes::StackError;
 
 impl SceneStack {
     /// Opens `slcs` with their `annotations` (none: each scene's own, by UAVSAR's naming,

@@ -6,8 +6,8 @@
 //! its tables ([`results`]) and its manifest ([`manifest`]).
 
 pub use isar_clutter_core::io::{
-    atomic, cut, file_id, h5stack, journal, mat, model, netcdf, npy, outdir, stream, strip_bom,
-    uavsar, FileId,
+    atomic, cut, file_id, geotiff, h5stack, journal, mat, model, netcdf, npy, outdir, scenes, sicd,
+    stream, strip_bom, uavsar, FileId,
 };
 
 pub mod frame;

@@ -14,7 +14,8 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::PathBuf;
 
-/// One kind of dataset (`kind: <NAME>` in a spec). Every method is required.
+/// One kind of dataset (`kind: <NAME>` in a spec). Every method but [`Self::metadata`] is
+/// required.
 pub trait DatasetKind: Sized + Clone + fmt::Debug + PartialEq + Send + Sync {
     /// The kind's name in specs and tables (`filtered_noise`).
     const NAME: &'static str;
@@ -73,6 +74,11 @@ pub trait DatasetKind: Sized + Clone + fmt::Debug + PartialEq + Send + Sync {
         seed: u64,
         data: &Materialised,
     ) -> Option<Result<Array3<Complex64>, DataError>>;
+    /// What the manifest records of the files it reads beyond their paths and hashes (a
+    /// GeoTIFF's pixel type and georeferencing); `None` (the default): nothing.
+    fn metadata(&self) -> Option<serde_json::Value> {
+        None
+    }
 }
 
 /// Axis order of an `npy`, `mat` or `raw` stack.
@@ -111,6 +117,12 @@ pub enum DataError {
     /// A UAVSAR scene cannot be read.
     #[error(transparent)]
     Uavsar(#[from] crate::io::uavsar::UavsarError),
+    /// A GeoTIFF scene cannot be read.
+    #[error(transparent)]
+    Tiff(#[from] crate::io::geotiff::TiffError),
+    /// A SICD scene cannot be read.
+    #[error(transparent)]
+    Sicd(#[from] crate::io::sicd::SicdError),
 }
 
 /// Simulated k-space data an analysis job writes (`kspace/<job>.npy`, with the frequencies in

@@ -11,6 +11,7 @@
 
 mod cost;
 mod filtered_noise;
+mod geotiff;
 mod hdf5;
 mod kind;
 mod kspace;
@@ -19,6 +20,8 @@ mod netcdf;
 mod npy;
 mod raw;
 mod registry;
+mod scenes;
+mod sicd;
 mod spec;
 mod uavsar;
 mod vegetation;
@@ -28,6 +31,7 @@ pub use cost::{
     C128, C64, USUAL_GRID, USUAL_HALF_WIDTH, USUAL_IMAGE_SIZE, USUAL_PIXELS, USUAL_SAMPLES,
 };
 pub use filtered_noise::{filter_bank, generate, Family, FilterParams, FilteredNoise};
+pub use geotiff::GeotiffDataset;
 pub use hdf5::Hdf5Dataset;
 pub use kind::{DataError, DatasetKind, Layout, Materialised, SavedKspace};
 pub use kspace::{KspaceDataset, Vector};
@@ -36,6 +40,8 @@ pub use netcdf::NetcdfDataset;
 pub use npy::NpyDataset;
 pub use raw::RawDataset;
 pub use registry::{Dataset, KindSpec};
+pub use scenes::{SceneDataset, SceneFormat};
+pub use sicd::SicdDataset;
 pub use spec::DatasetSpec;
 pub use uavsar::{Paths, UavsarDataset, WindowSpec};
 pub use vegetation::{MeasurementSpec, VegetationDataset};

@@ -150,6 +150,10 @@ macro_rules! register {
             pub fn materialise(&self, data_seed: u64) -> Result<Materialised, DataError> {
                 match self { $(Dataset::$variant(d) => d.materialise(data_seed),)+ }
             }
+            /// See [`DatasetKind::metadata`].
+            pub fn metadata(&self) -> Option<serde_json::Value> {
+                match self { $(Dataset::$variant(d) => d.metadata(),)+ }
+            }
             /// See [`DatasetKind::redraw`].
             pub fn redraw(
                 &self,
@@ -174,4 +178,6 @@ register! {
     Kspace(super::kspace::KspaceDataset),
     Uavsar(super::uavsar::UavsarDataset),
     Hdf5(super::hdf5::Hdf5Dataset),
+    Geotiff(super::geotiff::GeotiffDataset),
+    Sicd(super::sicd::SicdDataset),
 }

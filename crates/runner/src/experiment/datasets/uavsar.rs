@@ -29,7 +29,7 @@ pub enum Paths {
 
 impl Paths {
     /// The paths, in order.
-    fn list(&self) -> Vec<PathBuf> {
+    pub(crate) fn list(&self) -> Vec<PathBuf> {
         match self {
             Paths::One(p) => vec![p.clone()],
             Paths::Many(v) => v.clone(),

@@ -123,14 +123,19 @@ impl JobKind for Job {
     }
 
     fn manifest(&self) -> serde_json::Value {
-        json!({
+        let mut entry = json!({
             "dataset": self.dataset_id,
             "method": self.method.map(Method::as_str),
             "generation_seed": self.generation_seed,
             "noise_floor": self.noise_floor,
             "data_seed": self.data_seed,
             "params": self.params,
-        })
+        });
+        // What the kind tells of its files (a GeoTIFF's georeferencing), where it tells any.
+        if let Some(files) = self.dataset.metadata() {
+            entry["dataset_files"] = files;
+        }
+        entry
     }
 }
 

@@ -1,0 +1,340 @@
+//! SICD (Sensor Independent Complex Data, NGA.STND.0024): the single-look complex product
+//! format of Umbra, Capella's SICD deliveries and most spotlight SAR, a NITF 2.1 file whose
+//! image segments hold the pixels (big-endian `RE32F_IM32F`, `RE16I_IM16I` or
+//! `AMP8I_PHS8I`, pixel-interleaved, unblocked and uncompressed as the standard requires)
+//! and whose XML data extension segment holds the metadata. A scene is checked at opening
+//! (the segments against the XML's `ImageData`), read a window at a time (a row of the window
+//! per read, rows in parallel; a large image split over several segments read as one), and
+//! described for the manifest: collector, collection time, polarisation, grid, scene centre
+//! and radiometric scale factors ([`xml::Metadata`]).
+
+pub mod nitf;
+pub mod xml;
+
+use super::cut::Window;
+use super::scenes::{Scene, Scenes};
+use num_complex::Complex32;
+use rayon::prelude::*;
+use std::os::unix::fs::FileExt;
+use std::path::{Path, PathBuf};
+
+/// Why a SICD file cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum SicdError {
+    /// The file cannot be opened or read.
+    #[error("cannot read {path}: {cause}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        cause: std::io::Error,
+    },
+    /// A NITF field or a SICD XML element is missing, of a kind this reader does not take, or
+    /// inconsistent.
+    #[error("{path}: {field}: {reason}")]
+    Field {
+        /// The file.
+        path: PathBuf,
+        /// The NITF field (`NROWS`, `PVTYPE`, ...) or XML element (`ImageData/PixelType`).
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// SICD's pixel types.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Pixel {
+    /// Real and imaginary float32.
+    Re32fIm32f,
+    /// Real and imaginary int16.
+    Re16iIm16i,
+    /// Amplitude and phase bytes: amplitude through the table (`None`: the byte itself),
+    /// phase `p / 256` of a turn.
+    Amp8iPhs8i(Option<Vec<f32>>),
+}
+
+impl Pixel {
+    /// Bytes of one pixel.
+    pub fn size(&self) -> usize {
+        match self {
+            Pixel::Re32fIm32f => 8,
+            Pixel::Re16iIm16i => 4,
+            Pixel::Amp8iPhs8i(_) => 2,
+        }
+    }
+
+    /// SICD's name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Pixel::Re32fIm32f => "RE32F_IM32F",
+            Pixel::Re16iIm16i => "RE16I_IM16I",
+            Pixel::Amp8iPhs8i(_) => "AMP8I_PHS8I",
+        }
+    }
+
+    /// NITF's `PVTYPE` and `NBPP` for it.
+    fn nitf(&self) -> (&'static str, usize) {
+        match self {
+            Pixel::Re32fIm32f => ("R", 32),
+            Pixel::Re16iIm16i => ("SI", 16),
+            Pixel::Amp8iPhs8i(_) => ("INT", 8),
+        }
+    }
+
+    /// The pixel stored (big-endian) in `b`.
+    #[inline]
+    fn value(&self, b: &[u8]) -> Complex32 {
+        match self {
+            Pixel::Re32fIm32f => Complex32::new(
+                f32::from_be_bytes([b[0], b[1], b[2], b[3]]),
+                f32::from_be_bytes([b[4], b[5], b[6], b[7]]),
+            ),
+            Pixel::Re16iIm16i => Complex32::new(
+                f32::from(i16::from_be_bytes([b[0], b[1]])),
+                f32::from(i16::from_be_bytes([b[2], b[3]])),
+            ),
+            Pixel::Amp8iPhs8i(table) => {
+                let a = table.as_ref().map_or(f32::from(b[0]), |t| t[b[0] as usize]);
+                let phase = std::f32::consts::TAU * f32::from(b[1]) / 256.0;
+                Complex32::from_polar(a, phase)
+            }
+        }
+    }
+}
+
+/// One image segment's rows: the first image row it holds, how many, and where its pixels
+/// start in the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rows {
+    /// First image row.
+    pub first: usize,
+    /// Rows held.
+    pub rows: usize,
+    /// Offset of its first pixel.
+    pub at: u64,
+}
+
+/// A SICD image, its segments checked against its XML.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sicd {
+    /// The file.
+    pub path: PathBuf,
+    /// Rows (`ImageData/NumRows`).
+    pub rows: usize,
+    /// Columns (`ImageData/NumCols`).
+    pub cols: usize,
+    /// Pixel type.
+    pub pixel: Pixel,
+    /// The image segments' rows, top to bottom.
+    pub segments: Vec<Rows>,
+    /// The metadata the manifest records.
+    pub metadata: xml::Metadata,
+}
+
+impl Sicd {
+    /// Opens `path`: reads the NITF segments and the SICD XML, and checks the image segments
+    /// against the XML's size and pixel type.
+    ///
+    /// # Errors
+    /// [`SicdError::Io`] if it cannot be read; [`SicdError::Field`] naming the NITF field or
+    /// XML element at fault: not NITF, no SICD XML, compressed or blocked pixels, a pixel type
+    /// or size that differs between the two, a segment past the end of the file.
+    pub fn open(path: &Path) -> Result<Sicd, SicdError> {
+        let bad = |field: &str, reason: String| SicdError::Field {
+            path: path.to_path_buf(),
+            field: field.to_string(),
+            reason,
+        };
+        let file = std::fs::File::open(path).map_err(|cause| SicdError::Io {
+            path: path.to_path_buf(),
+            cause,
+        })?;
+        let len = file
+            .metadata()
+            .map_err(|cause| SicdError::Io {
+                path: path.to_path_buf(),
+                cause,
+            })?
+            .len();
+        let nitf = nitf::Nitf::read(&file, len).map_err(|r| bad("NITF header", r))?;
+        let des = nitf
+            .des
+            .iter()
+            .find(|d| d.id == "XML_DATA_CONTENT" || d.id == "SICD_XML")
+            .ok_or_else(|| {
+                bad(
+                    "DESID",
+                    format!(
+                        "no XML_DATA_CONTENT data extension segment (the file has {:?}): not a \
+                         SICD",
+                        nitf.des.iter().map(|d| d.id.as_str()).collect::<Vec<_>>()
+                    ),
+                )
+            })?;
+        let text = nitf::bytes_at(&file, des.segment.data_at, des.segment.data_len as usize)
+            .map_err(|r| bad("DES", r))?;
+        let text = String::from_utf8_lossy(&text);
+        let (rows, cols, pixel, metadata) =
+            xml::read(&text).map_err(|(element, r)| bad(element, r))?;
+        let segments = segments(&nitf, (rows, cols), &pixel).map_err(|(f, r)| bad(f, r))?;
+        Ok(Sicd {
+            path: path.to_path_buf(),
+            rows,
+            cols,
+            pixel,
+            segments,
+            metadata,
+        })
+    }
+
+    /// Reads `win` into `out` (its values, row after row), rows in parallel.
+    ///
+    /// # Errors
+    /// [`SicdError::Io`] if the file cannot be read.
+    pub fn read_window(&self, win: &Window, out: &mut [Complex32]) -> Result<(), SicdError> {
+        assert_eq!(out.len(), win.rows() * win.cols(), "the window's values");
+        assert!(
+            win.inside(self.rows, self.cols),
+            "the window inside the image"
+        );
+        let io = |cause| SicdError::Io {
+            path: self.path.clone(),
+            cause,
+        };
+        let file = std::fs::File::open(&self.path).map_err(io)?;
+        let size = self.pixel.size();
+        out.par_chunks_mut(win.cols())
+            .enumerate()
+            .try_for_each_init(
+                || vec![0u8; win.cols() * size],
+                |buf, (i, row)| {
+                    let r = win.r0 + i;
+                    let s = self
+                        .segments
+                        .iter()
+                        .find(|s| r < s.first + s.rows)
+                        .expect("the segments cover the image");
+                    let at = s.at + (((r - s.first) * self.cols + win.c0) * size) as u64;
+                    file.read_exact_at(buf, at).map_err(io)?;
+                    for (z, b) in row.iter_mut().zip(buf.chunks_exact(size)) {
+                        *z = self.pixel.value(b);
+                    }
+                    Ok(())
+                },
+            )
+    }
+}
+
+/// The rows of each image segment of `nitf`, checked: uncompressed, unblocked,
+/// pixel-interleaved, of the XML's pixel type and width, together the XML's rows, each within
+/// the file.
+fn segments(
+    nitf: &nitf::Nitf,
+    (rows, cols): (usize, usize),
+    pixel: &Pixel,
+) -> Result<Vec<Rows>, (&'static str, String)> {
+    if nitf.images.is_empty() {
+        return Err(("NUMI", "the file has no image segment".into()));
+    }
+    let (pvtype, nbpp) = pixel.nitf();
+    let mut out = vec![];
+    let mut first = 0;
+    for (k, im) in nitf.images.iter().enumerate() {
+        let seg = format!("image segment {k} ({})", im.iid1);
+        if im.ic != "NC" && im.ic != "NM" {
+            return Err((
+                "IC",
+                format!("{seg} is compressed ({}); SICD pixels are not", im.ic),
+            ));
+        }
+        if im.blocks != (1, 1) {
+            return Err((
+                "NBPR",
+                format!(
+                    "{seg} is in {} x {} blocks; SICD images are one block",
+                    im.blocks.0, im.blocks.1
+                ),
+            ));
+        }
+        if im.pvtype != pvtype || im.nbpp != nbpp || im.subcats.len() != 2 || im.imode != "P" {
+            return Err((
+                "PVTYPE",
+                format!(
+                    "{seg} holds {} band(s) of {}-bit {} (IMODE {}); the XML's {} is 2 \
+                     pixel-interleaved bands of {nbpp}-bit {pvtype}",
+                    im.subcats.len(),
+                    im.nbpp,
+                    im.pvtype,
+                    im.imode,
+                    pixel.name()
+                ),
+            ));
+        }
+        if im.cols != cols {
+            return Err((
+                "NCOLS",
+                format!("{seg} has {} columns; the XML's NumCols is {cols}", im.cols),
+            ));
+        }
+        let need = (im.rows * im.cols * pixel.size()) as u64;
+        if im.segment.data_len < need {
+            return Err((
+                "LI",
+                format!(
+                    "{seg} holds {} bytes; its {} x {} pixels need {need}",
+                    im.segment.data_len, im.rows, im.cols
+                ),
+            ));
+        }
+        out.push(Rows {
+            first,
+            rows: im.rows,
+            at: im.segment.data_at,
+        });
+        first += im.rows;
+    }
+    if first != rows {
+        return Err((
+            "NROWS",
+            format!("the image segments hold {first} rows; the XML's NumRows is {rows}"),
+        ));
+    }
+    Ok(out)
+}
+
+/// A stack of coregistered SICD images (over time or aspect): the same window of each is one
+/// sample.
+pub type SicdStack = Scenes<Sicd>;
+
+impl Scene for Sicd {
+    type Error = SicdError;
+
+    fn open(path: &Path) -> Result<Sicd, SicdError> {
+        Sicd::open(path)
+    }
+
+    fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn dims(&self) -> (usize, usize) {
+        (self.rows, self.cols)
+    }
+
+    fn read_window(&self, window: &Window, out: &mut [Complex32]) -> Result<(), SicdError> {
+        Sicd::read_window(self, window, out)
+    }
+
+    fn describe(&self) -> serde_json::Value {
+        serde_json::json!({
+            "path": self.path.display().to_string(),
+            "format": "SICD",
+            "rows": self.rows,
+            "cols": self.cols,
+            "pixel": self.pixel.name(),
+            "segments": self.segments.len(),
+            "sicd": self.metadata,
+        })
+    }
+}

@@ -1,0 +1,191 @@
+//! SICD's XML metadata: the image's size and pixel type (`ImageData`), which the reader
+//! needs, and what a clutter study records beside its data (collector and mode, collection
+//! time, polarisation, the image grid's plane, type, sample spacings and resolutions, the
+//! scene centre point, and the radiometric scale factors that calibrate amplitudes to
+//! sigma-0 or beta-0). Elements are found by their local names, whatever the namespace
+//! prefix of the SICD version.
+
+use super::Pixel;
+use serde::Serialize;
+
+/// One direction of the image grid (`Grid/Row`, `Grid/Col`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Direction {
+    /// Sample spacing (m).
+    pub ss: Option<f64>,
+    /// Impulse response width, the resolution (m).
+    pub imp_resp_wid: Option<f64>,
+    /// Impulse response bandwidth (cycles/m).
+    pub imp_resp_bw: Option<f64>,
+}
+
+/// The metadata a run's manifest records of a SICD.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Metadata {
+    /// The SICD version's namespace (`urn:SICD:1.3.0`).
+    pub namespace: Option<String>,
+    /// `CollectionInfo/CollectorName`.
+    pub collector: Option<String>,
+    /// `CollectionInfo/CoreName`.
+    pub core_name: Option<String>,
+    /// `CollectionInfo/RadarMode/ModeType`.
+    pub mode: Option<String>,
+    /// `Timeline/CollectStart`.
+    pub collect_start: Option<String>,
+    /// `Timeline/CollectDuration` (s).
+    pub collect_duration_s: Option<f64>,
+    /// `ImageFormation/TxRcvPolarizationProc` (`V:V`).
+    pub polarization: Option<String>,
+    /// `Grid/ImagePlane` (`SLANT`, `GROUND`).
+    pub image_plane: Option<String>,
+    /// `Grid/Type` (`RGAZIM`, `RGZERO`, `XRGYCR`, ...).
+    pub grid_type: Option<String>,
+    /// `Grid/Row`.
+    pub row: Direction,
+    /// `Grid/Col`.
+    pub col: Direction,
+    /// `GeoData/SCP/LLH`: the scene centre point's latitude, longitude (degrees) and height
+    /// above the ellipsoid (m).
+    pub scp_llh: Option<[f64; 3]>,
+    /// The constant terms of `Radiometric`'s `SigmaZeroSFPoly`, `BetaZeroSFPoly`,
+    /// `GammaZeroSFPoly` and `RCSSFPoly` (the factor that turns `|pixel|^2` into sigma-0, ...
+    /// at the scene centre), where given.
+    pub radiometric: std::collections::BTreeMap<String, f64>,
+}
+
+/// The first child of `node` named `name` (any namespace).
+fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, name: &str) -> Option<roxmltree::Node<'a, 'i>> {
+    node.children()
+        .find(|c| c.is_element() && c.tag_name().name() == name)
+}
+
+/// The node at the `/`-separated `path` below `node`.
+fn at<'a, 'i>(node: roxmltree::Node<'a, 'i>, path: &str) -> Option<roxmltree::Node<'a, 'i>> {
+    path.split('/').try_fold(node, child)
+}
+
+/// The trimmed text at `path` below `node`.
+fn text(node: roxmltree::Node, path: &str) -> Option<String> {
+    at(node, path)
+        .and_then(|n| n.text())
+        .map(|t| t.trim().to_string())
+}
+
+/// The number at `path` below `node`.
+fn number(node: roxmltree::Node, path: &str) -> Option<f64> {
+    text(node, path).and_then(|t| t.parse().ok())
+}
+
+/// Reads the SICD XML `xml`: `(rows, columns, pixel type, metadata)`.
+///
+/// # Errors
+/// `(element, reason)`: not XML, not a SICD, `ImageData` without a size or with a pixel type
+/// SICD does not define, an `AmpTable` without its 256 values.
+pub fn read(xml: &str) -> Result<(usize, usize, Pixel, Metadata), (&'static str, String)> {
+    let doc = roxmltree::Document::parse(xml.trim_end_matches('\0'))
+        .map_err(|e| ("XML", format!("the SICD XML does not parse: {e}")))?;
+    let root = doc.root_element();
+    if root.tag_name().name() != "SICD" {
+        return Err((
+            "XML",
+            format!("its root element is {}, not SICD", root.tag_name().name()),
+        ));
+    }
+    let size = |name: &'static str| -> Result<usize, (&'static str, String)> {
+        text(root, &format!("ImageData/{name}"))
+            .and_then(|t| t.parse().ok())
+            .filter(|&n: &usize| n > 0)
+            .ok_or((
+                name,
+                format!("ImageData/{name} is missing or not a positive integer"),
+            ))
+    };
+    let (rows, cols) = (size("NumRows")?, size("NumCols")?);
+    let pixel = match text(root, "ImageData/PixelType").as_deref() {
+        Some("RE32F_IM32F") => Pixel::Re32fIm32f,
+        Some("RE16I_IM16I") => Pixel::Re16iIm16i,
+        Some("AMP8I_PHS8I") => Pixel::Amp8iPhs8i(amp_table(root)?),
+        other => {
+            return Err((
+                "PixelType",
+                format!(
+                    "ImageData/PixelType is {other:?}; SICD's are RE32F_IM32F, RE16I_IM16I and \
+                     AMP8I_PHS8I"
+                ),
+            ))
+        }
+    };
+    let direction = |d: &str| Direction {
+        ss: number(root, &format!("Grid/{d}/SS")),
+        imp_resp_wid: number(root, &format!("Grid/{d}/ImpRespWid")),
+        imp_resp_bw: number(root, &format!("Grid/{d}/ImpRespBW")),
+    };
+    let llh = ["Lat", "Lon", "HAE"].map(|k| number(root, &format!("GeoData/SCP/LLH/{k}")));
+    let mut radiometric = std::collections::BTreeMap::new();
+    for poly in [
+        "SigmaZeroSFPoly",
+        "BetaZeroSFPoly",
+        "GammaZeroSFPoly",
+        "RCSSFPoly",
+    ] {
+        let constant = at(root, &format!("Radiometric/{poly}")).and_then(|p| {
+            p.children()
+                .filter(|c| c.is_element())
+                .find(|c| {
+                    c.attribute("exponent1") == Some("0") && c.attribute("exponent2") == Some("0")
+                })
+                .and_then(|c| c.text()?.trim().parse().ok())
+        });
+        if let Some(c) = constant {
+            radiometric.insert(poly.to_string(), c);
+        }
+    }
+    let metadata = Metadata {
+        namespace: root.tag_name().namespace().map(str::to_string),
+        collector: text(root, "CollectionInfo/CollectorName"),
+        core_name: text(root, "CollectionInfo/CoreName"),
+        mode: text(root, "CollectionInfo/RadarMode/ModeType"),
+        collect_start: text(root, "Timeline/CollectStart"),
+        collect_duration_s: number(root, "Timeline/CollectDuration"),
+        polarization: text(root, "ImageFormation/TxRcvPolarizationProc"),
+        image_plane: text(root, "Grid/ImagePlane"),
+        grid_type: text(root, "Grid/Type"),
+        row: direction("Row"),
+        col: direction("Col"),
+        scp_llh: match llh {
+            [Some(a), Some(b), Some(c)] => Some([a, b, c]),
+            _ => None,
+        },
+        radiometric,
+    };
+    Ok((rows, cols, pixel, metadata))
+}
+
+/// `ImageData/AmpTable`: the 256 amplitudes of `AMP8I_PHS8I` (`None`: absent, the byte is
+/// the amplitude).
+fn amp_table(root: roxmltree::Node) -> Result<Option<Vec<f32>>, (&'static str, String)> {
+    let Some(table) = at(root, "ImageData/AmpTable") else {
+        return Ok(None);
+    };
+    let mut amps = vec![f32::NAN; 256];
+    for a in table.children().filter(|c| c.is_element()) {
+        let i: Option<usize> = a.attribute("index").and_then(|i| i.parse().ok());
+        let v: Option<f32> = a.text().and_then(|t| t.trim().parse().ok());
+        match (i, v) {
+            (Some(i), Some(v)) if i < 256 => amps[i] = v,
+            _ => {
+                return Err((
+                    "AmpTable",
+                    "an Amplitude without an index below 256 or a number".into(),
+                ))
+            }
+        }
+    }
+    if amps.iter().any(|a| a.is_nan()) {
+        return Err((
+            "AmpTable",
+            "ImageData/AmpTable lacks some of its 256 amplitudes".into(),
+        ));
+    }
+    Ok(Some(amps))
+}

@@ -1,0 +1,126 @@
+//! The `geotiff` dataset kind against files it did not write: complex GeoTIFF scenes written
+//! by GDAL through rasterio (`tests/geotiff/make_fixtures.py`, run at test time in the
+//! project's virtualenv `.venv`): complex int16 strips (Sentinel-1's layout) and deflated
+//! complex float32 tiles give, in a window, the analysis the same pixels give when rasterio
+//! reads them and saves them as `.npy`, value for value, and their georeferencing reaches the
+//! manifest; a truncated file, an unsigned 8-bit image, an LZW-compressed one and a window
+//! outside the scenes are refused at validation, naming the file and the field.
+
+mod common;
+use common::scenes::{assert_same_tables, assert_valid, dataset_files, refused, run};
+
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// The fixture folder in `dir`; `None` (skip) without rasterio in `.venv`.
+fn fixtures(dir: &Path) -> Option<PathBuf> {
+    common::python_fixtures(
+        "tests/geotiff/make_fixtures.py",
+        &["numpy", "rasterio"],
+        &dir.join("fixtures"),
+    )
+}
+
+/// The stack of windows of the scenes `prefix_0{k}.tif`, as `kind: geotiff` fields.
+fn geotiff_fields(prefix: &str) -> String {
+    let files: Vec<String> = (0..3)
+        .map(|k| format!("fixtures/{prefix}_0{k}.tif"))
+        .collect();
+    format!(
+        "kind: geotiff, path: [{}], window: {{row: 5, col: 7, size: [16, 16]}}",
+        files.join(", ")
+    )
+}
+
+#[test]
+fn geotiff_window_stacks_are_analysed_as_rasterio_reads_their_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(_) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let s1 = run(d, "s1", &geotiff_fields("s1"));
+    assert_same_tables(
+        &s1,
+        &run(d, "s1_npy", "kind: npy, path: fixtures/window.npy"),
+    );
+    let tiled = run(d, "tiled", &geotiff_fields("tiled"));
+    let npy = run(d, "tiled_npy", "kind: npy, path: fixtures/tiled_window.npy");
+    assert_same_tables(&tiled, &npy);
+    // Georeferencing: Sentinel-1's ground control points in WGS 84 (EPSG 4326, GeoKey
+    // 2048), and the tiled scenes' UTM grid as an affine transform (EPSG 32632, GeoKey 3072).
+    let files = dataset_files(&s1);
+    let f = &files["files"][0];
+    assert_eq!(
+        (&f["pixel"], &f["blocks"]),
+        (&json!("CInt16"), &json!("strips")),
+        "{f}"
+    );
+    assert_eq!(f["georef"]["tiepoints"].as_array().unwrap().len(), 4, "{f}");
+    assert_eq!(f["georef"]["tiepoints"][3][3], json!(11.003), "{f}");
+    assert_eq!(f["georef"]["geokeys"]["2048"][0], json!(4326), "{f}");
+    assert_eq!(files["window"]["rows"], json!([5, 21]));
+    let files = dataset_files(&tiled);
+    let f = &files["files"][2];
+    assert_eq!(
+        (&f["pixel"], &f["blocks"], &f["compression"]),
+        (&json!("CFloat32"), &json!("tiles"), &json!("deflate")),
+        "{f}"
+    );
+    assert_eq!(
+        f["georef"]["affine"],
+        json!([500000.0, 2.5, 0.0, 5300000.0, 0.0, -5.0]),
+        "{f}"
+    );
+    assert_eq!(f["georef"]["geokeys"]["3072"][0], json!(32632), "{f}");
+}
+
+#[test]
+fn bad_geotiff_files_are_refused_naming_the_file_and_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    assert_valid(d, "good", &geotiff_fields("s1"));
+    // A scene cut short: its last strip lies past the end.
+    let tif = fx.join("s1_01.tif");
+    let bytes = std::fs::read(&tif).unwrap();
+    std::fs::write(&tif, &bytes[..bytes.len() - 100]).unwrap();
+    let e = refused(d, "truncated", &geotiff_fields("s1"));
+    assert!(
+        e.contains("datasets[0].path[1]")
+            && e.contains("s1_01.tif: StripByteCounts: block")
+            && e.contains("truncated"),
+        "{e}"
+    );
+    std::fs::write(&tif, &bytes).unwrap();
+    // Not complex.
+    let e = refused(
+        d,
+        "byte",
+        "kind: geotiff, path: [fixtures/byte.tif, fixtures/byte.tif]",
+    );
+    assert!(
+        e.contains("datasets[0].path[0]")
+            && e.contains("byte.tif: SampleFormat:")
+            && e.contains("8-bit unsigned integer"),
+        "{e}"
+    );
+    // A compression this reader does not take.
+    let e = refused(d, "lzw", "kind: geotiff, path: fixtures/lzw.tif");
+    assert!(
+        e.contains("datasets[0].path") && e.contains("lzw.tif: Compression: 5 (LZW)"),
+        "{e}"
+    );
+    // A window outside the scenes.
+    let e = refused(
+        d,
+        "outside",
+        "kind: geotiff, path: [fixtures/s1_00.tif, fixtures/s1_01.tif], window: {row: 30, col: 0, size: [16, 16]}",
+    );
+    assert!(
+        e.contains("datasets[0].window") && e.contains("rows 30..46") && e.contains("40 x 30"),
+        "{e}"
+    );
+}

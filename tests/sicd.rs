@@ -1,0 +1,146 @@
+//! The `sicd` dataset kind against files it did not write: SICD images written by sarpy
+//! (NGA's reader and writer; `tests/sicd/make_fixtures.py`, run at test time in the project's
+//! virtualenv `.venv`) of `RE16I_IM16I` and `RE32F_IM32F` pixels give, in a window, the
+//! analysis the same pixels give when sarpy reads them and saves them as `.npy`, value for
+//! value, and their collection metadata reaches the manifest; a truncated file, a pixel type
+//! where the XML and the NITF image segment differ, a file that is not NITF and a window
+//! outside the images are refused at validation, naming the file and the field.
+
+mod common;
+use common::scenes::{assert_same_tables, assert_valid, dataset_files, refused, run};
+
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// The fixture folder in `dir`; `None` (skip) without sarpy in `.venv`.
+fn fixtures(dir: &Path) -> Option<PathBuf> {
+    common::python_fixtures(
+        "tests/sicd/make_fixtures.py",
+        &["numpy", "sarpy"],
+        &dir.join("fixtures"),
+    )
+}
+
+/// The stack of windows of the images `prefix_0{k}.nitf`, as `kind: sicd` fields.
+fn sicd_fields(prefix: &str) -> String {
+    let files: Vec<String> = (0..3)
+        .map(|k| format!("fixtures/{prefix}_0{k}.nitf"))
+        .collect();
+    format!(
+        "kind: sicd, path: [{}], window: {{row: 5, col: 7, size: [16, 16]}}",
+        files.join(", ")
+    )
+}
+
+#[test]
+fn sicd_window_stacks_are_analysed_as_sarpy_reads_their_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(_) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let ints = run(d, "ints", &sicd_fields("scene"));
+    assert_same_tables(
+        &ints,
+        &run(d, "ints_npy", "kind: npy, path: fixtures/window.npy"),
+    );
+    let floats = run(d, "floats", &sicd_fields("float"));
+    let npy = run(
+        d,
+        "floats_npy",
+        "kind: npy, path: fixtures/float_window.npy",
+    );
+    assert_same_tables(&floats, &npy);
+    let files = dataset_files(&ints);
+    let f = &files["files"][1];
+    assert_eq!(
+        (&f["format"], &f["pixel"]),
+        (&json!("SICD"), &json!("RE16I_IM16I")),
+        "{f}"
+    );
+    let m = &f["sicd"];
+    assert_eq!(
+        (
+            &m["collector"],
+            &m["core_name"],
+            &m["polarization"],
+            &m["mode"]
+        ),
+        (
+            &json!("TESTSAT"),
+            &json!("CORE13"),
+            &json!("V:V"),
+            &json!("SPOTLIGHT")
+        ),
+        "{m}"
+    );
+    assert!(
+        m["collect_start"]
+            .as_str()
+            .unwrap()
+            .starts_with("2024-05-13T10:00:00"),
+        "{m}"
+    );
+    assert_eq!(
+        (&m["row"]["ss"], &m["col"]["imp_resp_wid"]),
+        (&json!(0.5), &json!(0.38)),
+        "{m}"
+    );
+    assert_eq!(m["scp_llh"][0], json!(48.0), "{m}");
+    assert_eq!(
+        dataset_files(&floats)["files"][0]["pixel"],
+        json!("RE32F_IM32F")
+    );
+}
+
+#[test]
+fn bad_sicd_files_are_refused_naming_the_file_and_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    assert_valid(d, "good", &sicd_fields("scene"));
+    let nitf = fx.join("scene_02.nitf");
+    let bytes = std::fs::read(&nitf).unwrap();
+    // Cut short.
+    std::fs::write(&nitf, &bytes[..bytes.len() - 100]).unwrap();
+    let e = refused(d, "truncated", &sicd_fields("scene"));
+    assert!(
+        e.contains("datasets[0].path[2]")
+            && e.contains("scene_02.nitf: NITF header:")
+            && e.contains("truncated"),
+        "{e}"
+    );
+    // The XML says float32 where the image segment holds int16.
+    let tag = b"<PixelType>RE16I_IM16I";
+    let at = bytes.windows(tag.len()).position(|w| w == tag).unwrap();
+    let mut changed = bytes.clone();
+    changed[at..at + tag.len()].copy_from_slice(b"<PixelType>RE32F_IM32F");
+    std::fs::write(&nitf, &changed).unwrap();
+    let e = refused(d, "pixel", &sicd_fields("scene"));
+    assert!(
+        e.contains("datasets[0].path[2]")
+            && e.contains("scene_02.nitf: PVTYPE:")
+            && e.contains("16-bit SI")
+            && e.contains("RE32F_IM32F"),
+        "{e}"
+    );
+    std::fs::write(&nitf, &bytes).unwrap();
+    // Not NITF.
+    std::fs::write(fx.join("x.nitf"), b"II*\0not a nitf").unwrap();
+    let e = refused(d, "not_nitf", "kind: sicd, path: fixtures/x.nitf");
+    assert!(
+        e.contains("datasets[0].path") && e.contains("x.nitf: NITF header: not a NITF 2.1 file"),
+        "{e}"
+    );
+    let e = refused(
+        d,
+        "outside",
+        "kind: sicd, path: [fixtures/scene_00.nitf, fixtures/scene_01.nitf], window: {row: 0, col: 20, size: [16, 16]}",
+    );
+    assert!(
+        e.contains("datasets[0].window") && e.contains("columns 20..36") && e.contains("40 x 30"),
+        "{e}"
+    );
+}
