@@ -76,6 +76,56 @@ fn geotiff_window_stacks_are_analysed_as_rasterio_reads_their_pixels() {
 }
 
 #[test]
+fn a_cut_geotiff_stack_is_the_stack_cut_cuts_from_rasterios_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let files: Vec<String> = (0..3).map(|k| format!("fixtures/s1_0{k}.tif")).collect();
+    let cut = "cut: {patch: 8, stride: [8, 6], avoid: [{row: 10, col: 10, size: [4, 4]}]}";
+    let fields = format!(
+        "kind: geotiff, path: [{}], window: {{row: 2, col: 1, size: [36, 28]}}, {cut}",
+        files.join(", ")
+    );
+    let ours = run(d, "cut", &fields);
+    // `isar-clutter cut` of the same scenes as rasterio read them, one [3, 40, 30] time stack.
+    let o = common::bin(&[
+        "cut",
+        "--input",
+        fx.join("scenes.npy").to_str().unwrap(),
+        "--patch",
+        "8",
+        "--stride",
+        "8x6",
+        "--window",
+        "2:38,1:29",
+        "--avoid",
+        "10:14,10:14",
+        "--out",
+        fx.join("cut.npy").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::text(&o));
+    assert_same_tables(
+        &ours,
+        &run(d, "cut_npy", "kind: npy, path: fixtures/cut.npy"),
+    );
+    let files = dataset_files(&ours);
+    // Rows 2, 10, 18, 26 and columns 1, 7, 13, 19 (16 places) less the 2 that cover the box
+    // (row 10, columns 7 and 13).
+    assert_eq!(files["cut"]["places"], json!(14), "{files}");
+    let e = refused(
+        d,
+        "too_big",
+        "kind: geotiff, path: [fixtures/s1_00.tif, fixtures/s1_01.tif], cut: {patch: 41}",
+    );
+    assert!(
+        e.contains("datasets[0].cut") && e.contains("no 41x41 patch fits"),
+        "{e}"
+    );
+}
+
+#[test]
 fn bad_geotiff_files_are_refused_naming_the_file_and_the_field() {
     let dir = tempfile::tempdir().unwrap();
     let Some(fx) = fixtures(dir.path()) else {

@@ -3,7 +3,8 @@
 - `s1_0{k}.tif`, k = 0, 1, 2: three coregistered 40 x 30 scenes of complex int16 (GDAL's
   CInt16, as Sentinel-1 SLC measurement files store them), in strips, uncompressed, with
   ground control points in WGS 84 (as Sentinel-1's), and `window.npy`: rows 5..21 and
-  columns 7..23 of each as rasterio reads them, an [N, H, W] complex64 stack.
+  columns 7..23 of each as rasterio reads them, an [N, H, W] complex64 stack, and
+  `scenes.npy`: the whole scenes as rasterio reads them, a [3, 40, 30] time stack.
 - `tiled_0{k}.tif`: the same pixels as complex float32 in 16 x 16 tiles, deflated, on a UTM
   grid (an affine transform), and `tiled_window.npy` from them.
 - `byte.tif`: an 8-bit unsigned image (not complex); `lzw.tif`: a CInt16 scene compressed
@@ -39,7 +40,7 @@ def main(out: Path) -> None:
     rng = np.random.default_rng(20261129)
     gcps = [GroundControlPoint(row=r, col=c, x=11.0 + c * 1e-4, y=48.0 - r * 1e-4, z=500.0)
             for r in (0, ROWS) for c in (0, COLS)]
-    windows, tiled = [], []
+    windows, tiled, whole = [], [], []
     for k in range(3):
         ints = rng.integers(-2000 * (k + 1), 2000 * (k + 1), (2, ROWS, COLS))
         z = (ints[0] + 1j * ints[1]).astype(np.complex64)
@@ -50,9 +51,11 @@ def main(out: Path) -> None:
         # What rasterio reads back from the files, independently of the writer above.
         with rasterio.open(out / f"s1_0{k}.tif") as f:
             windows.append(f.read(1, window=WINDOW))
+            whole.append(f.read(1))
         with rasterio.open(out / f"tiled_0{k}.tif") as f:
             tiled.append(f.read(1, window=WINDOW))
     np.save(out / "window.npy", np.stack(windows).astype(np.complex64))
+    np.save(out / "scenes.npy", np.stack(whole).astype(np.complex64))
     np.save(out / "tiled_window.npy", np.stack(tiled).astype(np.complex64))
     write(out / "byte.tif", rng.integers(0, 255, (ROWS, COLS)).astype(np.uint8), "uint8")
     write(out / "lzw.tif", np.ones((ROWS, COLS), np.complex64), "complex_int16", compress="lzw")

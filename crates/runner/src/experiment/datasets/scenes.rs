@@ -1,16 +1,18 @@
 //! Dataset kinds of radar scenes in a file format of the field ([`SceneFormat`]: `geotiff`,
 //! `sicd`): one scene is one sample, so a list of coregistered scenes (a stack over time or
 //! aspect) is a clutter stack, each read in the same window (`window`, default the whole
-//! scene). The files are checked at validation by the format's reader (the core's
-//! `io::scenes`), which names the file and the format's field at fault; only the window is
-//! read, and each file's metadata goes into the manifest.
+//! scene); with `cut`, the window is cut into patches and every patch of every scene is one
+//! sample (one scene, or a few, then make a stack). The files are checked at validation by
+//! the format's reader (the core's `io::scenes`), which names the file and the format's field
+//! at fault; only the window is read (with `cut`, a band of patch rows at a time), and each
+//! file's metadata goes into the manifest.
 
 use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Materialised};
 use super::uavsar::{Paths, WindowSpec};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
-use crate::io::cut::Window;
+use crate::io::cut::{CutOptions, Size2, Window};
 use crate::io::npy::Stack;
 use crate::io::scenes::{Scene, Scenes};
 use ndarray::Array3;
@@ -38,6 +40,59 @@ pub struct Spec {
     /// size).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub window: Option<WindowSpec>,
+    /// Cut the window into patches, each patch of each scene a sample.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cut: Option<CutSpec>,
+}
+
+/// A patch size or stride: `64` (square) or `[rows, columns]`.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(untagged)]
+pub enum Side {
+    /// Square.
+    Square(usize),
+    /// `[rows, columns]`.
+    Rect([usize; 2]),
+}
+
+impl Side {
+    /// As the core's size.
+    fn size(self) -> Size2 {
+        let [rows, cols] = match self {
+            Side::Square(n) => [n, n],
+            Side::Rect(rc) => rc,
+        };
+        Size2 { rows, cols }
+    }
+}
+
+/// How the window is cut into patches (`isar-clutter cut`'s options).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CutSpec {
+    /// Patch size.
+    pub patch: Side,
+    /// Step between patches (default: the patch size, patches that touch).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stride: Option<Side>,
+    /// Boxes no patch may overlap (targets, buildings), in scene pixels.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub avoid: Vec<WindowSpec>,
+    /// A mask of the first scene's size (`.npy`, `bool` or `uint8`): no patch may cover a
+    /// non-zero pixel. Relative to the spec file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub avoid_mask: Option<PathBuf>,
+}
+
+/// A validated cut: the patch size and the places of the patches (top-left row, column).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Patches {
+    /// Patch size.
+    pub patch: Size2,
+    /// The options, as the manifest records them.
+    pub options: CutOptions,
+    /// Top-left row and column of every patch, row-major.
+    pub places: Vec<(usize, usize)>,
 }
 
 /// A validated scene dataset of format `F`.
@@ -45,11 +100,13 @@ pub struct Spec {
 pub struct SceneDataset<F: SceneFormat> {
     /// The scenes, checked, and the window read from each.
     pub stack: Scenes<F::Scene>,
+    /// The patches the window is cut into (`None`: one sample a scene).
+    pub cut: Option<Patches>,
 }
 
 impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
     const NAME: &'static str = F::NAME;
-    const FIELDS: &'static [&'static str] = &["path", "window"];
+    const FIELDS: &'static [&'static str] = &["path", "window", "cut"];
     const SAMPLES_FIELD: &'static str = "path";
     type Spec = Spec;
 
@@ -76,11 +133,22 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
             };
             ctx.err(path, e.message)
         })?;
-        Ok(SceneDataset { stack })
+        let cut = match &spec.cut {
+            Some(c) => Some(patches(c, &stack, ctx, &format!("{at}.cut"))?),
+            None => None,
+        };
+        Ok(SceneDataset { stack, cut })
     }
 
     fn shape(&self) -> (usize, usize, usize) {
-        self.stack.shape()
+        match &self.cut {
+            Some(c) => (
+                c.places.len() * self.stack.scenes.len(),
+                c.patch.rows,
+                c.patch.cols,
+            ),
+            None => self.stack.shape(),
+        }
     }
 
     fn input_files(&self) -> Vec<PathBuf> {
@@ -126,9 +194,12 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
     fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
         let what = format!("the {} stack", F::NAME);
         let mut out: Array3<Complex32> = try_zeros(self.shape(), &what)?;
-        self.stack
-            .read_into(out.as_slice_mut().expect("standard layout"))
-            .map_err(Into::into)?;
+        let values = out.as_slice_mut().expect("standard layout");
+        match &self.cut {
+            Some(c) => self.stack.read_patches(&c.places, c.patch, values),
+            None => self.stack.read_into(values),
+        }
+        .map_err(Into::into)?;
         Ok(Materialised::plain(Stack::Single(out), false))
     }
 
@@ -142,6 +213,59 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
     }
 
     fn metadata(&self) -> Option<serde_json::Value> {
-        Some(self.stack.describe())
+        let mut m = self.stack.describe();
+        if let Some(c) = &self.cut {
+            m["cut"] = serde_json::json!({
+                "options": c.options,
+                "places": c.places.len(),
+                "order": "sample p * scenes + t is scene t at place p (row-major places)",
+            });
+        }
+        Some(m)
     }
+}
+
+/// The places of the cut `c` of `stack`'s window (`at`: the cut's YAML path).
+fn patches<S: Scene>(
+    c: &CutSpec,
+    stack: &Scenes<S>,
+    ctx: &Ctx,
+    at: &str,
+) -> Result<Patches, SpecError> {
+    let (patch, stride) = (c.patch.size(), c.stride.unwrap_or(c.patch).size());
+    for (name, s) in [("patch", patch), ("stride", stride)] {
+        if s.rows == 0 || s.cols == 0 {
+            return Err(ctx.err(format!("{at}.{name}"), "must be at least 1 x 1"));
+        }
+    }
+    let options = CutOptions {
+        patch,
+        stride,
+        window: Some(stack.window),
+        avoid: c
+            .avoid
+            .iter()
+            .map(|w| Window::at(w.row, w.col, w.size[0], w.size[1]))
+            .collect(),
+        avoid_mask: c.avoid_mask.as_ref().map(|p| ctx.resolve(p)),
+    };
+    let w = stack.window;
+    let mut places = crate::io::cut::places(w.r1, w.c1, &options)
+        .map_err(|e| ctx.err(at.to_string(), format!("{e:#}")))?;
+    if let Some(mask) = &options.avoid_mask {
+        let dims = stack.scenes[0].dims();
+        places = crate::io::cut::unmasked(places, patch, dims, mask)
+            .map_err(|e| ctx.err(format!("{at}.avoid_mask"), format!("{e:#}")))?;
+        if places.is_empty() {
+            return Err(ctx.err(
+                format!("{at}.avoid_mask"),
+                format!("every patch covers a pixel of the mask {}", mask.display()),
+            ));
+        }
+    }
+    Ok(Patches {
+        patch,
+        options,
+        places,
+    })
 }
