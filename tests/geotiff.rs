@@ -2,8 +2,9 @@
 //! by GDAL through rasterio (`tests/geotiff/make_fixtures.py`, run at test time in the
 //! project's virtualenv `.venv`): complex int16 strips (Sentinel-1's layout) and deflated
 //! complex float32 tiles give, in a window, the analysis the same pixels give when rasterio
-//! reads them and saves them as `.npy`, value for value, and their georeferencing reaches the
-//! manifest; a truncated file, an unsigned 8-bit image, an LZW-compressed one and a window
+//! reads them and saves them as `.npy`, value for value (a window given in pixels or as a box
+//! of map coordinates, or cut into patches as `isar-clutter cut` cuts them), and their
+//! georeferencing reaches the manifest; a truncated file, an unsigned 8-bit image, an LZW-compressed one and a window
 //! outside the scenes are refused at validation, naming the file and the field.
 
 mod common;
@@ -47,6 +48,14 @@ fn geotiff_window_stacks_are_analysed_as_rasterio_reads_their_pixels() {
     let tiled = run(d, "tiled", &geotiff_fields("tiled"));
     let npy = run(d, "tiled_npy", "kind: npy, path: fixtures/tiled_window.npy");
     assert_same_tables(&tiled, &npy);
+    // The same window as a box of UTM coordinates (2.5 m columns, 5 m rows from 500000 E,
+    // 5300000 N).
+    let files: Vec<String> = (0..3).map(|k| format!("fixtures/tiled_0{k}.tif")).collect();
+    let map = format!(
+        "kind: geotiff, path: [{}], window: {{x: [500017.5, 500057.5], y: [5299895, 5299975]}}",
+        files.join(", ")
+    );
+    assert_same_tables(&run(d, "tiled_map", &map), &npy);
     // Georeferencing: Sentinel-1's ground control points in WGS 84 (EPSG 4326, GeoKey
     // 2048), and the tiled scenes' UTM grid as an affine transform (EPSG 32632, GeoKey 3072).
     let files = dataset_files(&s1);
@@ -171,6 +180,27 @@ fn bad_geotiff_files_are_refused_naming_the_file_and_the_field() {
     );
     assert!(
         e.contains("datasets[0].window") && e.contains("rows 30..46") && e.contains("40 x 30"),
+        "{e}"
+    );
+    // No radiometric scale factors in a GeoTIFF.
+    let e = refused(
+        d,
+        "calibration",
+        &format!("{}, calibration: sigma0", geotiff_fields("s1")),
+    );
+    assert!(
+        e.contains("datasets[0].calibration")
+            && e.contains("s1_00.tif: its format gives no radiometric scale factors"),
+        "{e}"
+    );
+    // A map box on scenes georeferenced by ground control points only.
+    let e = refused(
+        d,
+        "gcps",
+        "kind: geotiff, path: [fixtures/s1_00.tif, fixtures/s1_01.tif], window: {x: [11.0, 11.001], y: [47.999, 48.0]}",
+    );
+    assert!(
+        e.contains("datasets[0].window") && e.contains("s1_00.tif gives no map transform"),
         "{e}"
     );
 }

@@ -2,7 +2,8 @@
 //! (NGA's reader and writer; `tests/sicd/make_fixtures.py`, run at test time in the project's
 //! virtualenv `.venv`) of `RE16I_IM16I` and `RE32F_IM32F` pixels give, in a window, the
 //! analysis the same pixels give when sarpy reads them and saves them as `.npy`, value for
-//! value, and their collection metadata reaches the manifest; a truncated file, a pixel type
+//! value, and their collection metadata reaches the manifest (and the calibration to sigma-0
+//! with their own scale polynomial, where asked); a truncated file, a pixel type
 //! where the XML and the NITF image segment differ, a file that is not NITF and a window
 //! outside the images are refused at validation, naming the file and the field.
 
@@ -132,6 +133,16 @@ fn bad_sicd_files_are_refused_naming_the_file_and_the_field() {
     let e = refused(d, "not_nitf", "kind: sicd, path: fixtures/x.nitf");
     assert!(
         e.contains("datasets[0].path") && e.contains("x.nitf: NITF header: not a NITF 2.1 file"),
+        "{e}"
+    );
+    let e = refused(
+        d,
+        "no_poly",
+        "kind: sicd, path: [fixtures/scene_00.nitf, fixtures/scene_01.nitf], calibration: sigma0",
+    );
+    assert!(
+        e.contains("datasets[0].calibration")
+            && e.contains("scene_00.nitf: its SICD XML has no Radiometric/SigmaZeroSFPoly"),
         "{e}"
     );
     let e = refused(

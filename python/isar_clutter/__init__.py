@@ -41,6 +41,7 @@ def load(
     *,
     annotation: Union[PathArg, Sequence[PathArg], None] = None,
     window: Optional[Tuple[int, int, int, int]] = None,
+    calibration: Optional[str] = None,
 ):
     """A stack of radar images as a numpy array ``[N, H, W]``, ready for ``analyse`` and ``fit``.
 
@@ -56,7 +57,10 @@ def load(
       ``window`` as above. complex64.
     - SICD images (``.nitf``, ``.ntf``: NITF 2.1 with SICD XML, Umbra's and Capella's
       single-look complex deliveries; ``RE32F_IM32F``, ``RE16I_IM16I``, ``AMP8I_PHS8I``);
-      every image is one sample, read in ``window`` as above. complex64.
+      every image is one sample, read in ``window`` as above. complex64; ``calibration``
+      (``"sigma0"``, ``"beta0"``, ``"gamma0"``, ``"rcs"``) multiplies each pixel by the root
+      of the file's ``Radiometric`` scale polynomial there, so that ``|x|**2`` is that
+      quantity.
 
     A bad file raises ``ValueError`` naming the field (``slc[i]``, ``annotation``, ``path[i]``,
     ``window``), the file and the format's field at fault (a TIFF tag, a NITF field, a SICD XML
@@ -64,12 +68,14 @@ def load(
     """
     paths = _paths(path)
     kinds = {Path(p).suffix.lower() for p in paths}
+    if calibration is not None and not (kinds and kinds <= {".nitf", ".ntf"}):
+        raise ValueError("calibration reads SICD's scale factors: give .nitf/.ntf files")
     if kinds == {".slc"}:
         return load_uavsar(paths, _paths(annotation), window)
     if kinds and kinds <= {".tif", ".tiff"} and annotation is None:
         return load_geotiff(paths, window)
     if kinds and kinds <= {".nitf", ".ntf"} and annotation is None:
-        return load_sicd(paths, window)
+        return load_sicd(paths, window, calibration)
     raise ValueError(
         "load reads UAVSAR .slc files (with an annotation), GeoTIFF .tif/.tiff and SICD "
         f".nitf/.ntf files; "

@@ -47,8 +47,10 @@ def load_geotiff(
 def load_sicd(
     paths: Sequence[Union[str, PathLike]],
     window: Optional[Tuple[int, int, int, int]] = None,
+    calibration: Optional[str] = None,
 ) -> np.ndarray:
-    """The window ``(row, col, rows, cols)`` of every SICD image as complex64 [N, H, W]."""
+    """The window ``(row, col, rows, cols)`` of every SICD image as complex64 [N, H, W],
+    calibrated to ``calibration`` (sigma0, beta0, gamma0, rcs) where given."""
 
 class Model:
     """A synthesis model: from ``fit``, or ``Model.load`` of a model folder."""

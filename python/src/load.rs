@@ -6,7 +6,7 @@
 
 use isar_clutter_core::io::cut::Window;
 use isar_clutter_core::io::geotiff::{GeoTiff, TiffError};
-use isar_clutter_core::io::scenes::{Scene, Scenes};
+use isar_clutter_core::io::scenes::{Place, Scene, Scenes};
 use isar_clutter_core::io::sicd::{Sicd, SicdError};
 use isar_clutter_core::io::uavsar::SceneStack;
 use ndarray::Array3;
@@ -56,44 +56,57 @@ pub fn load_geotiff<'py>(
     paths: Vec<PathBuf>,
     window: Option<(usize, usize, usize, usize)>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    load_scenes::<GeoTiff>(py, &paths, window, "GeoTIFF", |e| {
+    load_scenes::<GeoTiff>(py, &paths, window, None, "GeoTIFF", |e| {
         matches!(e, TiffError::Io { .. })
     })
 }
 
-/// load_sicd(paths, window=None)
+/// load_sicd(paths, window=None, calibration=None)
 /// --
 ///
 /// The same window `(row, col, rows, cols)` of every SICD image in `paths` (default: the whole
-/// image), as a complex64 `[N, H, W]` array. A bad file is a `ValueError` naming the field,
-/// the image, the file and the NITF field or XML element; an unreadable one an `OSError`.
+/// image), as a complex64 `[N, H, W]` array, calibrated to `calibration` (`sigma0`, `beta0`,
+/// `gamma0`, `rcs`) with each file's `Radiometric` polynomial where given. A bad file is a
+/// `ValueError` naming the field, the image, the file and the NITF field or XML element; an
+/// unreadable one an `OSError`.
 #[pyfunction]
-#[pyo3(signature = (paths, window = None))]
+#[pyo3(signature = (paths, window = None, calibration = None))]
 pub fn load_sicd<'py>(
     py: Python<'py>,
     paths: Vec<PathBuf>,
     window: Option<(usize, usize, usize, usize)>,
+    calibration: Option<String>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    load_scenes::<Sicd>(py, &paths, window, "SICD", |e| {
+    load_scenes::<Sicd>(py, &paths, window, calibration, "SICD", |e| {
         matches!(e, SicdError::Io { .. })
     })
 }
 
-/// The window of every scene of format `S` in `paths` (`what` names the format; `is_io`: an
-/// error that is the file's reading, an `OSError`, rather than its content's).
+/// The window of every scene of format `S` in `paths`, calibrated to `calibration` (`what`
+/// names the format; `is_io`: an error that is the file's reading, an `OSError`, rather than
+/// its content's).
 fn load_scenes<'py, S: Scene + Sync>(
     py: Python<'py>,
     paths: &[PathBuf],
     window: Option<(usize, usize, usize, usize)>,
+    calibration: Option<String>,
     what: &str,
     is_io: fn(&S::Error) -> bool,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>>
 where
     S::Error: Send,
 {
-    let window = window.map(|(row, col, rows, cols)| Window::at(row, col, rows, cols));
-    let stack =
+    let window =
+        window.map(|(row, col, rows, cols)| Place::Pixels(Window::at(row, col, rows, cols)));
+    let mut stack =
         Scenes::<S>::open(paths, window).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    if let Some(q) = &calibration {
+        for scene in &mut stack.scenes {
+            scene
+                .calibrate(q)
+                .map_err(|m| PyValueError::new_err(format!("calibration: {m}")))?;
+        }
+    }
     let mut out: Array3<Complex32> =
         isar_clutter_core::alloc::try_zeros(stack.shape(), &format!("the {what} stack"))
             .map_err(|e| PyMemoryError::new_err(e.to_string()))?;

@@ -114,6 +114,11 @@ def test_sicd_images_are_read_as_sarpy_reads_them(tmp_path):
         assert x.dtype == np.complex64 and x.shape == (3, 16, 16)
         np.testing.assert_array_equal(x, np.load(fx / window))
         assert ic.load(paths).shape == (3, 40, 30)
+    cal = ic.load([fx / f"cal_0{k}.nitf" for k in range(3)], calibration="sigma0")
+    # The factor is the root of a float64 polynomial rounded to float32: 1e-6 relative.
+    np.testing.assert_allclose(cal, np.load(fx / "cal_sigma0.npy"), rtol=1e-6, atol=0)
+    with pytest.raises(ValueError, match=r"calibration: .*scene_00.nitf: its SICD XML has no Radiometric/BetaZeroSFPoly"):
+        ic.load([fx / "scene_00.nitf"], calibration="beta0")
     data = (fx / "scene_01.nitf").read_bytes()
     (fx / "scene_01.nitf").write_bytes(data[:-100])
     with pytest.raises(ValueError, match=r"path\[1\]: .*scene_01.nitf: NITF header: .*truncated"):

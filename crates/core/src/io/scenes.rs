@@ -50,6 +50,85 @@ pub trait Scene: Sized {
     fn read_window(&self, window: &Window, out: &mut [Complex32]) -> Result<(), Self::Error>;
     /// What a run's manifest records of the file (its format's metadata).
     fn describe(&self) -> serde_json::Value;
+    /// The affine map from pixel corners to the file's map coordinates,
+    /// `[x0, dx/dcol, dx/drow, y0, dy/dcol, dy/drow]` (pixel `(row, col)`'s top-left corner at
+    /// `x = x0 + col dx/dcol + row dx/drow`, ...), where the format gives one.
+    fn affine(&self) -> Option<[f64; 6]> {
+        None
+    }
+    /// Makes every later read give calibrated values of `quantity` (`sigma0`, `beta0`,
+    /// `gamma0`, `rcs`: `|value|^2` is that quantity) from the file's own scale factors.
+    ///
+    /// # Errors
+    /// Where the format or the file gives no such factors, naming the file.
+    fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
+        Err(format!(
+            "{}: its format gives no radiometric scale factors (asked for {quantity})",
+            self.path().display()
+        ))
+    }
+}
+
+/// Where the window lies: in pixels, or a box in the files' map coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Place {
+    /// Pixels of every scene.
+    Pixels(Window),
+    /// The pixels that cover the box `x` x `y` of map coordinates (the reference system of
+    /// the files' affine transform), every scene on the same grid.
+    Map {
+        /// `[x0, x1]`.
+        x: [f64; 2],
+        /// `[y0, y1]`.
+        y: [f64; 2],
+    },
+}
+
+/// The pixel window that covers the map box `x` x `y` under `affine` (see [`Scene::affine`]):
+/// the box's corners in pixel coordinates, rounded outwards (a coordinate within 1e-6 of a
+/// whole pixel taken as that pixel).
+///
+/// # Errors
+/// If the transform is singular, or the box lies above or left of the image.
+pub fn map_window(affine: [f64; 6], x: [f64; 2], y: [f64; 2]) -> Result<Window, String> {
+    let [x0, a, b, y0, d, e] = affine;
+    let det = a * e - b * d;
+    if det == 0.0 || !det.is_finite() {
+        return Err(format!("its affine transform {affine:?} is singular"));
+    }
+    let (mut rows, mut cols) = (
+        [f64::INFINITY, f64::NEG_INFINITY],
+        [f64::INFINITY, f64::NEG_INFINITY],
+    );
+    for xx in x {
+        for yy in y {
+            let (u, v) = (xx - x0, yy - y0);
+            let col = (e * u - b * v) / det;
+            let row = (a * v - d * u) / det;
+            cols = [cols[0].min(col), cols[1].max(col)];
+            rows = [rows[0].min(row), rows[1].max(row)];
+        }
+    }
+    let snap = |v: f64| {
+        if (v - v.round()).abs() < 1e-6 {
+            v.round()
+        } else {
+            v
+        }
+    };
+    let (r0, r1) = (snap(rows[0]).floor(), snap(rows[1]).ceil());
+    let (c0, c1) = (snap(cols[0]).floor(), snap(cols[1]).ceil());
+    if r0 < 0.0 || c0 < 0.0 {
+        return Err(format!(
+            "the box x {x:?}, y {y:?} starts at pixel row {r0}, column {c0}: outside the image"
+        ));
+    }
+    Ok(Window {
+        r0: r0 as usize,
+        r1: r1 as usize,
+        c0: c0 as usize,
+        c1: c1 as usize,
+    })
 }
 
 /// Coregistered scenes of one format: the same window of each is one sample.
@@ -63,12 +142,13 @@ pub struct Scenes<S> {
 
 impl<S: Scene> Scenes<S> {
     /// Opens every file of `paths` and checks `window` (default: the whole scene, every scene
-    /// then of one size) against each.
+    /// then of one size) against each; a window in map coordinates is the pixels that cover
+    /// it in the first scene, which every scene must share.
     ///
     /// # Errors
     /// A [`StackError`] naming the field (`path` with the file's index, or `window`) and the
     /// file.
-    pub fn open(paths: &[PathBuf], window: Option<Window>) -> Result<Scenes<S>, StackError> {
+    pub fn open(paths: &[PathBuf], window: Option<Place>) -> Result<Scenes<S>, StackError> {
         let err = |field, index, message: String| StackError {
             field,
             index,
@@ -84,7 +164,33 @@ impl<S: Scene> Scenes<S> {
             .collect::<Result<Vec<S>, _>>()?;
         let dims = |i: usize| scenes[i].dims();
         let window = match window {
-            Some(w) => w,
+            Some(Place::Pixels(w)) => w,
+            Some(Place::Map { x, y }) => {
+                let pixels = |i: usize| -> Result<Window, StackError> {
+                    let affine = scenes[i].affine().ok_or_else(|| {
+                        let p = paths[i].display();
+                        err("window", None, format!("{p} gives no map transform: give the window in pixels (row, col, size)"))
+                    })?;
+                    map_window(affine, x, y)
+                        .map_err(|m| err("window", None, format!("{}: {m}", paths[i].display())))
+                };
+                let w = pixels(0)?;
+                for i in 1..scenes.len() {
+                    if pixels(i)? != w {
+                        return Err(err(
+                            "window",
+                            None,
+                            format!(
+                                "the box lies on other pixels of {} than of {}: the scenes are \
+                                 not on one grid; give the window in pixels",
+                                paths[i].display(),
+                                paths[0].display()
+                            ),
+                        ));
+                    }
+                }
+                w
+            }
             None => {
                 if let Some(i) = (0..scenes.len()).find(|&i| dims(i) != dims(0)) {
                     return Err(err(
@@ -241,7 +347,8 @@ mod tests {
     #[test]
     fn patches_are_read_place_by_place_scene_by_scene_as_cut_orders_them() {
         let paths: Vec<PathBuf> = ["0", "1", "2"].iter().map(PathBuf::from).collect();
-        let s = Scenes::<Grid>::open(&paths, Some(Window::at(2, 3, 15, 20))).unwrap();
+        let s =
+            Scenes::<Grid>::open(&paths, Some(Place::Pixels(Window::at(2, 3, 15, 20)))).unwrap();
         let patch = Size2 { rows: 4, cols: 5 };
         let o = super::super::cut::CutOptions {
             patch,
@@ -269,5 +376,24 @@ mod tests {
             }
         }
         assert!(places.len() > 6 && !places.contains(&(8, 10)), "{places:?}");
+    }
+
+    #[test]
+    fn a_map_box_is_the_pixels_that_cover_it() {
+        // 2.5 m columns east, 5 m rows south from (500000, 5300000).
+        let north_up = [500000.0, 2.5, 0.0, 5300000.0, 0.0, -5.0];
+        let w = map_window(north_up, [500017.5, 500057.5], [5299895.0, 5299975.0]).unwrap();
+        assert_eq!(w, Window::at(5, 7, 16, 16));
+        // Partly covered pixels are in.
+        let w = map_window(north_up, [500018.0, 500057.0], [5299896.0, 5299974.0]).unwrap();
+        assert_eq!(w, Window::at(5, 7, 16, 16));
+        // A rotated grid: x along rows, y along columns.
+        let w = map_window([10.0, 0.0, 2.0, 20.0, 3.0, 0.0], [14.0, 20.0], [26.0, 41.0]).unwrap();
+        assert_eq!(w, Window::at(2, 2, 3, 5));
+        assert!(
+            map_window(north_up, [499990.0, 500010.0], [5299900.0, 5299950.0])
+                .unwrap_err()
+                .contains("outside the image")
+        );
     }
 }

@@ -416,4 +416,16 @@ impl Scene for GeoTiff {
     fn describe(&self) -> serde_json::Value {
         GeoTiff::describe(self)
     }
+
+    /// The affine transform of the tags, moved by half a pixel where the raster's points are
+    /// pixel centres (GeoKey 1025, `RasterPixelIsPoint`), as GDAL reads it.
+    fn affine(&self) -> Option<[f64; 6]> {
+        let [x0, a, b, y0, d, e] = self.georef.affine?;
+        let point = self.georef.geokeys.get(&1025) == Some(&georef::KeyValue::Ints(vec![2]));
+        Some(if point {
+            [x0 - 0.5 * (a + b), a, b, y0 - 0.5 * (d + e), d, e]
+        } else {
+            [x0, a, b, y0, d, e]
+        })
+    }
 }

@@ -3,7 +3,8 @@
 //! window covers; an uncompressed block read a group of rows at a time (a scene stored as one
 //! strip then needs a few MiB, not the strip), a deflated one decoded whole.
 
-use super::{Compression, GeoTiff, TiffError};
+use super::ifd::Order;
+use super::{Compression, GeoTiff, Num, TiffError};
 use crate::io::cut::Window;
 use num_complex::Complex32;
 use rayon::prelude::*;
@@ -202,19 +203,46 @@ fn write_rows(
     for r in rows.0..rows.1 {
         let dst = &mut band[(r - band_top) * win.cols()..][c0 - win.c0..c1 - win.c0];
         let i = r - first;
-        for (j, z) in (c0 - left..c1 - left).zip(dst.iter_mut()) {
-            *z = if tiff.planar {
-                let at = (i * bw + j) * size;
-                Complex32::new(
-                    num.read(order, &planes[0][at..]),
-                    num.read(order, &planes[1][at..]),
-                )
-            } else {
-                let at = (i * bw + j) * 2 * size;
-                let p = &planes[0];
-                Complex32::new(num.read(order, &p[at..]), num.read(order, &p[at + size..]))
-            };
+        let (j0, j1) = (i * bw + c0 - left, i * bw + c1 - left);
+        if tiff.planar {
+            let (re, im) = (
+                &planes[0][j0 * size..j1 * size],
+                &planes[1][j0 * size..j1 * size],
+            );
+            for ((z, a), b) in dst
+                .iter_mut()
+                .zip(re.chunks_exact(size))
+                .zip(im.chunks_exact(size))
+            {
+                *z = Complex32::new(num.read(order, a), num.read(order, b));
+            }
+        } else {
+            convert(num, order, &planes[0][j0 * 2 * size..j1 * 2 * size], dst);
         }
+    }
+}
+
+/// Interleaved parts `src` (real, imaginary, ... of type `num` in `order`) into `dst`: one
+/// tight loop per type and order, the parts' sizes known to the compiler.
+fn convert(num: Num, order: Order, src: &[u8], dst: &mut [Complex32]) {
+    macro_rules! run {
+        ($t:ty, $n:expr, $from:ident) => {
+            for (z, b) in dst.iter_mut().zip(src.chunks_exact(2 * $n)) {
+                let re = <$t>::$from(b[..$n].try_into().expect("a part"));
+                let im = <$t>::$from(b[$n..].try_into().expect("a part"));
+                *z = Complex32::new(re as f32, im as f32);
+            }
+        };
+    }
+    match (num, order) {
+        (Num::I16, Order::Little) => run!(i16, 2, from_le_bytes),
+        (Num::I16, Order::Big) => run!(i16, 2, from_be_bytes),
+        (Num::I32, Order::Little) => run!(i32, 4, from_le_bytes),
+        (Num::I32, Order::Big) => run!(i32, 4, from_be_bytes),
+        (Num::F32, Order::Little) => run!(f32, 4, from_le_bytes),
+        (Num::F32, Order::Big) => run!(f32, 4, from_be_bytes),
+        (Num::F64, Order::Little) => run!(f64, 8, from_le_bytes),
+        (Num::F64, Order::Big) => run!(f64, 8, from_be_bytes),
     }
 }
 

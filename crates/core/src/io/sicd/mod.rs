@@ -130,6 +130,8 @@ pub struct Sicd {
     pub segments: Vec<Rows>,
     /// The metadata the manifest records.
     pub metadata: xml::Metadata,
+    /// The quantity reads are calibrated to and its scale polynomial (`None`: as stored).
+    pub calibration: Option<(String, xml::Poly2)>,
 }
 
 impl Sicd {
@@ -185,6 +187,7 @@ impl Sicd {
             pixel,
             segments,
             metadata,
+            calibration: None,
         })
     }
 
@@ -219,6 +222,12 @@ impl Sicd {
                     file.read_exact_at(buf, at).map_err(io)?;
                     for (z, b) in row.iter_mut().zip(buf.chunks_exact(size)) {
                         *z = self.pixel.value(b);
+                    }
+                    if let Some((_, poly)) = &self.calibration {
+                        let g = &self.metadata.calibration;
+                        for (j, z) in row.iter_mut().enumerate() {
+                            *z *= g.factor(poly, r, win.c0 + j);
+                        }
                     }
                     Ok(())
                 },
@@ -326,8 +335,37 @@ impl Scene for Sicd {
         Sicd::read_window(self, window, out)
     }
 
+    /// From `Radiometric`'s `SigmaZeroSFPoly` (`sigma0`), `BetaZeroSFPoly` (`beta0`),
+    /// `GammaZeroSFPoly` (`gamma0`) or `RCSSFPoly` (`rcs`).
+    fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
+        let name = match quantity {
+            "sigma0" => "SigmaZeroSFPoly",
+            "beta0" => "BetaZeroSFPoly",
+            "gamma0" => "GammaZeroSFPoly",
+            "rcs" => "RCSSFPoly",
+            q => return Err(format!("{q} is not sigma0, beta0, gamma0 or rcs")),
+        };
+        let g = &self.metadata.calibration;
+        let poly = g.polys.get(name).ok_or_else(|| {
+            format!(
+                "{}: its SICD XML has no Radiometric/{name}",
+                self.path.display()
+            )
+        })?;
+        if g.scp_pixel.is_none() || g.ss.is_none() {
+            return Err(format!(
+                "{}: its SICD XML lacks ImageData/SCPPixel or Grid/Row/SS, Grid/Col/SS, which \
+                 place Radiometric/{name}",
+                self.path.display()
+            ));
+        }
+        self.calibration = Some((quantity.to_string(), poly.clone()));
+        Ok(())
+    }
+
     fn describe(&self) -> serde_json::Value {
         serde_json::json!({
+            "calibrated_to": self.calibration.as_ref().map(|c| c.0.clone()),
             "path": self.path.display().to_string(),
             "format": "SICD",
             "rows": self.rows,

@@ -51,6 +51,47 @@ pub struct Metadata {
     /// `GammaZeroSFPoly` and `RCSSFPoly` (the factor that turns `|pixel|^2` into sigma-0, ...
     /// at the scene centre), where given.
     pub radiometric: std::collections::BTreeMap<String, f64>,
+    /// What calibrates a pixel (not recorded: its polynomials' constants are above).
+    #[serde(skip)]
+    pub calibration: Geometry,
+}
+
+/// A 2-D polynomial: `(exponent1, exponent2, coefficient)` terms.
+pub type Poly2 = Vec<(i32, i32, f64)>;
+
+/// What turns a pixel's place into the image coordinates of SICD's polynomials: the scene
+/// centre pixel and the first row and column of the image in the full image (`ImageData`),
+/// the sample spacings (`Grid/Row/SS`, `Grid/Col/SS`), and the radiometric polynomials by
+/// name (`SigmaZeroSFPoly`, ...).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Geometry {
+    /// `ImageData/SCPPixel` (row, column).
+    pub scp_pixel: Option<[f64; 2]>,
+    /// `ImageData/FirstRow`, `FirstCol`.
+    pub first: [f64; 2],
+    /// Row and column sample spacing (m).
+    pub ss: Option<[f64; 2]>,
+    /// `Radiometric`'s polynomials.
+    pub polys: std::collections::BTreeMap<String, Poly2>,
+}
+
+impl Geometry {
+    /// The amplitude factor of `poly` (`SigmaZeroSFPoly`, ...) at pixel `(row, col)` of the
+    /// image: the square root of the polynomial at `xrow = (FirstRow + row - SCPPixel.Row)
+    /// Row.SS`, `ycol = (FirstCol + col - SCPPixel.Col) Col.SS` (SICD Vol. 1, image
+    /// coordinates), so that `|factor pixel|^2` is sigma-0 (beta-0, ...).
+    pub fn factor(&self, poly: &Poly2, row: usize, col: usize) -> f32 {
+        let (Some(scp), Some(ss)) = (self.scp_pixel, self.ss) else {
+            return f32::NAN;
+        };
+        let x = (self.first[0] + row as f64 - scp[0]) * ss[0];
+        let y = (self.first[1] + col as f64 - scp[1]) * ss[1];
+        let v: f64 = poly
+            .iter()
+            .map(|&(i, j, c)| c * x.powi(i) * y.powi(j))
+            .sum();
+        v.sqrt() as f32
+    }
 }
 
 /// The first child of `node` named `name` (any namespace).
@@ -122,24 +163,39 @@ pub fn read(xml: &str) -> Result<(usize, usize, Pixel, Metadata), (&'static str,
     };
     let llh = ["Lat", "Lon", "HAE"].map(|k| number(root, &format!("GeoData/SCP/LLH/{k}")));
     let mut radiometric = std::collections::BTreeMap::new();
+    let mut polys = std::collections::BTreeMap::new();
     for poly in [
         "SigmaZeroSFPoly",
         "BetaZeroSFPoly",
         "GammaZeroSFPoly",
         "RCSSFPoly",
     ] {
-        let constant = at(root, &format!("Radiometric/{poly}")).and_then(|p| {
-            p.children()
-                .filter(|c| c.is_element())
-                .find(|c| {
-                    c.attribute("exponent1") == Some("0") && c.attribute("exponent2") == Some("0")
-                })
-                .and_then(|c| c.text()?.trim().parse().ok())
-        });
-        if let Some(c) = constant {
+        let Some(node) = at(root, &format!("Radiometric/{poly}")) else {
+            continue;
+        };
+        let mut terms: Poly2 = vec![];
+        for c in node.children().filter(|c| c.is_element()) {
+            let e = |k: &str| c.attribute(k).and_then(|v| v.parse::<i32>().ok());
+            let v = c.text().and_then(|t| t.trim().parse::<f64>().ok());
+            match (e("exponent1"), e("exponent2"), v) {
+                (Some(i), Some(j), Some(v)) if i >= 0 && j >= 0 => terms.push((i, j, v)),
+                _ => {
+                    return Err((
+                        "Radiometric",
+                        format!("Radiometric/{poly} has a term without exponents or a number"),
+                    ))
+                }
+            }
+        }
+        if let Some(&(_, _, c)) = terms.iter().find(|t| (t.0, t.1) == (0, 0)) {
             radiometric.insert(poly.to_string(), c);
         }
+        polys.insert(poly.to_string(), terms);
     }
+    let pair = |a: &str, b: &str| match (number(root, a), number(root, b)) {
+        (Some(x), Some(y)) => Some([x, y]),
+        _ => None,
+    };
     let metadata = Metadata {
         namespace: root.tag_name().namespace().map(str::to_string),
         collector: text(root, "CollectionInfo/CollectorName"),
@@ -157,6 +213,12 @@ pub fn read(xml: &str) -> Result<(usize, usize, Pixel, Metadata), (&'static str,
             _ => None,
         },
         radiometric,
+        calibration: Geometry {
+            scp_pixel: pair("ImageData/SCPPixel/Row", "ImageData/SCPPixel/Col"),
+            first: pair("ImageData/FirstRow", "ImageData/FirstCol").unwrap_or([0.0, 0.0]),
+            ss: pair("Grid/Row/SS", "Grid/Col/SS"),
+            polys,
+        },
     };
     Ok((rows, cols, pixel, metadata))
 }

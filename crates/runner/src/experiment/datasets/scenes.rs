@@ -14,7 +14,7 @@ use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::{CutOptions, Size2, Window};
 use crate::io::npy::Stack;
-use crate::io::scenes::{Scene, Scenes};
+use crate::io::scenes::{Place, Scene, Scenes};
 use ndarray::Array3;
 use num_complex::{Complex32, Complex64};
 use serde::{Deserialize, Serialize};
@@ -37,12 +37,59 @@ pub struct Spec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path: Option<Paths>,
     /// The window read from every scene (default: the whole scene, every scene then of one
-    /// size).
+    /// size): in pixels, or a box in map coordinates.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub window: Option<WindowSpec>,
+    pub window: Option<SceneWindow>,
+    /// Calibrate the values to `sigma0`, `beta0`, `gamma0` or `rcs` with the files' own scale
+    /// factors (SICD's `Radiometric` polynomials).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<String>,
     /// Cut the window into patches, each patch of each scene a sample.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cut: Option<CutSpec>,
+}
+
+/// A scene window as written: `{row, col, size: [H, W]}` in pixels, or `{x: [x0, x1], y:
+/// [y0, y1]}` in the map coordinates of the files' affine transform (a GeoTIFF on a grid).
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SceneWindow {
+    /// First row.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row: Option<usize>,
+    /// First column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub col: Option<usize>,
+    /// `[rows, columns]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<[usize; 2]>,
+    /// Map x range.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<[f64; 2]>,
+    /// Map y range.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<[f64; 2]>,
+}
+
+impl SceneWindow {
+    /// The core's place, or what is wrong with the fields.
+    fn place(&self) -> Result<Place, &'static str> {
+        match (self.row, self.col, self.size, self.x, self.y) {
+            (Some(row), Some(col), Some([h, w]), None, None) => {
+                Ok(Place::Pixels(Window::at(row, col, h, w)))
+            }
+            (None, None, None, Some(x), Some(y)) if x[0] < x[1] && y[0] < y[1] => {
+                Ok(Place::Map { x, y })
+            }
+            (None, None, None, Some(_), Some(_)) => {
+                Err("a map box's ranges must be [low, high] with low < high")
+            }
+            _ => Err(
+                "a window is {row, col, size: [H, W]} in pixels or {x: [x0, x1], y: [y0, \
+                      y1]} in map coordinates",
+            ),
+        }
+    }
 }
 
 /// A patch size or stride: `64` (square) or `[rows, columns]`.
@@ -106,7 +153,7 @@ pub struct SceneDataset<F: SceneFormat> {
 
 impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
     const NAME: &'static str = F::NAME;
-    const FIELDS: &'static [&'static str] = &["path", "window", "cut"];
+    const FIELDS: &'static [&'static str] = &["path", "window", "calibration", "cut"];
     const SAMPLES_FIELD: &'static str = "path";
     type Spec = Spec;
 
@@ -123,16 +170,24 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
             )
         })?;
         let files: Vec<PathBuf> = path.list().iter().map(|p| ctx.resolve(p)).collect();
-        let window = spec
-            .window
-            .map(|w| Window::at(w.row, w.col, w.size[0], w.size[1]));
-        let stack = Scenes::open(&files, window).map_err(|e| {
+        let window = match &spec.window {
+            Some(w) => Some(w.place().map_err(|m| ctx.err(format!("{at}.window"), m))?),
+            None => None,
+        };
+        let mut stack = Scenes::<F::Scene>::open(&files, window).map_err(|e| {
             let path = match e.index.filter(|_| matches!(path, Paths::Many(_))) {
                 Some(i) => format!("{at}.{}[{i}]", e.field),
                 None => format!("{at}.{}", e.field),
             };
             ctx.err(path, e.message)
         })?;
+        if let Some(q) = &spec.calibration {
+            for scene in &mut stack.scenes {
+                scene
+                    .calibrate(q)
+                    .map_err(|m| ctx.err(format!("{at}.calibration"), m))?;
+            }
+        }
         let cut = match &spec.cut {
             Some(c) => Some(patches(c, &stack, ctx, &format!("{at}.cut"))?),
             None => None,
