@@ -223,8 +223,9 @@ fn write_rows(
 }
 
 /// Interleaved parts `src` (real, imaginary, ... of type `num` in `order`) into `dst`: one
-/// tight loop per type and order, the parts' sizes known to the compiler.
-fn convert(num: Num, order: Order, src: &[u8], dst: &mut [Complex32]) {
+/// tight loop per type and order, the parts' sizes known to the compiler (SICD's pixels
+/// too).
+pub fn convert(num: Num, order: Order, src: &[u8], dst: &mut [Complex32]) {
     macro_rules! run {
         ($t:ty, $n:expr, $from:ident) => {
             for (z, b) in dst.iter_mut().zip(src.chunks_exact(2 * $n)) {
