@@ -119,6 +119,42 @@ fn a_cut_geotiff_stack_is_the_stack_cut_cuts_from_rasterios_pixels() {
         &ours,
         &run(d, "cut_npy", "kind: npy, path: fixtures/cut.npy"),
     );
+    // `isar-clutter cut` of the GeoTIFF scenes themselves: the same stack, byte for byte.
+    let mut args = vec!["cut".to_string()];
+    for k in 0..3 {
+        args.extend([
+            "--input".into(),
+            fx.join(format!("s1_0{k}.tif")).display().to_string(),
+        ]);
+    }
+    let tif_cut = fx.join("tif_cut.npy");
+    for a in [
+        "--patch",
+        "8",
+        "--stride",
+        "8x6",
+        "--window",
+        "2:38,1:29",
+        "--avoid",
+        "10:14,10:14",
+        "--chunk",
+        "4",
+        "--out",
+    ] {
+        args.push(a.into());
+    }
+    args.push(tif_cut.display().to_string());
+    let o = common::bin(&args);
+    assert!(o.status.success(), "{}", common::text(&o));
+    assert!(
+        common::text(&o).contains("42 patch(es) of 8x8 (14 place(s) x 3 scene(s))"),
+        "{}",
+        common::text(&o)
+    );
+    assert_eq!(
+        std::fs::read(&tif_cut).unwrap(),
+        std::fs::read(fx.join("cut.npy")).unwrap()
+    );
     let files = dataset_files(&ours);
     // Rows 2, 10, 18, 26 and columns 1, 7, 13, 19 (16 places) less the 2 that cover the box
     // (row 10, columns 7 and 13).

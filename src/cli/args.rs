@@ -376,9 +376,11 @@ pub struct GenerateArgs {
 /// `isar-clutter cut`.
 #[derive(Args)]
 pub struct CutArgs {
-    /// The scene: an .npy of shape [H, W] or [T, H, W] (complex64/128 or float32/64).
-    #[arg(long)]
-    pub input: PathBuf,
+    /// The scene: an .npy of shape [H, W] or [T, H, W] (complex64/128 or float32/64), or a
+    /// complex GeoTIFF (.tif, .tiff) or SICD (.nitf, .ntf); give a GeoTIFF or SICD once per
+    /// scene of a time stack (coregistered, in order).
+    #[arg(long, required = true)]
+    pub input: Vec<PathBuf>,
     /// Patch size: N (square) or ROWSxCOLS.
     #[arg(long)]
     pub patch: isar_clutter::io::cut::Size2,

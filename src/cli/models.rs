@@ -104,10 +104,35 @@ pub fn cut(a: CutArgs) -> Result<()> {
     if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
-    let done = cut::cut_npy(&a.input, &a.out, &options, a.chunk, |n| {
+    let progress = |n: usize| {
         bar.set_message(format!("{n} patches written"));
         bar.tick();
-    })?;
+    };
+    let suffix = |p: &std::path::Path| {
+        let s = p.extension().map(|e| e.to_string_lossy().to_lowercase());
+        s.unwrap_or_default()
+    };
+    let kinds: std::collections::BTreeSet<String> = a.input.iter().map(|p| suffix(p)).collect();
+    let kinds: Vec<&str> = kinds.iter().map(String::as_str).collect();
+    use isar_clutter::io::scenes::cut_scenes;
+    let done = match kinds[..] {
+        ["npy"] if a.input.len() == 1 => {
+            cut::cut_npy(&a.input[0], &a.out, &options, a.chunk, progress)?
+        }
+        ["tif"] | ["tiff"] | ["tif", "tiff"] => cut_scenes::<isar_clutter::io::geotiff::GeoTiff>(
+            &a.input, &a.out, &options, a.chunk, progress,
+        )?,
+        ["nitf"] | ["ntf"] | ["nitf", "ntf"] => cut_scenes::<isar_clutter::io::sicd::Sicd>(
+            &a.input, &a.out, &options, a.chunk, progress,
+        )?,
+        _ => {
+            anyhow::bail!(
+            "--input: one .npy scene (or time stack), or GeoTIFF (.tif, .tiff) or SICD (.nitf, \
+             .ntf) scenes of one format; got {}",
+            a.input.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+        )
+        }
+    };
     bar.finish_and_clear();
     eprintln!(
         "{} patch(es) of {}x{} ({} place(s) x {} scene(s)) -> {} (places: {}) in {:.2} s",

@@ -353,20 +353,36 @@ pub fn cut_npy(
         )?;
         Ok(())
     })?;
-    let record = record_path(out);
-    let text = serde_json::to_vec_pretty(&Record {
-        input: input.display().to_string(),
-        scene_shape: &header.shape,
-        options: o,
-        order: "sample p * scenes + t is scene t at place p (top-left row, column)",
-        places: &places,
-    })?;
-    crate::io::atomic::atomic_write(&record, |w| Ok(std::io::Write::write_all(w, &text)?))?;
+    let record = write_record(out, input.display().to_string(), &header.shape, o, &places)?;
     Ok(Cut {
         scenes,
         places: places.len(),
         record,
     })
+}
+
+/// Writes the record of the cut of `input` (of `scene_shape`) into `out` at `places`
+/// ([`record_path`]); its path.
+///
+/// # Errors
+/// If it cannot be written.
+pub fn write_record(
+    out: &Path,
+    input: String,
+    scene_shape: &[usize],
+    o: &CutOptions,
+    places: &[(usize, usize)],
+) -> Result<PathBuf> {
+    let record = record_path(out);
+    let text = serde_json::to_vec_pretty(&Record {
+        input,
+        scene_shape,
+        options: o,
+        order: "sample p * scenes + t is scene t at place p (top-left row, column)",
+        places,
+    })?;
+    crate::io::atomic::atomic_write(&record, |w| Ok(std::io::Write::write_all(w, &text)?))?;
+    Ok(record)
 }
 
 /// The patches of one mapped scene (or time stack), filled in order.

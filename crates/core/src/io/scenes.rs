@@ -308,6 +308,85 @@ impl<S: Scene> Scenes<S> {
     }
 }
 
+/// Cuts the scenes `paths` of format `S` (one, or a time stack of coregistered ones) into the
+/// complex64 stack `out` as [`super::cut::cut_npy`] cuts an `.npy` scene: the same places,
+/// order (sample `p T + t` is scene `t` at place `p`), record and streaming, `chunk` samples a
+/// block (rounded to whole places), a band of patch rows of each scene read at a time.
+///
+/// # Errors
+/// Naming the input and the field at fault (a file's format, the window), when no patch
+/// fits, or when a file cannot be read or the output written.
+pub fn cut_scenes<S: Scene + Sync>(
+    paths: &[PathBuf],
+    out: &Path,
+    o: &super::cut::CutOptions,
+    chunk: usize,
+    progress: impl Fn(usize),
+) -> anyhow::Result<super::cut::Cut> {
+    use anyhow::{bail, Context};
+    let stack = Scenes::<S>::open(paths, o.window.map(Place::Pixels))
+        .map_err(|e| anyhow::anyhow!("--input {e}"))?;
+    let (rows, cols) = stack.scenes[0].dims();
+    let w = stack.window;
+    let mut places = super::cut::places(
+        w.r1,
+        w.c1,
+        &super::cut::CutOptions {
+            window: Some(w),
+            ..o.clone()
+        },
+    )
+    .with_context(|| format!("cutting {}", paths[0].display()))?;
+    if let Some(mask) = &o.avoid_mask {
+        places = super::cut::unmasked(places, o.patch, (rows, cols), mask)?;
+        if places.is_empty() {
+            bail!("every patch covers a pixel of the mask {}", mask.display());
+        }
+    }
+    let t = stack.scenes.len();
+    let samples = places.len() * t;
+    let (ph, pw) = (o.patch.rows, o.patch.cols);
+    let bytes = crate::resources::saturating_bytes(&[samples, ph, pw, 8]);
+    if let Some(why) =
+        crate::resources::disk_shortfall(out, bytes, &format!("the {samples} patches"))
+    {
+        bail!("{why}: cut fewer patches (--stride, --window) or choose another --out");
+    }
+    let failed = std::sync::Mutex::new(None::<String>);
+    let fill = |first: usize, dst: &mut [Complex32]| {
+        let p = first / t;
+        let n = dst.len() / (ph * pw * t);
+        if let Err(e) = stack.read_patches(&places[p..p + n], o.patch, dst) {
+            failed
+                .lock()
+                .expect("not poisoned")
+                .get_or_insert(e.to_string());
+        }
+    };
+    let chunk = (chunk / t).max(1) * t;
+    crate::io::atomic::atomic_write_path(out, |tmp| {
+        crate::io::stream::write_samples(
+            tmp,
+            &crate::io::model::npy_header_c64(samples, ph, pw),
+            (samples, ph * pw, chunk),
+            crate::io::stream::WriteMode::Direct,
+            fill,
+            progress,
+        )?;
+        if let Some(e) = failed.lock().expect("not poisoned").take() {
+            bail!("{e}");
+        }
+        Ok(())
+    })?;
+    let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    let record = super::cut::write_record(out, names.join(", "), &[t, rows, cols], o, &places)?;
+    Ok(super::cut::Cut {
+        scenes: t,
+        places: places.len(),
+        record,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
