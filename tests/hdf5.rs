@@ -112,7 +112,12 @@ fn bad_hdf5_stacks_are_refused_naming_the_file_and_the_field() {
         (
             "scene",
             format!("{h5}, dataset: scene"),
-            &["datasets[0].dataset", "[16, 12]", "isar-clutter cut"][..],
+            &["datasets[0].dataset", "single scene [16, 12]", "give `cut`"][..],
+        ),
+        (
+            "stack_cut",
+            format!("{h5}, dataset: pairs, cut: {{patch: 4}}"),
+            &["datasets[0].cut", "applies to a single scene [H, W]"][..],
         ),
         (
             "imag",
@@ -135,4 +140,44 @@ fn bad_hdf5_stacks_are_refused_naming_the_file_and_the_field() {
             assert!(e.contains(w), "{name}: {w:?} not in {e}");
         }
     }
+}
+
+#[test]
+fn a_single_hdf5_scene_is_cut_as_isar_clutter_cut_cuts_h5pys_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    // /frame/VV: a [40, 30] complex scene chunked 8 x 8 and compressed (an OPERA CSLC's form).
+    let ours = common::scenes::run(
+        d,
+        "scene_cut",
+        "kind: hdf5, path: fixtures/stack.h5, dataset: /frame/VV, window: {row: 2, col: 1, size: [36, 28]}, cut: {patch: 8, stride: [8, 6], avoid: [{row: 10, col: 10, size: [4, 4]}]}",
+    );
+    let o = common::bin(&[
+        "cut",
+        "--input",
+        fx.join("frame.npy").to_str().unwrap(),
+        "--patch",
+        "8",
+        "--stride",
+        "8x6",
+        "--window",
+        "2:38,1:29",
+        "--avoid",
+        "10:14,10:14",
+        "--out",
+        fx.join("frame_cut.npy").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::text(&o));
+    let npy = common::scenes::run(d, "frame_npy", "kind: npy, path: fixtures/frame_cut.npy");
+    common::scenes::assert_same_tables(&ours, &npy);
+    let files = common::scenes::dataset_files(&ours);
+    assert_eq!(files["cut"]["places"], serde_json::json!(14), "{files}");
+    assert_eq!(
+        files["files"][0]["dataset"],
+        serde_json::json!("/frame/VV"),
+        "{files}"
+    );
 }

@@ -6,7 +6,7 @@
 
 use isar_clutter_core::io::cut::Window;
 use isar_clutter_core::io::geotiff::{GeoTiff, TiffError};
-use isar_clutter_core::io::scenes::{Place, Scene, Scenes};
+use isar_clutter_core::io::scenes::{OpenScene, Place, Scene, Scenes};
 use isar_clutter_core::io::sicd::{Sicd, SicdError};
 use isar_clutter_core::io::uavsar::SceneStack;
 use ndarray::Array3;
@@ -85,7 +85,7 @@ pub fn load_sicd<'py>(
 /// The window of every scene of format `S` in `paths`, calibrated to `calibration` (`what`
 /// names the format; `is_io`: an error that is the file's reading, an `OSError`, rather than
 /// its content's).
-fn load_scenes<'py, S: Scene + Sync>(
+fn load_scenes<'py, S: OpenScene + Sync>(
     py: Python<'py>,
     paths: &[PathBuf],
     window: Option<(usize, usize, usize, usize)>,

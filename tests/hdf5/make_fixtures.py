@@ -6,7 +6,9 @@ compressed), `/pairs` (float32 [4, 16, 12, 2]: real, imaginary), `/re` and `/im`
 real and imaginary parts), `/hwn` (complex128 [16, 12, 4], samples last), `/matlab` (a
 compound of float32 `real` and `imag`, MATLAB's names); and what the
 refusals need: `/text` (strings), `/scene` (a single [16, 12] scene), `/im_short` (float64 of
-another shape). `stack.npy` is the stack as h5py reads `/science/slc/HH` back; `truncated.h5`
+another shape), and `/frame/VV`, a single complex64 [40, 30] scene chunked 8 x 8 and gzip
+compressed (an OPERA CSLC frame's form). `stack.npy` is the stack as h5py reads
+`/science/slc/HH` back, `frame.npy` the scene as h5py reads `/frame/VV` back; `truncated.h5`
 the first half of `stack.h5`'s bytes.
 
 Usage: python make_fixtures.py OUT_DIR
@@ -36,8 +38,12 @@ def main(out: Path) -> None:
         f["text"] = np.array([b"abc"] * 6).reshape(1, 2, 3)
         f["scene"] = x[0]
         f["im_short"] = x.imag[:3].astype(np.float64)
+        frame = rng.standard_normal((40, 30)) + 1j * rng.standard_normal((40, 30))
+        f.create_dataset("frame/VV", data=frame.astype(np.complex64), chunks=(8, 8),
+                         compression="gzip")
     with h5py.File(out / "stack.h5", "r") as f:
         np.save(out / "stack.npy", f["science/slc/HH"][...])
+        np.save(out / "frame.npy", f["frame/VV"][...])
     data = (out / "stack.h5").read_bytes()
     (out / "truncated.h5").write_bytes(data[: len(data) // 2])
 

@@ -30,15 +30,20 @@ impl std::fmt::Display for StackError {
     }
 }
 
-/// One scene of a file format: opened and checked, then read a window at a time.
-pub trait Scene: Sized {
-    /// Why a scene cannot be opened or read.
-    type Error: std::fmt::Display;
+/// A scene of a format that a path alone names (a GeoTIFF, a SICD; not a dataset inside an
+/// HDF5 file).
+pub trait OpenScene: Scene {
     /// Opens and checks the scene in `path`.
     ///
     /// # Errors
     /// Naming the file and the field of the format at fault.
     fn open(path: &Path) -> Result<Self, Self::Error>;
+}
+
+/// One scene of a file format, checked, read a window at a time.
+pub trait Scene: Sized {
+    /// Why a scene cannot be opened or read.
+    type Error: std::fmt::Display;
     /// Its file.
     fn path(&self) -> &Path;
     /// `(rows, columns)`.
@@ -140,28 +145,49 @@ pub struct Scenes<S> {
     pub window: Window,
 }
 
-impl<S: Scene> Scenes<S> {
-    /// Opens every file of `paths` and checks `window` (default: the whole scene, every scene
-    /// then of one size) against each; a window in map coordinates is the pixels that cover
-    /// it in the first scene, which every scene must share.
+impl<S: OpenScene> Scenes<S> {
+    /// Opens every file of `paths` and checks `window` against each ([`Scenes::new`]).
     ///
     /// # Errors
     /// A [`StackError`] naming the field (`path` with the file's index, or `window`) and the
     /// file.
     pub fn open(paths: &[PathBuf], window: Option<Place>) -> Result<Scenes<S>, StackError> {
+        let scenes = paths
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                S::open(p).map_err(|e| StackError {
+                    field: "path",
+                    index: Some(i),
+                    message: e.to_string(),
+                })
+            })
+            .collect::<Result<Vec<S>, _>>()?;
+        Scenes::new(scenes, paths, window)
+    }
+}
+
+impl<S: Scene> Scenes<S> {
+    /// The opened `scenes` (of `paths`), `window` (default: the whole scene, every scene then
+    /// of one size) checked against each; a window in map coordinates is the pixels that
+    /// cover it in the first scene, which every scene must share.
+    ///
+    /// # Errors
+    /// A [`StackError`] naming the field (`path` with the file's index, or `window`) and the
+    /// file.
+    pub fn new(
+        scenes: Vec<S>,
+        paths: &[PathBuf],
+        window: Option<Place>,
+    ) -> Result<Scenes<S>, StackError> {
         let err = |field, index, message: String| StackError {
             field,
             index,
             message,
         };
-        if paths.is_empty() {
+        if scenes.is_empty() {
             return Err(err("path", None, "name at least one file".into()));
         }
-        let scenes = paths
-            .iter()
-            .enumerate()
-            .map(|(i, p)| S::open(p).map_err(|e| err("path", Some(i), e.to_string())))
-            .collect::<Result<Vec<S>, _>>()?;
         let dims = |i: usize| scenes[i].dims();
         let window = match window {
             Some(Place::Pixels(w)) => w,
@@ -316,7 +342,7 @@ impl<S: Scene> Scenes<S> {
 /// # Errors
 /// Naming the input and the field at fault (a file's format, the window), when no patch
 /// fits, or when a file cannot be read or the output written.
-pub fn cut_scenes<S: Scene + Sync>(
+pub fn cut_scenes<S: OpenScene + Sync>(
     paths: &[PathBuf],
     out: &Path,
     o: &super::cut::CutOptions,

@@ -17,7 +17,7 @@ pub mod ifd;
 pub mod read;
 
 use super::cut::Window;
-use super::scenes::{Scene, Scenes};
+use super::scenes::{OpenScene, Scene, Scenes};
 use ifd::{Ifd, Order};
 use num_complex::Complex32;
 use std::path::{Path, PathBuf};
@@ -394,12 +394,14 @@ fn blocks(
 /// A stack of coregistered complex GeoTIFF scenes: the same window of each is one sample.
 pub type TiffStack = Scenes<GeoTiff>;
 
-impl Scene for GeoTiff {
-    type Error = TiffError;
-
+impl OpenScene for GeoTiff {
     fn open(path: &Path) -> Result<GeoTiff, TiffError> {
         GeoTiff::open(path)
     }
+}
+
+impl Scene for GeoTiff {
+    type Error = TiffError;
 
     fn path(&self) -> &Path {
         &self.path

@@ -6,7 +6,8 @@
 //! real, imaginary). Read with libhdf5 through `hdf5-metno` in a build with the cargo feature
 //! `mat73` (`read.rs`), the samples one at a time (a hyperslab each, chunked and compressed
 //! datasets included), so memory holds the stack and one sample, never the file; a build
-//! without it refuses such a stack, saying so.
+//! without it refuses such a stack, saying so. A single scene `[H, W]` ([`H5Scene`]) is read a
+//! window at a time instead, to be cut into patches.
 
 use num_complex::Complex64;
 use std::path::Path;
@@ -49,6 +50,27 @@ impl H5Stack {
         }
     }
 
+    /// Reads the window `win` of a single scene ([`H5Stack::scene`]) into `out` (its values,
+    /// row after row), one hyperslab, rounded to complex64.
+    ///
+    /// # Errors
+    /// What libhdf5 says, naming the file and the dataset.
+    pub fn read_window(
+        &self,
+        win: &crate::io::cut::Window,
+        out: &mut [num_complex::Complex32],
+    ) -> Result<(), String> {
+        #[cfg(feature = "mat73")]
+        {
+            read::read_window(self, win, out)
+        }
+        #[cfg(not(feature = "mat73"))]
+        {
+            let _ = (win, out);
+            Err(format!("{}: this build reads no HDF5", self.path.display()))
+        }
+    }
+
     /// Reads the stack into `out` (`N x H x W` values, sample after sample), a sample at a
     /// time.
     ///
@@ -64,5 +86,42 @@ impl H5Stack {
             let _ = out;
             Err(format!("{}: this build reads no HDF5", self.path.display()))
         }
+    }
+}
+
+/// A single scene `[H, W]` in an HDF5 file (a NISAR RSLC or OPERA CSLC frame) as a
+/// [`crate::io::scenes::Scene`]: read a window (one hyperslab) at a time, so that a scene of
+/// any size is cut into patches in bands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct H5Scene(pub H5Stack);
+
+impl crate::io::scenes::Scene for H5Scene {
+    type Error = String;
+
+    fn path(&self) -> &Path {
+        &self.0.path
+    }
+
+    fn dims(&self) -> (usize, usize) {
+        (self.0.dims[1], self.0.dims[2])
+    }
+
+    fn read_window(
+        &self,
+        window: &crate::io::cut::Window,
+        out: &mut [num_complex::Complex32],
+    ) -> Result<(), String> {
+        self.0.read_window(window, out)
+    }
+
+    fn describe(&self) -> serde_json::Value {
+        serde_json::json!({
+            "path": self.0.path.display().to_string(),
+            "format": "HDF5",
+            "dataset": self.0.dataset,
+            "imag": self.0.imag,
+            "rows": self.0.dims[1],
+            "cols": self.0.dims[2],
+        })
     }
 }

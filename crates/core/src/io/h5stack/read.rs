@@ -65,9 +65,9 @@ pub(super) fn open(
             )),
         )
     })?;
-    let (form, dims) = shape_of(&file, dataset).map_err(|e| ("dataset", at(e)))?;
+    let (form, dims, scene) = shape_of(&file, dataset).map_err(|e| ("dataset", at(e)))?;
     if let Some(im) = imag {
-        let (f, d) = shape_of(&file, im).map_err(|e| ("imag", at(e)))?;
+        let (f, d, _) = shape_of(&file, im).map_err(|e| ("imag", at(e)))?;
         if form != Form::Real || f != Form::Real {
             return Err((
                 "imag",
@@ -93,6 +93,7 @@ pub(super) fn open(
         form,
         dims,
         hwn,
+        scene,
     })
 }
 
@@ -171,8 +172,9 @@ pub(super) fn read_into(st: &H5Stack, out: &mut [Complex64]) -> Result<(), Strin
     Ok(())
 }
 
-/// The form and stored dimensions of the stack `name` in `file`.
-fn shape_of(file: &hdf5_metno::File, name: &str) -> Result<(Form, [usize; 3]), String> {
+/// The form and stored dimensions of the stack `name` in `file`, and whether it is a single
+/// scene `[H, W]` (dimensions `[1, H, W]`).
+fn shape_of(file: &hdf5_metno::File, name: &str) -> Result<(Form, [usize; 3], bool), String> {
     let ds = file.dataset(name).map_err(|_| {
         let members = file.member_names().unwrap_or_default();
         format!(
@@ -213,11 +215,58 @@ fn shape_of(file: &hdf5_metno::File, name: &str) -> Result<(Form, [usize; 3]), S
         Form::Pairs => shape[..3].to_vec(),
         _ => shape.clone(),
     };
+    if let [h, w] = dims[..] {
+        return Ok((form, [1, h, w], true));
+    }
     let dims: [usize; 3] = dims.try_into().map_err(|_| {
         format!(
             "{name:?} has dimensions {shape:?}: a stack is [N, H, W] (or [H, W, N]; float pairs \
-             [N, H, W, 2]); a single scene [H, W] is cut into a stack first (isar-clutter cut)"
+             [N, H, W, 2]), a scene [H, W]"
         )
     })?;
-    Ok((form, dims))
+    Ok((form, dims, false))
+}
+
+/// See [`H5Stack::read_window`].
+pub(super) fn read_window(
+    st: &H5Stack,
+    win: &crate::io::cut::Window,
+    out: &mut [num_complex::Complex32],
+) -> Result<(), String> {
+    assert_eq!(out.len(), win.rows() * win.cols(), "the window's values");
+    let at = |e: hdf5_metno::Error| format!("dataset {:?}: {}", st.dataset, h5(e));
+    let file = hdf5_metno::File::open(&st.path).map_err(at)?;
+    let ds = file.dataset(&st.dataset).map_err(at)?;
+    let slab = s![win.r0..win.r1, win.c0..win.c1];
+    let values: Array2<Complex64> = match st.form {
+        Form::Compound(0) => ds
+            .read_slice::<PairRI, _, _>(slab)
+            .map(|a| a.mapv(|p| Complex64::new(p.re, p.im))),
+        Form::Compound(1) => ds
+            .read_slice::<Parts<f64>, _, _>(slab)
+            .map(|a| a.mapv(|p| Complex64::new(p.real, p.imag))),
+        Form::Compound(_) => ds
+            .read_slice::<PairReIm, _, _>(slab)
+            .map(|a| a.mapv(|p| Complex64::new(p.re, p.im))),
+        Form::Real | Form::Pairs => {
+            let re: Array2<f64> = ds.read_slice(slab).map_err(at)?;
+            match &st.imag {
+                Some(name) => {
+                    let im: Array2<f64> = file
+                        .dataset(name)
+                        .and_then(|d| d.read_slice(slab))
+                        .map_err(at)?;
+                    Ok(ndarray::Zip::from(&re)
+                        .and(&im)
+                        .map_collect(|&a, &b| Complex64::new(a, b)))
+                }
+                None => Ok(re.mapv(|a| Complex64::new(a, 0.0))),
+            }
+        }
+    }
+    .map_err(at)?;
+    for (o, v) in out.iter_mut().zip(values.iter()) {
+        *o = num_complex::Complex32::new(v.re as f32, v.im as f32);
+    }
+    Ok(())
 }

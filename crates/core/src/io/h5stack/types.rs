@@ -31,6 +31,9 @@ pub struct H5Stack {
     pub dims: [usize; 3],
     /// Whether the samples are the last dimension (`[H, W, N]`).
     pub hwn: bool,
+    /// A single scene `[H, W]` (`dims` `[1, H, W]`), read a window at a time
+    /// ([`H5Stack::read_window`]) and cut into patches rather than read whole.
+    pub scene: bool,
 }
 
 /// Why a stack cannot be opened: the field it concerns (`path`, `dataset` or `imag`) and what
@@ -41,7 +44,7 @@ impl H5Stack {
     /// `(N, H, W)`.
     pub fn shape(&self) -> (usize, usize, usize) {
         let [a, b, c] = self.dims;
-        if self.hwn {
+        if self.hwn && !self.scene {
             (c, a, b)
         } else {
             (a, b, c)

@@ -15,7 +15,7 @@ use super::cut::Window;
 use super::geotiff::ifd::Order;
 use super::geotiff::read::convert;
 use super::geotiff::Num;
-use super::scenes::{Scene, Scenes};
+use super::scenes::{OpenScene, Scene, Scenes};
 use num_complex::Complex32;
 use rayon::prelude::*;
 use std::os::unix::fs::FileExt;
@@ -325,12 +325,14 @@ fn segments(
 /// sample.
 pub type SicdStack = Scenes<Sicd>;
 
-impl Scene for Sicd {
-    type Error = SicdError;
-
+impl OpenScene for Sicd {
     fn open(path: &Path) -> Result<Sicd, SicdError> {
         Sicd::open(path)
     }
+}
+
+impl Scene for Sicd {
+    type Error = SicdError;
 
     fn path(&self) -> &Path {
         &self.path

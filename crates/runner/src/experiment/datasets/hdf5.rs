@@ -3,16 +3,19 @@
 //! imaginary parts in `imag`, or none) or float pairs, `[N, H, W]` or `[H, W, N]` with
 //! `layout: hwn`; checked at validation (the dataset, its element type and shape), read a
 //! sample at a time by the core's `io::h5stack` (a build with the `mat73` feature, which links
-//! libhdf5).
+//! libhdf5). A single scene `[H, W]` (a NISAR RSLC or OPERA CSLC frame) is cut into patches
+//! (`cut`, inside `window`), each patch a sample, read a band of patch rows at a time.
 
 use super::cost::{file_sizes, Cost, Sizes, C128};
 use super::kind::{DataError, DatasetKind, Layout, Materialised};
+use super::scenes::{patches, CutSpec, Patches, SceneWindow};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
-use crate::io::h5stack::H5Stack;
+use crate::io::h5stack::{H5Scene, H5Stack};
 use crate::io::npy::{NpyError, Stack};
+use crate::io::scenes::Scenes;
 use ndarray::Array3;
-use num_complex::Complex64;
+use num_complex::{Complex32, Complex64};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -32,6 +35,12 @@ pub struct Spec {
     /// Axis order (`nhw` default, `hwn`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layout: Option<Layout>,
+    /// For a single scene `[H, W]`: where patches may lie (default: the whole scene).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window: Option<SceneWindow>,
+    /// For a single scene `[H, W]`: how it is cut into patches, each patch a sample.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cut: Option<CutSpec>,
 }
 
 /// A validated `hdf5` dataset.
@@ -39,11 +48,13 @@ pub struct Spec {
 pub struct Hdf5Dataset {
     /// The stack, checked.
     pub stack: H5Stack,
+    /// A single scene's window and the patches cut from it (`None`: a stack).
+    pub scene: Option<(Scenes<H5Scene>, Patches)>,
 }
 
 impl DatasetKind for Hdf5Dataset {
     const NAME: &'static str = "hdf5";
-    const FIELDS: &'static [&'static str] = &["path", "dataset", "imag", "layout"];
+    const FIELDS: &'static [&'static str] = &["path", "dataset", "imag", "layout", "window", "cut"];
     const SAMPLES_FIELD: &'static str = "dataset";
     type Spec = Spec;
 
@@ -64,13 +75,48 @@ impl DatasetKind for Hdf5Dataset {
             .as_deref()
             .ok_or_else(|| need("dataset", "the stack's path in the file"))?;
         let hwn = spec.layout.unwrap_or_default() == Layout::Hwn;
-        let stack = H5Stack::open(&ctx.resolve(rel), dataset, spec.imag.as_deref(), hwn)
+        let path = ctx.resolve(rel);
+        let stack = H5Stack::open(&path, dataset, spec.imag.as_deref(), hwn)
             .map_err(|(field, message)| ctx.err(format!("{at}.{field}"), message))?;
-        Ok(Hdf5Dataset { stack })
+        let scene = match (&spec.cut, stack.scene) {
+            (Some(cut), true) => {
+                let window = match &spec.window {
+                    Some(w) => Some(w.place().map_err(|m| ctx.err(format!("{at}.window"), m))?),
+                    None => None,
+                };
+                let scenes = Scenes::new(vec![H5Scene(stack.clone())], &[path], window)
+                    .map_err(|e| ctx.err(format!("{at}.{}", e.field), e.message))?;
+                let patches = patches(cut, &scenes, ctx, &format!("{at}.cut"))?;
+                Some((scenes, patches))
+            }
+            (None, true) => {
+                return Err(ctx.err(
+                    format!("{at}.dataset"),
+                    format!(
+                        "{dataset:?} in {} is a single scene {:?}: give `cut` ({{patch: 64}}, \
+                         ...) to cut it into a stack of patches",
+                        path.display(),
+                        [stack.dims[1], stack.dims[2]]
+                    ),
+                ))
+            }
+            (_, false) if spec.cut.is_some() || spec.window.is_some() => {
+                let key = if spec.cut.is_some() { "cut" } else { "window" };
+                return Err(ctx.err(
+                    format!("{at}.{key}"),
+                    format!("`{key}` applies to a single scene [H, W]; {dataset:?} is a stack"),
+                ));
+            }
+            (_, false) => None,
+        };
+        Ok(Hdf5Dataset { stack, scene })
     }
 
     fn shape(&self) -> (usize, usize, usize) {
-        self.stack.shape()
+        match &self.scene {
+            Some((_, c)) => (c.places.len(), c.patch.rows, c.patch.cols),
+            None => self.stack.shape(),
+        }
     }
 
     fn input_files(&self) -> Vec<PathBuf> {
@@ -114,6 +160,17 @@ impl DatasetKind for Hdf5Dataset {
     }
 
     fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
+        if let Some((scenes, c)) = &self.scene {
+            let mut out: Array3<Complex32> = try_zeros(self.shape(), "the hdf5 patches")?;
+            let values = out.as_slice_mut().expect("standard layout");
+            scenes
+                .read_patches(&c.places, c.patch, values)
+                .map_err(|reason| NpyError::Data {
+                    path: self.stack.path.clone(),
+                    reason,
+                })?;
+            return Ok(Materialised::plain(Stack::Single(out), false));
+        }
         let mut out: Array3<Complex64> = try_zeros(self.shape(), "the hdf5 stack")?;
         self.stack
             .read_into(out.as_slice_mut().expect("standard layout"))
@@ -122,6 +179,13 @@ impl DatasetKind for Hdf5Dataset {
                 reason,
             })?;
         Ok(Materialised::plain(Stack::Generated(out), false))
+    }
+
+    fn metadata(&self) -> Option<serde_json::Value> {
+        let (scenes, c) = self.scene.as_ref()?;
+        let mut m = scenes.describe();
+        m["cut"] = serde_json::json!({"options": c.options, "places": c.places.len()});
+        Some(m)
     }
 
     fn redraw(

@@ -14,7 +14,7 @@ use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::{CutOptions, Size2, Window};
 use crate::io::npy::Stack;
-use crate::io::scenes::{Place, Scene, Scenes};
+use crate::io::scenes::{OpenScene, Place, Scene, Scenes};
 use ndarray::Array3;
 use num_complex::{Complex32, Complex64};
 use serde::{Deserialize, Serialize};
@@ -25,7 +25,12 @@ pub trait SceneFormat: Clone + std::fmt::Debug + PartialEq + Send + Sync {
     /// The kind's name.
     const NAME: &'static str;
     /// The format's scene.
-    type Scene: Scene<Error: Into<DataError>> + Clone + std::fmt::Debug + PartialEq + Send + Sync;
+    type Scene: OpenScene<Error: Into<DataError>>
+        + Clone
+        + std::fmt::Debug
+        + PartialEq
+        + Send
+        + Sync;
 }
 
 /// The fields of a scene dataset as written.
@@ -73,7 +78,7 @@ pub struct SceneWindow {
 
 impl SceneWindow {
     /// The core's place, or what is wrong with the fields.
-    fn place(&self) -> Result<Place, &'static str> {
+    pub(super) fn place(&self) -> Result<Place, &'static str> {
         match (self.row, self.col, self.size, self.x, self.y) {
             (Some(row), Some(col), Some([h, w]), None, None) => {
                 Ok(Place::Pixels(Window::at(row, col, h, w)))
@@ -281,7 +286,7 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
 }
 
 /// The places of the cut `c` of `stack`'s window (`at`: the cut's YAML path).
-fn patches<S: Scene>(
+pub(super) fn patches<S: Scene>(
     c: &CutSpec,
     stack: &Scenes<S>,
     ctx: &Ctx,
