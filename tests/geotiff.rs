@@ -8,7 +8,9 @@
 //! outside the scenes are refused at validation, naming the file and the field.
 
 mod common;
-use common::scenes::{assert_same_tables, assert_valid, dataset_files, refused, run};
+use common::scenes::{
+    assert_same_tables, assert_valid, cut_cli, dataset_files, refused, run, CUT_FIELDS,
+};
 
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -92,64 +94,19 @@ fn a_cut_geotiff_stack_is_the_stack_cut_cuts_from_rasterios_pixels() {
     };
     let d = dir.path();
     let files: Vec<String> = (0..3).map(|k| format!("fixtures/s1_0{k}.tif")).collect();
-    let cut = "cut: {patch: 8, stride: [8, 6], avoid: [{row: 10, col: 10, size: [4, 4]}]}";
-    let fields = format!(
-        "kind: geotiff, path: [{}], window: {{row: 2, col: 1, size: [36, 28]}}, {cut}",
-        files.join(", ")
-    );
+    let fields = format!("kind: geotiff, path: [{}], {CUT_FIELDS}", files.join(", "));
     let ours = run(d, "cut", &fields);
     // `isar-clutter cut` of the same scenes as rasterio read them, one [3, 40, 30] time stack.
-    let o = common::bin(&[
-        "cut",
-        "--input",
-        fx.join("scenes.npy").to_str().unwrap(),
-        "--patch",
-        "8",
-        "--stride",
-        "8x6",
-        "--window",
-        "2:38,1:29",
-        "--avoid",
-        "10:14,10:14",
-        "--out",
-        fx.join("cut.npy").to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", common::text(&o));
-    assert_same_tables(
-        &ours,
-        &run(d, "cut_npy", "kind: npy, path: fixtures/cut.npy"),
-    );
+    cut_cli(&[fx.join("scenes.npy")], &fx.join("cut.npy"), &[]);
+    let npy = run(d, "cut_npy", "kind: npy, path: fixtures/cut.npy");
+    assert_same_tables(&ours, &npy);
     // `isar-clutter cut` of the GeoTIFF scenes themselves: the same stack, byte for byte.
-    let mut args = vec!["cut".to_string()];
-    for k in 0..3 {
-        args.extend([
-            "--input".into(),
-            fx.join(format!("s1_0{k}.tif")).display().to_string(),
-        ]);
-    }
+    let tifs: Vec<PathBuf> = (0..3).map(|k| fx.join(format!("s1_0{k}.tif"))).collect();
     let tif_cut = fx.join("tif_cut.npy");
-    for a in [
-        "--patch",
-        "8",
-        "--stride",
-        "8x6",
-        "--window",
-        "2:38,1:29",
-        "--avoid",
-        "10:14,10:14",
-        "--chunk",
-        "4",
-        "--out",
-    ] {
-        args.push(a.into());
-    }
-    args.push(tif_cut.display().to_string());
-    let o = common::bin(&args);
-    assert!(o.status.success(), "{}", common::text(&o));
+    let said = cut_cli(&tifs, &tif_cut, &["--chunk", "4"]);
     assert!(
-        common::text(&o).contains("42 patch(es) of 8x8 (14 place(s) x 3 scene(s))"),
-        "{}",
-        common::text(&o)
+        said.contains("42 patch(es) of 8x8 (14 place(s) x 3 scene(s))"),
+        "{said}"
     );
     assert_eq!(
         std::fs::read(&tif_cut).unwrap(),

@@ -150,27 +150,13 @@ fn a_single_hdf5_scene_is_cut_as_isar_clutter_cut_cuts_h5pys_pixels() {
     };
     let d = dir.path();
     // /frame/VV: a [40, 30] complex scene chunked 8 x 8 and compressed (an OPERA CSLC's form).
+    let fields = "kind: hdf5, path: fixtures/stack.h5, dataset: /frame/VV";
     let ours = common::scenes::run(
         d,
         "scene_cut",
-        "kind: hdf5, path: fixtures/stack.h5, dataset: /frame/VV, window: {row: 2, col: 1, size: [36, 28]}, cut: {patch: 8, stride: [8, 6], avoid: [{row: 10, col: 10, size: [4, 4]}]}",
+        &format!("{fields}, {}", common::scenes::CUT_FIELDS),
     );
-    let o = common::bin(&[
-        "cut",
-        "--input",
-        fx.join("frame.npy").to_str().unwrap(),
-        "--patch",
-        "8",
-        "--stride",
-        "8x6",
-        "--window",
-        "2:38,1:29",
-        "--avoid",
-        "10:14,10:14",
-        "--out",
-        fx.join("frame_cut.npy").to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", common::text(&o));
+    common::scenes::cut_cli(&[fx.join("frame.npy")], &fx.join("frame_cut.npy"), &[]);
     let npy = common::scenes::run(d, "frame_npy", "kind: npy, path: fixtures/frame_cut.npy");
     common::scenes::assert_same_tables(&ours, &npy);
     let files = common::scenes::dataset_files(&ours);

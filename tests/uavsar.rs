@@ -6,7 +6,7 @@
 //! validation, naming the file and the field.
 
 mod common;
-use common::{bin, text};
+use common::scenes::{self, assert_same_tables, run};
 
 use std::path::{Path, PathBuf};
 
@@ -26,17 +26,6 @@ fn scenes() -> Vec<String> {
         .collect()
 }
 
-/// A spec analysing the dataset `dataset` (a flow mapping's fields after `id`).
-fn spec(dir: &Path, name: &str, dataset: &str) -> PathBuf {
-    let path = dir.join(format!("{name}.yaml"));
-    std::fs::write(
-        &path,
-        format!("name: {name}\nseed: 3\ndatasets:\n  - {{id: scene, {dataset}}}\nanalysis:\n  levels: 2\n"),
-    )
-    .unwrap();
-    path
-}
-
 /// The stack of UAVSAR windows, as `kind: uavsar` fields.
 fn uavsar_fields(extra: &str) -> String {
     format!(
@@ -51,34 +40,9 @@ fn a_uavsar_window_stack_is_analysed_as_numpy_reads_its_pixels() {
     let Some(_) = fixtures(dir.path()) else {
         return;
     };
-    let runs = [
-        ("uavsar", uavsar_fields("")),
-        ("npy", "kind: npy, path: fixtures/window.npy".to_string()),
-    ]
-    .map(|(name, fields)| {
-        let s = spec(dir.path(), name, &fields);
-        let out = dir.path().join(format!("out_{name}"));
-        let o = bin(&[
-            "run",
-            s.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--no-report",
-        ]);
-        assert!(o.status.success(), "{name}: {}", text(&o));
-        out
-    });
-    let (a, b) = (common::tables(&runs[0]), common::tables(&runs[1]));
-    let names: Vec<&String> = a.keys().filter(|n| !n.starts_with("jobs")).collect();
-    assert!(names.len() >= 3, "tables: {names:?}");
-    for n in names {
-        assert!(
-            a[n].equals_missing(&b[n]),
-            "{n} differs:\n{}\n{}",
-            a[n],
-            b[n]
-        );
-    }
+    let d = dir.path();
+    let npy = run(d, "npy", "kind: npy, path: fixtures/window.npy");
+    assert_same_tables(&run(d, "uavsar", &uavsar_fields("")), &npy);
 }
 
 #[test]
@@ -87,16 +51,9 @@ fn bad_uavsar_files_are_refused_naming_the_file_and_the_field() {
     let Some(fx) = fixtures(dir.path()) else {
         return;
     };
-    let refused = |name: &str, fields: &str| -> String {
-        let s = spec(dir.path(), name, fields);
-        let o = bin(&["validate", s.to_str().unwrap()]);
-        assert_eq!(o.status.code(), Some(2), "{name}: {}", text(&o));
-        text(&o)
-    };
+    let refused = |name: &str, fields: &str| scenes::refused(dir.path(), name, fields);
     // The whole stack validates.
-    let s = spec(dir.path(), "good", &uavsar_fields(""));
-    let o = bin(&["validate", s.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", text(&o));
+    scenes::assert_valid(dir.path(), "good", &uavsar_fields(""));
     // A truncated scene.
     let slc = fx.join("testsite_01_L090HH_01_BC_s1_1x1.slc");
     let bytes = std::fs::read(&slc).unwrap();

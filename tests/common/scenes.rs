@@ -59,3 +59,30 @@ pub fn dataset_files(out: &Path) -> serde_json::Value {
         serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
     m["jobs"][0]["dataset_files"].clone()
 }
+
+/// The window and cut the scene tests use, as dataset fields: patches of 8 on a stride of
+/// 8 x 6 inside rows 2..38 and columns 1..29 of a 40 x 30 scene, around the box at rows
+/// 10..14, columns 10..14 (14 places).
+pub const CUT_FIELDS: &str = "window: {row: 2, col: 1, size: [36, 28]}, cut: {patch: 8, \
+                              stride: [8, 6], avoid: [{row: 10, col: 10, size: [4, 4]}]}";
+
+/// `isar-clutter cut` of `inputs` into `out` with the options of [`CUT_FIELDS`] (and
+/// `extra`); what it said on stderr.
+pub fn cut_cli(inputs: &[PathBuf], out: &Path, extra: &[&str]) -> String {
+    let mut args: Vec<String> = vec!["cut".into()];
+    for i in inputs {
+        args.extend(["--input".into(), i.display().to_string()]);
+    }
+    let options = ["--patch", "8", "--stride", "8x6", "--window", "2:38,1:29"];
+    args.extend(
+        options
+            .iter()
+            .chain(&["--avoid", "10:14,10:14"])
+            .map(|a| a.to_string()),
+    );
+    args.extend(extra.iter().map(|a| a.to_string()));
+    args.extend(["--out".into(), out.display().to_string()]);
+    let o = super::bin(&args);
+    assert!(o.status.success(), "{}", super::text(&o));
+    super::text(&o)
+}
