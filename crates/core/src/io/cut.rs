@@ -228,6 +228,46 @@ pub fn places(h: usize, w: usize, o: &CutOptions) -> Result<Vec<(usize, usize)>>
     Ok(out)
 }
 
+/// [`places`] in a scene of `(h, w)` pixels, less those whose patch covers a pixel of the
+/// options' mask ([`unmasked`]); `input` names the scene in messages.
+///
+/// # Errors
+/// When the window leaves the scene, no patch fits, or the mask is unreadable, of another
+/// shape, or covers every place.
+pub fn masked_places(
+    (h, w): (usize, usize),
+    o: &CutOptions,
+    input: &Path,
+) -> Result<Vec<(usize, usize)>> {
+    let mut places = places(h, w, o).with_context(|| format!("cutting {}", input.display()))?;
+    if let Some(mask) = &o.avoid_mask {
+        places = unmasked(places, o.patch, (h, w), mask)?;
+        if places.is_empty() {
+            bail!(
+                "cutting {}: every patch covers a pixel of the mask {}",
+                input.display(),
+                mask.display()
+            );
+        }
+    }
+    Ok(places)
+}
+
+/// Refuses a stack of `samples` complex64 patches of `patch` that would not fit on the disk
+/// of `out`.
+///
+/// # Errors
+/// Saying how much is needed and what to do.
+pub fn check_room(out: &Path, samples: usize, patch: Size2) -> Result<()> {
+    let bytes = crate::resources::saturating_bytes(&[samples, patch.rows, patch.cols, 8]);
+    if let Some(why) =
+        crate::resources::disk_shortfall(out, bytes, &format!("the {samples} patches"))
+    {
+        bail!("{why}: cut fewer patches (--stride, --window) or choose another --out");
+    }
+    Ok(())
+}
+
 /// What [`cut_npy`] wrote.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cut {
@@ -293,25 +333,10 @@ pub fn cut_npy(
             input.display()
         );
     }
-    let mut places = places(h, w, o).with_context(|| format!("cutting {}", input.display()))?;
-    if let Some(mask) = &o.avoid_mask {
-        places = unmasked(places, o.patch, (h, w), mask)?;
-        if places.is_empty() {
-            bail!(
-                "cutting {}: every patch covers a pixel of the mask {}",
-                input.display(),
-                mask.display()
-            );
-        }
-    }
+    let places = masked_places((h, w), o, input)?;
     let samples = places.len() * scenes;
     let (ph, pw) = (o.patch.rows, o.patch.cols);
-    let bytes = crate::resources::saturating_bytes(&[samples, ph, pw, 8]);
-    if let Some(why) =
-        crate::resources::disk_shortfall(out, bytes, &format!("the {samples} patches"))
-    {
-        bail!("{why}: cut fewer patches (--stride, --window) or choose another --out");
-    }
+    check_room(out, samples, o.patch)?;
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
     // SAFETY: read-only and private; undefined only if another process truncates the input

@@ -349,35 +349,20 @@ pub fn cut_scenes<S: OpenScene + Sync>(
     chunk: usize,
     progress: impl Fn(usize),
 ) -> anyhow::Result<super::cut::Cut> {
-    use anyhow::{bail, Context};
+    use anyhow::bail;
     let stack = Scenes::<S>::open(paths, o.window.map(Place::Pixels))
         .map_err(|e| anyhow::anyhow!("--input {e}"))?;
     let (rows, cols) = stack.scenes[0].dims();
     let w = stack.window;
-    let mut places = super::cut::places(
-        w.r1,
-        w.c1,
-        &super::cut::CutOptions {
-            window: Some(w),
-            ..o.clone()
-        },
-    )
-    .with_context(|| format!("cutting {}", paths[0].display()))?;
-    if let Some(mask) = &o.avoid_mask {
-        places = super::cut::unmasked(places, o.patch, (rows, cols), mask)?;
-        if places.is_empty() {
-            bail!("every patch covers a pixel of the mask {}", mask.display());
-        }
-    }
+    let within = super::cut::CutOptions {
+        window: Some(w),
+        ..o.clone()
+    };
+    let places = super::cut::masked_places((rows, cols), &within, &paths[0])?;
     let t = stack.scenes.len();
     let samples = places.len() * t;
     let (ph, pw) = (o.patch.rows, o.patch.cols);
-    let bytes = crate::resources::saturating_bytes(&[samples, ph, pw, 8]);
-    if let Some(why) =
-        crate::resources::disk_shortfall(out, bytes, &format!("the {samples} patches"))
-    {
-        bail!("{why}: cut fewer patches (--stride, --window) or choose another --out");
-    }
+    super::cut::check_room(out, samples, o.patch)?;
     let failed = std::sync::Mutex::new(None::<String>);
     let fill = |first: usize, dst: &mut [Complex32]| {
         let p = first / t;

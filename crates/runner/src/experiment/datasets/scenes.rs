@@ -309,20 +309,9 @@ pub(super) fn patches<S: Scene>(
             .collect(),
         avoid_mask: c.avoid_mask.as_ref().map(|p| ctx.resolve(p)),
     };
-    let w = stack.window;
-    let mut places = crate::io::cut::places(w.r1, w.c1, &options)
-        .map_err(|e| ctx.err(at.to_string(), format!("{e:#}")))?;
-    if let Some(mask) = &options.avoid_mask {
-        let dims = stack.scenes[0].dims();
-        places = crate::io::cut::unmasked(places, patch, dims, mask)
-            .map_err(|e| ctx.err(format!("{at}.avoid_mask"), format!("{e:#}")))?;
-        if places.is_empty() {
-            return Err(ctx.err(
-                format!("{at}.avoid_mask"),
-                format!("every patch covers a pixel of the mask {}", mask.display()),
-            ));
-        }
-    }
+    let places =
+        crate::io::cut::masked_places(stack.scenes[0].dims(), &options, stack.scenes[0].path())
+            .map_err(|e| ctx.err(at.to_string(), format!("{e:#}")))?;
     Ok(Patches {
         patch,
         options,
