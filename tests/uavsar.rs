@@ -46,6 +46,30 @@ fn a_uavsar_window_stack_is_analysed_as_numpy_reads_its_pixels() {
 }
 
 #[test]
+fn a_cut_uavsar_stack_is_the_stack_cut_cuts_from_numpys_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let fields = format!(
+        "kind: uavsar, slc: [{}], {}",
+        scenes().join(", "),
+        scenes::CUT_FIELDS
+    );
+    let ours = run(d, "cut", &fields);
+    scenes::cut_cli(&[fx.join("scenes.npy")], &fx.join("cut.npy"), &[]);
+    assert_same_tables(&ours, &run(d, "npy", "kind: npy, path: fixtures/cut.npy"));
+    // `isar-clutter cut` of the .slc files (each with its own annotation): the same stack.
+    let inputs: Vec<std::path::PathBuf> = scenes().iter().map(|s| d.join(s)).collect();
+    scenes::cut_cli(&inputs, &fx.join("slc_cut.npy"), &[]);
+    assert_eq!(
+        std::fs::read(fx.join("slc_cut.npy")).unwrap(),
+        std::fs::read(fx.join("cut.npy")).unwrap()
+    );
+}
+
+#[test]
 fn bad_uavsar_files_are_refused_naming_the_file_and_the_field() {
     let dir = tempfile::tempdir().unwrap();
     let Some(fx) = fixtures(dir.path()) else {

@@ -8,7 +8,7 @@ use isar_clutter_core::io::cut::Window;
 use isar_clutter_core::io::geotiff::{GeoTiff, TiffError};
 use isar_clutter_core::io::scenes::{OpenScene, Place, Scene, Scenes};
 use isar_clutter_core::io::sicd::{Sicd, SicdError};
-use isar_clutter_core::io::uavsar::SceneStack;
+use isar_clutter_core::io::uavsar::open_stack;
 use ndarray::Array3;
 use num_complex::Complex32;
 use numpy::{IntoPyArray, PyArray3};
@@ -32,7 +32,7 @@ pub fn load_uavsar<'py>(
     window: Option<(usize, usize, usize, usize)>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
     let window = window.map(|(row, col, rows, cols)| Window::at(row, col, rows, cols));
-    let stack = SceneStack::open(&slcs, &annotations, window)
+    let stack = open_stack(&slcs, &annotations, window)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let mut out: Array3<Complex32> =
         isar_clutter_core::alloc::try_zeros(stack.shape(), "the UAVSAR stack")

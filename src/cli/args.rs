@@ -377,8 +377,8 @@ pub struct GenerateArgs {
 #[derive(Args)]
 pub struct CutArgs {
     /// The scene: an .npy of shape [H, W] or [T, H, W] (complex64/128 or float32/64), or a
-    /// complex GeoTIFF (.tif, .tiff) or SICD (.nitf, .ntf); give a GeoTIFF or SICD once per
-    /// scene of a time stack (coregistered, in order).
+    /// complex GeoTIFF (.tif, .tiff), SICD (.nitf, .ntf) or UAVSAR (.slc, its .ann beside it);
+    /// give those once per scene of a time stack (coregistered, in order).
     #[arg(long, required = true)]
     pub input: Vec<PathBuf>,
     /// Patch size: N (square) or ROWSxCOLS.

@@ -114,23 +114,24 @@ pub fn cut(a: CutArgs) -> Result<()> {
     };
     let kinds: std::collections::BTreeSet<String> = a.input.iter().map(|p| suffix(p)).collect();
     let kinds: Vec<&str> = kinds.iter().map(String::as_str).collect();
-    use isar_clutter::io::scenes::cut_scenes;
+    use isar_clutter::io::{geotiff::GeoTiff, scenes::cut_scenes, sicd::Sicd, uavsar::UavsarScene};
+    let (input, out, chunk) = (&a.input, &a.out, a.chunk);
     let done = match kinds[..] {
-        ["npy"] if a.input.len() == 1 => {
-            cut::cut_npy(&a.input[0], &a.out, &options, a.chunk, progress)?
+        ["npy"] if input.len() == 1 => cut::cut_npy(&input[0], out, &options, chunk, progress)?,
+        ["tif"] | ["tiff"] | ["tif", "tiff"] => {
+            cut_scenes::<GeoTiff>(input, out, &options, chunk, progress)?
         }
-        ["tif"] | ["tiff"] | ["tif", "tiff"] => cut_scenes::<isar_clutter::io::geotiff::GeoTiff>(
-            &a.input, &a.out, &options, a.chunk, progress,
-        )?,
-        ["nitf"] | ["ntf"] | ["nitf", "ntf"] => cut_scenes::<isar_clutter::io::sicd::Sicd>(
-            &a.input, &a.out, &options, a.chunk, progress,
-        )?,
+        ["nitf"] | ["ntf"] | ["nitf", "ntf"] => {
+            cut_scenes::<Sicd>(input, out, &options, chunk, progress)?
+        }
+        ["slc"] => cut_scenes::<UavsarScene>(input, out, &options, chunk, progress)?,
         _ => {
+            let given: Vec<String> = input.iter().map(|p| p.display().to_string()).collect();
             anyhow::bail!(
-            "--input: one .npy scene (or time stack), or GeoTIFF (.tif, .tiff) or SICD (.nitf, \
-             .ntf) scenes of one format; got {}",
-            a.input.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
-        )
+                "--input: one .npy scene (or time stack), or GeoTIFF (.tif, .tiff), SICD (.nitf, \
+                 .ntf) or UAVSAR (.slc, beside its .ann) scenes of one format; got {}",
+                given.join(", ")
+            )
         }
     };
     bar.finish_and_clear();

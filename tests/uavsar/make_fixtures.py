@@ -3,7 +3,8 @@
 Three coregistered scenes of 40 rows x 30 columns, each a `.slc` of little-endian complex64
 values named as UAVSAR names them (`<name>_s1_1x1.slc`) with its annotation `<name>.ann` in
 UAVSAR's `key (unit) = value ; comment` form, and `window.npy`: rows 5..21 and columns 7..23
-of each scene as numpy reads them, an [N, H, W] complex64 stack.
+of each scene as numpy reads them, an [N, H, W] complex64 stack, and `scenes.npy`, the whole
+scenes as numpy reads them.
 
 Usage: python make_fixtures.py OUT_DIR
 """
@@ -33,7 +34,7 @@ slc_1_1x1 Data Type                        (&)        = COMPLEX(Real*4,Real*4)
 def main(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(20260429)
-    windows = []
+    windows, whole = [], []
     for k, date in enumerate(["12-May-2014", "14-May-2014", "19-May-2014"]):
         name = f"testsite_0{k}_L090HH_01_BC"
         scene = (rng.standard_normal((ROWS, COLS)) + 1j * rng.standard_normal((ROWS, COLS)))
@@ -43,7 +44,9 @@ def main(out: Path) -> None:
         # What numpy reads back from the file, independently of the writer above.
         back = np.fromfile(out / f"{name}_s1_1x1.slc", dtype="<c8").reshape(ROWS, COLS)
         windows.append(back[5:21, 7:23])
+        whole.append(back)
     np.save(out / "window.npy", np.stack(windows))
+    np.save(out / "scenes.npy", np.stack(whole))
 
 
 if __name__ == "__main__":

@@ -406,8 +406,7 @@ mod tests {
     #[derive(Debug, Clone, PartialEq)]
     struct Grid(usize, PathBuf);
 
-    impl Scene for Grid {
-        type Error = String;
+    impl OpenScene for Grid {
         fn open(path: &Path) -> Result<Grid, String> {
             let k = path
                 .to_string_lossy()
@@ -415,6 +414,10 @@ mod tests {
                 .map_err(|_| "a number".to_string())?;
             Ok(Grid(k, path.to_path_buf()))
         }
+    }
+
+    impl Scene for Grid {
+        type Error = String;
         fn path(&self) -> &Path {
             &self.1
         }

@@ -225,122 +225,116 @@ pub fn read_window(
     Ok(())
 }
 
-/// A stack of coregistered scenes checked against their annotations: the same window of each
-/// is one sample.
+/// One UAVSAR scene: its `.slc`, the annotation that gave its size, and the size.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SceneStack {
-    /// The scenes, one sample each.
-    pub slcs: Vec<PathBuf>,
-    /// Their annotation files.
-    pub annotations: Vec<PathBuf>,
-    /// Each scene's `(rows, columns)`.
-    pub dims: Vec<(usize, usize)>,
-    /// The window read from each.
-    pub window: Window,
+pub struct UavsarScene {
+    /// The `.slc` file.
+    pub slc: PathBuf,
+    /// Its annotation file.
+    pub annotation: PathBuf,
+    /// `(rows, columns)`.
+    pub dims: (usize, usize),
 }
+
+impl super::scenes::Scene for UavsarScene {
+    type Error = UavsarError;
+
+    fn path(&self) -> &Path {
+        &self.slc
+    }
+
+    fn dims(&self) -> (usize, usize) {
+        self.dims
+    }
+
+    fn read_window(&self, window: &Window, out: &mut [Complex32]) -> Result<(), UavsarError> {
+        read_window(&self.slc, self.dims.1, window, out)
+    }
+
+    fn describe(&self) -> serde_json::Value {
+        serde_json::json!({
+            "path": self.slc.display().to_string(),
+            "format": "UAVSAR SLC",
+            "annotation": self.annotation.display().to_string(),
+            "rows": self.dims.0,
+            "cols": self.dims.1,
+        })
+    }
+}
+
+/// A scene with its own annotation (UAVSAR's naming, [`annotation_candidates`]), as
+/// `isar-clutter cut --input X.slc` opens it.
+impl super::scenes::OpenScene for UavsarScene {
+    fn open(slc: &Path) -> Result<UavsarScene, UavsarError> {
+        let (annotation, dims) = scene_size(slc, 0, &[]).map_err(|e| UavsarError::Field {
+            path: slc.to_path_buf(),
+            field: e.field.to_string(),
+            reason: e.message,
+        })?;
+        Ok(UavsarScene {
+            slc: slc.to_path_buf(),
+            annotation,
+            dims,
+        })
+    }
+}
+
+/// A stack of coregistered scenes checked against their annotations: the same window of each
+/// is one sample (or, cut, each patch of each).
+pub type SceneStack = super::scenes::Scenes<UavsarScene>;
 
 pub use super::scenes::StackError;
 
-impl SceneStack {
-    /// Opens `slcs` with their `annotations` (none: each scene's own, by UAVSAR's naming,
-    /// [`annotation_candidates`]; one: for every scene; else one per scene): reads each
-    /// annotation, checks each file's length against it and `window` (default: the whole
-    /// scene, every scene then of one size) against every scene.
-    ///
-    /// # Errors
-    /// A [`StackError`] naming the field, the scene and the file.
-    pub fn open(
-        slcs: &[PathBuf],
-        annotations: &[PathBuf],
-        window: Option<Window>,
-    ) -> Result<SceneStack, StackError> {
-        let err = |field, index, message: String| StackError {
-            field,
-            index,
-            message,
-        };
-        if slcs.is_empty() {
-            return Err(err("slc", None, "name at least one .slc file".into()));
-        }
-        if annotations.len() > 1 && annotations.len() != slcs.len() {
-            return Err(err(
-                "annotation",
-                None,
-                format!(
-                    "lists {} annotation file(s) for {} scene(s): give one for all, or one per \
-                     scene",
-                    annotations.len(),
-                    slcs.len()
-                ),
-            ));
-        }
-        let (mut anns, mut dims) = (vec![], vec![]);
-        for (i, slc) in slcs.iter().enumerate() {
-            let (path, d) = scene_size(slc, i, annotations)?;
-            anns.push(path);
-            dims.push(d);
-        }
-        let window = match window {
-            Some(w) => w,
-            None => whole_scene(slcs, &dims)?,
-        };
-        if window.rows() == 0 || window.cols() == 0 {
-            return Err(err(
-                "window",
-                None,
-                "its size must be at least 1 x 1".into(),
-            ));
-        }
-        if let Some(i) = dims.iter().position(|d| !window.inside(d.0, d.1)) {
-            return Err(err(
-                "window",
-                None,
-                format!(
-                    "rows {}..{} x columns {}..{} is outside {} ({} x {})",
-                    window.r0,
-                    window.r1,
-                    window.c0,
-                    window.c1,
-                    slcs[i].display(),
-                    dims[i].0,
-                    dims[i].1
-                ),
-            ));
-        }
-        Ok(SceneStack {
-            slcs: slcs.to_vec(),
-            annotations: anns,
+/// Opens `slcs` with their `annotations` (none: each scene's own, by UAVSAR's naming,
+/// [`annotation_candidates`]; one: for every scene; else one per scene): reads each
+/// annotation, checks each file's length against it and `window` (default: the whole scene,
+/// every scene then of one size) against every scene.
+///
+/// # Errors
+/// A [`StackError`] naming the field (`slc`, `annotation`, `window`), the scene and the file.
+pub fn open_stack(
+    slcs: &[PathBuf],
+    annotations: &[PathBuf],
+    window: Option<Window>,
+) -> Result<SceneStack, StackError> {
+    let err = |field, index, message: String| StackError {
+        field,
+        index,
+        message,
+    };
+    if slcs.is_empty() {
+        return Err(err("slc", None, "name at least one .slc file".into()));
+    }
+    if annotations.len() > 1 && annotations.len() != slcs.len() {
+        return Err(err(
+            "annotation",
+            None,
+            format!(
+                "lists {} annotation file(s) for {} scene(s): give one for all, or one per scene",
+                annotations.len(),
+                slcs.len()
+            ),
+        ));
+    }
+    let mut scenes = vec![];
+    for (i, slc) in slcs.iter().enumerate() {
+        let (annotation, dims) = scene_size(slc, i, annotations)?;
+        scenes.push(UavsarScene {
+            slc: slc.clone(),
+            annotation,
             dims,
-            window,
-        })
+        });
     }
-
-    /// `(N, H, W)`: the scenes and the window's size.
-    pub fn shape(&self) -> (usize, usize, usize) {
-        (self.slcs.len(), self.window.rows(), self.window.cols())
-    }
-
-    /// Reads the window of every scene into `out` (`N x H x W` values, sample after sample),
-    /// in the files' single precision.
-    ///
-    /// # Errors
-    /// [`UavsarError::Io`] if a file cannot be read.
-    pub fn read_into(&self, out: &mut [Complex32]) -> Result<(), UavsarError> {
-        let pixels = self.window.rows() * self.window.cols();
-        assert_eq!(out.len(), self.slcs.len() * pixels, "the stack's values");
-        for ((slc, d), sample) in self
-            .slcs
-            .iter()
-            .zip(&self.dims)
-            .zip(out.chunks_exact_mut(pixels.max(1)))
-        {
-            read_window(slc, d.1, &self.window, sample)?;
-        }
-        Ok(())
-    }
+    // The scenes' field is `slc` here.
+    super::scenes::Scenes::new(scenes, slcs, window.map(super::scenes::Place::Pixels)).map_err(
+        |e| StackError {
+            field: if e.field == "path" { "slc" } else { e.field },
+            ..e
+        },
+    )
 }
 
-/// The annotation of scene `i` (`slc`; see [`SceneStack::open`] for `annotations`), and the
+/// The annotation of scene `i` (`slc`; see [`open_stack`] for `annotations`), and the
 /// scene's `(rows, columns)` from it, its file's length checked.
 fn scene_size(
     slc: &Path,
@@ -378,26 +372,6 @@ fn scene_size(
         .map_err(|e| err(field, index, e.to_string()))?;
     check_length(slc, &path, d).map_err(|e| err("slc", Some(i), e.to_string()))?;
     Ok((path, d))
-}
-
-/// The whole scene as the window, when every scene of `slcs` (of `dims`) has one size.
-fn whole_scene(slcs: &[PathBuf], dims: &[(usize, usize)]) -> Result<Window, StackError> {
-    if let Some(i) = dims.iter().position(|d| *d != dims[0]) {
-        return Err(StackError {
-            field: "slc",
-            index: Some(i),
-            message: format!(
-                "{} is {} x {} where {} is {} x {}: give a window inside every scene",
-                slcs[i].display(),
-                dims[i].0,
-                dims[i].1,
-                slcs[0].display(),
-                dims[0].0,
-                dims[0].1
-            ),
-        });
-    }
-    Ok(Window::whole(dims[0].0, dims[0].1))
 }
 
 #[cfg(test)]

@@ -1,17 +1,19 @@
 //! The `uavsar` dataset kind: UAVSAR single-look complex scenes (`.slc`, little-endian
 //! complex64) with their sizes from the flight line's annotation (`.ann`); one scene is one
 //! sample, so a list of coregistered scenes (a time stack) is a clutter stack, each read in the
-//! same window (`window`, default the whole scene). The files are checked against their
+//! same window (`window`, default the whole scene), or cut into patches (`cut`, as for
+//! `geotiff`: one scene, or a few, then make a stack). The files are checked against their
 //! annotations at validation: a truncated file, a wrong or missing annotation field, or a
 //! window outside a scene is refused naming the file and the field.
 
 use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Materialised};
+use super::scenes::{patches, CutSpec, Patches};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::Window;
 use crate::io::npy::Stack;
-use crate::io::uavsar::SceneStack;
+use crate::io::uavsar::{open_stack, SceneStack};
 use ndarray::Array3;
 use num_complex::{Complex32, Complex64};
 use serde::{Deserialize, Serialize};
@@ -66,6 +68,9 @@ pub struct Spec {
     /// size).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub window: Option<WindowSpec>,
+    /// Cut the window into patches, each patch of each scene a sample (as for `geotiff`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cut: Option<CutSpec>,
 }
 
 /// A validated `uavsar` dataset.
@@ -73,11 +78,13 @@ pub struct Spec {
 pub struct UavsarDataset {
     /// The scenes, checked against their annotations, and the window read from each.
     pub stack: SceneStack,
+    /// The patches the window is cut into (`None`: one sample a scene).
+    pub cut: Option<Patches>,
 }
 
 impl DatasetKind for UavsarDataset {
     const NAME: &'static str = "uavsar";
-    const FIELDS: &'static [&'static str] = &["slc", "annotation", "window"];
+    const FIELDS: &'static [&'static str] = &["slc", "annotation", "window", "cut"];
     const SAMPLES_FIELD: &'static str = "slc";
     type Spec = Spec;
 
@@ -100,7 +107,7 @@ impl DatasetKind for UavsarDataset {
             .window
             .map(|w| Window::at(w.row, w.col, w.size[0], w.size[1]));
         let annotations = spec.annotation.as_ref().map(resolved).unwrap_or_default();
-        let stack = SceneStack::open(&resolved(slc), &annotations, window).map_err(|e| {
+        let stack = open_stack(&resolved(slc), &annotations, window).map_err(|e| {
             // An index into a field written as one path names the field.
             let listed = match e.field {
                 "slc" => matches!(slc, Paths::Many(_)),
@@ -113,16 +120,28 @@ impl DatasetKind for UavsarDataset {
             };
             ctx.err(path, e.message)
         })?;
-        Ok(UavsarDataset { stack })
+        let cut = match &spec.cut {
+            Some(c) => Some(patches(c, &stack, ctx, &format!("{at}.cut"))?),
+            None => None,
+        };
+        Ok(UavsarDataset { stack, cut })
     }
 
     fn shape(&self) -> (usize, usize, usize) {
-        self.stack.shape()
+        match &self.cut {
+            Some(c) => (
+                c.places.len() * self.stack.scenes.len(),
+                c.patch.rows,
+                c.patch.cols,
+            ),
+            None => self.stack.shape(),
+        }
     }
 
     fn input_files(&self) -> Vec<PathBuf> {
-        let s = &self.stack;
-        s.slcs.iter().chain(&s.annotations).cloned().collect()
+        let s = &self.stack.scenes;
+        let annotations = s.iter().map(|s| s.annotation.clone());
+        s.iter().map(|s| s.slc.clone()).chain(annotations).collect()
     }
 
     fn worth_sharing(&self) -> bool {
@@ -164,9 +183,19 @@ impl DatasetKind for UavsarDataset {
     fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
         // complex64 as stored: half the memory of complex128, analysed as a mapped `.npy`.
         let mut out: Array3<Complex32> = try_zeros(self.shape(), "the uavsar stack")?;
-        self.stack
-            .read_into(out.as_slice_mut().expect("standard layout"))?;
+        let values = out.as_slice_mut().expect("standard layout");
+        match &self.cut {
+            Some(c) => self.stack.read_patches(&c.places, c.patch, values)?,
+            None => self.stack.read_into(values)?,
+        }
         Ok(Materialised::plain(Stack::Single(out), false))
+    }
+
+    fn metadata(&self) -> Option<serde_json::Value> {
+        let c = self.cut.as_ref()?;
+        let mut m = self.stack.describe();
+        m["cut"] = serde_json::json!({"options": c.options, "places": c.places.len()});
+        Some(m)
     }
 
     fn redraw(
