@@ -8,7 +8,7 @@
 
 use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Materialised};
-use super::scenes::{patches, CutSpec, Patches};
+use super::scenes::{patches, CutSpec, Patches, Paths, WindowSpec};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::Window;
@@ -18,39 +18,6 @@ use ndarray::Array3;
 use num_complex::{Complex32, Complex64};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
-
-/// One path, or a list of them.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(untagged)]
-pub enum Paths {
-    /// One file.
-    One(PathBuf),
-    /// Several files, in order.
-    Many(Vec<PathBuf>),
-}
-
-impl Paths {
-    /// The paths, in order.
-    pub(crate) fn list(&self) -> Vec<PathBuf> {
-        match self {
-            Paths::One(p) => vec![p.clone()],
-            Paths::Many(v) => v.clone(),
-        }
-    }
-}
-
-/// The window of every scene read: its first row (along track) and column (across track), and
-/// its size `[H, W]`.
-#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(deny_unknown_fields)]
-pub struct WindowSpec {
-    /// First row.
-    pub row: usize,
-    /// First column.
-    pub col: usize,
-    /// `[rows, columns]`.
-    pub size: [usize; 2],
-}
 
 /// The fields of a `uavsar` dataset as written.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
