@@ -133,10 +133,10 @@ impl Ifd {
                     return Err(format!(
                         "tag {tag} ({}) holds {count} values at offset {at}, past the end of \
                          the file ({len} bytes; truncated?)",
-                        super::tag_name(tag)
+                        tag_name(tag)
                     ));
                 }
-                read_at(file, at, bytes as usize, super::tag_name(tag))?
+                read_at(file, at, bytes as usize, tag_name(tag))?
             };
             tags.insert(tag, decode(order, typ, size, &data));
         }
@@ -196,6 +196,32 @@ fn decode(order: Order, typ: u16, size: usize, data: &[u8]) -> Value {
             .collect(),
         ),
         _ => Value::Ints(each.map(|b| order.uint(b)).collect()),
+    }
+}
+
+/// A TIFF tag's name, for messages.
+pub fn tag_name(tag: u16) -> &'static str {
+    match tag {
+        256 => "ImageWidth",
+        257 => "ImageLength",
+        258 => "BitsPerSample",
+        259 => "Compression",
+        273 => "StripOffsets",
+        277 => "SamplesPerPixel",
+        278 => "RowsPerStrip",
+        279 => "StripByteCounts",
+        284 => "PlanarConfiguration",
+        317 => "Predictor",
+        322 => "TileWidth",
+        323 => "TileLength",
+        324 => "TileOffsets",
+        325 => "TileByteCounts",
+        339 => "SampleFormat",
+        33922 => "ModelTiepointTag",
+        33550 => "ModelPixelScaleTag",
+        34264 => "ModelTransformationTag",
+        34735 => "GeoKeyDirectoryTag",
+        _ => "a tag",
     }
 }
 

@@ -4,7 +4,7 @@
 //! strip then needs a few MiB, not the strip), a deflated one decoded whole.
 
 use super::ifd::Order;
-use super::{Compression, GeoTiff, Num, TiffError};
+use super::layout::{Compression, GeoTiff, Num, TiffError};
 use crate::io::cut::Window;
 use num_complex::Complex32;
 use rayon::prelude::*;
@@ -250,7 +250,7 @@ pub fn convert(num: Num, order: Order, src: &[u8], dst: &mut [Complex32]) {
 #[cfg(test)]
 mod tests {
     use super::super::ifd::Order;
-    use super::super::{GeoTiff, Num};
+    use super::super::layout::{GeoTiff, Num};
     use super::*;
     use rand::{RngExt, SeedableRng};
     use std::io::Write;

@@ -5,8 +5,69 @@
 //! sigma-0 or beta-0). Elements are found by their local names, whatever the namespace
 //! prefix of the SICD version.
 
-use super::Pixel;
+use num_complex::Complex32;
 use serde::Serialize;
+
+/// SICD's pixel types.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Pixel {
+    /// Real and imaginary float32.
+    Re32fIm32f,
+    /// Real and imaginary int16.
+    Re16iIm16i,
+    /// Amplitude and phase bytes: amplitude through the table (`None`: the byte itself),
+    /// phase `p / 256` of a turn.
+    Amp8iPhs8i(Option<Vec<f32>>),
+}
+
+impl Pixel {
+    /// Bytes of one pixel.
+    pub fn size(&self) -> usize {
+        match self {
+            Pixel::Re32fIm32f => 8,
+            Pixel::Re16iIm16i => 4,
+            Pixel::Amp8iPhs8i(_) => 2,
+        }
+    }
+
+    /// SICD's name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Pixel::Re32fIm32f => "RE32F_IM32F",
+            Pixel::Re16iIm16i => "RE16I_IM16I",
+            Pixel::Amp8iPhs8i(_) => "AMP8I_PHS8I",
+        }
+    }
+
+    /// NITF's `PVTYPE` and `NBPP` for it.
+    pub fn nitf(&self) -> (&'static str, usize) {
+        match self {
+            Pixel::Re32fIm32f => ("R", 32),
+            Pixel::Re16iIm16i => ("SI", 16),
+            Pixel::Amp8iPhs8i(_) => ("INT", 8),
+        }
+    }
+
+    /// The pixel stored (big-endian) in `b`.
+    #[inline]
+    pub fn value(&self, b: &[u8]) -> Complex32 {
+        match self {
+            Pixel::Re32fIm32f => Complex32::new(
+                f32::from_be_bytes([b[0], b[1], b[2], b[3]]),
+                f32::from_be_bytes([b[4], b[5], b[6], b[7]]),
+            ),
+            Pixel::Re16iIm16i => Complex32::new(
+                f32::from(i16::from_be_bytes([b[0], b[1]])),
+                f32::from(i16::from_be_bytes([b[2], b[3]])),
+            ),
+            Pixel::Amp8iPhs8i(table) => {
+                let a = table.as_ref().map_or(f32::from(b[0]), |t| t[b[0] as usize]);
+                let phase = std::f32::consts::TAU * f32::from(b[1]) / 256.0;
+                Complex32::from_polar(a, phase)
+            }
+        }
+    }
+}
 
 /// One direction of the image grid (`Grid/Row`, `Grid/Col`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
