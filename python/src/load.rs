@@ -6,7 +6,7 @@
 
 use isar_clutter_core::io::cut::Window;
 use isar_clutter_core::io::geotiff::{GeoTiff, TiffError};
-use isar_clutter_core::io::scenes::{OpenScene, Place, Scene, Scenes};
+use isar_clutter_core::io::scenes::{OpenScene, Place, Scenes};
 use isar_clutter_core::io::sicd::{Sicd, SicdError};
 use isar_clutter_core::io::uavsar::open_stack;
 use ndarray::Array3;

@@ -204,7 +204,7 @@ fn image(file: &std::fs::File, s: Segment) -> Result<Image, String> {
     let cols = f.num(8, "NCOLS")? as usize;
     let pvtype = f.text(3, "PVTYPE")?;
     f.skip(8 + 8 + 2 + 1); // IREP, ICAT, ABPP, PJUST
-    if f.text(1, "ICORDS")? != "" {
+    if !f.text(1, "ICORDS")?.is_empty() {
         f.skip(60); // IGEOLO
     }
     let nicom = f.num(1, "NICOM")? as usize;
