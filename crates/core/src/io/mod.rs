@@ -19,6 +19,7 @@ pub mod scenes;
 pub mod sicd;
 pub mod stream;
 pub mod uavsar;
+pub mod zarr;
 
 /// What identifies a file's content without reading it: device, inode, size, and the
 /// modification and change times in nanoseconds (the change time cannot be set back by a

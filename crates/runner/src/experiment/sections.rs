@@ -26,6 +26,10 @@ pub struct OutputsSpec {
     /// Write every map as `.npy` under `maps/<job>/` (default true).
     #[serde(default = "yes")]
     pub npy_maps: bool,
+    /// Write every job's maps into one Zarr v3 store `maps.zarr/` (one array per map name
+    /// with a job dimension), packed at the merge (default false).
+    #[serde(default)]
+    pub zarr_maps: bool,
     /// Largest lag of `filter_correlation.parquet` (default: the filter's half-width).
     #[serde(default)]
     pub filter_lags: Option<usize>,
@@ -40,6 +44,7 @@ impl Default for OutputsSpec {
     fn default() -> Self {
         OutputsSpec {
             npy_maps: true,
+            zarr_maps: false,
             filter_lags: None,
         }
     }

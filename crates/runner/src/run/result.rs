@@ -78,13 +78,10 @@ pub struct FilterRow {
     pub correlation: f64,
 }
 
-/// Writes a job's maps under `dir` (`mean.npy`, `variance.npy`,
-/// `level{L}_{correlation,covariance}_{H,V,D}.npy`, `expected_level{L}_correlation_{H,V,D}.npy`).
-///
-/// # Errors
-/// If a file cannot be written.
-pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
-    use rayon::prelude::*;
+/// A job's real maps by name (`variance`, `level{L}_{correlation,covariance}_{H,V,D}`,
+/// `expected_level{L}_correlation_{H,V,D}`, the similarity comparisons), in the order they are
+/// written; the complex mean is apart (`mean`).
+pub fn job_maps(r: &JobResult) -> Vec<(String, &Array2<f64>)> {
     let mut maps: Vec<(String, &Array2<f64>)> = vec![];
     if let Some(sim) = &r.similarity {
         let prefix = if sim.noise_floor.is_some() {
@@ -97,7 +94,6 @@ pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
         }
     }
     if let Some(analysis) = &r.analysis {
-        write_npy(&names::file(dir, names::MEAN), &analysis.mean)?;
         maps.push((names::VARIANCE.into(), &analysis.variance));
     }
     for lm in r.analysis.iter().flat_map(|a| &a.levels) {
@@ -120,6 +116,44 @@ pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
             ));
         }
     }
-    maps.par_iter()
+    maps
+}
+
+/// Writes a job's maps under `dir` (`mean.npy` and those of [`job_maps`], `.npy` each).
+///
+/// # Errors
+/// If a file cannot be written.
+pub fn write_job_maps(dir: &Path, r: &JobResult) -> Result<()> {
+    use rayon::prelude::*;
+    if let Some(analysis) = &r.analysis {
+        write_npy(&names::file(dir, names::MEAN), &analysis.mean)?;
+    }
+    job_maps(r)
+        .par_iter()
         .try_for_each(|(name, map)| write_npy(&names::file(dir, name), *map))
+}
+
+/// Stages a job's maps (the mean and those of [`job_maps`]) for the run's Zarr store: their
+/// compressed chunks in one file, `path` ([`crate::io::zarr::write_staged`]).
+///
+/// # Errors
+/// If the file cannot be written.
+pub fn stage_job_maps(path: &Path, r: &JobResult) -> Result<()> {
+    use crate::io::zarr::{chunk, Values};
+    use rayon::prelude::*;
+    let mut chunks: Vec<crate::io::zarr::Chunk> = job_maps(r)
+        .par_iter()
+        .map(|(name, m)| {
+            let values = m.as_standard_layout();
+            let v = values.as_slice().expect("standard layout");
+            chunk(name, m.nrows(), m.ncols(), Values::F64(v))
+        })
+        .collect();
+    if let Some(a) = &r.analysis {
+        let values = a.mean.as_standard_layout();
+        let v = values.as_slice().expect("standard layout");
+        let mean = chunk(names::MEAN, a.mean.nrows(), a.mean.ncols(), Values::C128(v));
+        chunks.insert(0, mean);
+    }
+    crate::io::zarr::write_staged(path, &chunks)
 }

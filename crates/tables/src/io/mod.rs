@@ -7,7 +7,7 @@
 
 pub use isar_clutter_core::io::{
     atomic, cut, file_id, geotiff, h5stack, journal, mat, model, netcdf, npy, outdir, scenes, sicd,
-    stream, strip_bom, uavsar, FileId,
+    stream, strip_bom, uavsar, zarr, FileId,
 };
 
 pub mod frame;

@@ -78,14 +78,25 @@ pub fn footprint(plan: &Plan, jobs: usize) -> Footprint {
         let levels = job.analysis.levels as i32;
         let mut rows = h * w + SMALL_ROWS;
         let mut maps = [npy(h * w, 16.0), npy(h * w, 8.0)].to_vec();
+        // The maps' values' bytes, without the files' headers and blocks.
+        let mut raw = 24.0 * h * w;
         for l in 1..=levels {
             let cells = (h / 2f64.powi(l)).floor() * (w / 2f64.powi(l)).floor();
             rows += 3.0 * cells;
             maps.extend(std::iter::repeat_n(npy(cells, 8.0), 9));
+            raw += 72.0 * cells;
         }
         if plan.spec.outputs.npy_maps {
             f.files += 2.0 * maps.len() as f64;
             f.maps += maps.iter().sum::<f64>();
+        }
+        if plan.spec.outputs.zarr_maps {
+            // The staged chunks (one file in the store) and their copy in maps.zarr, at most
+            // their raw size (gzip seldom shrinks estimated statistics much); the store's
+            // few files are counted once below.
+            f.files += 1.0;
+            f.store += raw;
+            f.maps += raw;
         }
         // The mean k-space image of an analysis job on k-space data (complex128 `[n_f, n_phi]`).
         let kspace = job.dataset.kspace_grid();
@@ -100,6 +111,17 @@ pub fn footprint(plan: &Plan, jobs: usize) -> Footprint {
         f.files += 1.0;
         f.tables += rows * TABLE_ROW;
         f.store += rows * PACK_ROW;
+    }
+    if plan.spec.outputs.zarr_maps {
+        // maps.zarr: a shard and its metadata per map name (of the largest level count), and
+        // the group.
+        let levels = plan
+            .jobs
+            .iter()
+            .map(|j| j.analysis.levels)
+            .max()
+            .unwrap_or(0);
+        f.files += 2.0 * (2 + 9 * levels) as f64 + 1.0;
     }
     let run_wide = jobs.saturating_sub(plan.jobs.len()) as f64;
     // And the store's memo of input hashes.

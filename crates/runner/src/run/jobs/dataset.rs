@@ -102,6 +102,11 @@ impl JobKind for Job {
             crate::run::result::write_job_maps(&dir, &result)?;
             files.push(dir);
         }
+        if plan.spec.outputs.zarr_maps {
+            // Not among the job's files: the merge packs it into maps.zarr.
+            let staged = crate::io::results::files::staged_maps(cx.out, &self.id);
+            crate::run::result::stage_job_maps(&staged, &result)?;
+        }
         let mut tables = tables::fragments(plan, self, &result)?;
         if plan.spec.hypotheses.is_some() {
             if let Some(stats) = super::hypotheses::plant_stats(self, &result)? {

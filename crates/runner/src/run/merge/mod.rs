@@ -154,6 +154,9 @@ impl Run<'_> {
         merged.notes.extend(streamed.other_builds);
         let tables_s = t_tables.elapsed().as_secs_f64();
         let mut manifest = streamed.manifest;
+        if self.plan.spec.outputs.zarr_maps {
+            merged.notes.extend(self.pack_maps(out)?);
+        }
         merged.notes.extend(self.remove_stale(outdir)?);
         outdir.each_written(|rel| {
             if !rel.starts_with("jobs") && rel != Path::new("manifest.json") {
@@ -207,6 +210,29 @@ impl Run<'_> {
     /// a report follows: it draws again only those whose inputs changed). An earlier report's
     /// page goes in any case (a report that follows writes it again from this run's files); it
     /// is not counted. The note saying how many went, if any.
+    /// Packs every dataset job's staged maps into `maps.zarr` (`outputs: {zarr_maps: true}`);
+    /// a note naming the jobs without maps (failed ones), if any.
+    fn pack_maps(&self, out: &Path) -> Result<Option<String>> {
+        use crate::io::results::files;
+        let jobs: Vec<(String, std::path::PathBuf)> = (self.plan.jobs.iter())
+            .map(|j| (j.id.clone(), files::staged_maps(out, &j.id)))
+            .collect();
+        let attributes = serde_json::json!({
+            "spec": self.plan.spec.name,
+            "master_seed": self.plan.spec.seed,
+            "levels": self.plan.spec.analysis.levels,
+        });
+        let packed = crate::io::zarr::pack(&files::maps_zarr(out), &jobs, attributes)?;
+        Ok((!packed.missing.is_empty()).then(|| {
+            let shown: Vec<&str> = packed.missing.iter().take(5).map(String::as_str).collect();
+            format!(
+                "maps.zarr: {} job(s) have no maps (their chunks are NaN): {}",
+                packed.missing.len(),
+                shown.join(", ")
+            )
+        }))
+    }
+
     fn remove_stale(&self, outdir: &OutDir) -> Result<Option<String>> {
         let out = outdir.root();
         let page = Path::new("report.html");

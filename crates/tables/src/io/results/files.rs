@@ -13,6 +13,17 @@ pub fn maps(out: &Path, job: &str) -> PathBuf {
     maps_root(out).join(job)
 }
 
+/// `maps.zarr/`: every job's maps in one Zarr v3 store (`outputs: {zarr_maps: true}`).
+pub fn maps_zarr(out: &Path) -> PathBuf {
+    out.join("maps.zarr")
+}
+
+/// `jobs/maps/<job>.chunks`: one job's maps staged for the Zarr store, in the job store (kept
+/// for a resumed run's merge, not a result file).
+pub fn staged_maps(out: &Path, job: &str) -> PathBuf {
+    out.join("jobs").join("maps").join(format!("{job}.chunks"))
+}
+
 /// `samples/`: the generated samples of the synthesis jobs.
 pub fn samples_root(out: &Path) -> PathBuf {
     out.join("samples")
