@@ -229,3 +229,54 @@ fn a_mask_of_targets_keeps_patches_off_them() {
         text(&o)
     );
 }
+
+#[test]
+fn a_polygon_keeps_exactly_the_patches_wholly_inside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Array2::from_shape_fn((40, 40), |(r, c)| pixel(0, r, c));
+    let input = dir.path().join("scene.npy");
+    ndarray_npy::write_npy(&input, &scene).unwrap();
+    let out = dir.path().join("stack.npy");
+    // A diamond round (20, 20): |r - 20| + |c - 20| <= 18. Convex, so a patch lies inside
+    // exactly when its four corners do.
+    let diamond = "2,20;20,38;38,20;20,2";
+    let o = bin(&[
+        "cut",
+        "--input",
+        input.to_str().unwrap(),
+        "--patch",
+        "6",
+        "--stride",
+        "2",
+        "--polygon",
+        diamond,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let inside = |r: f64, c: f64| (r - 20.0).abs() + (c - 20.0).abs() <= 18.0;
+    let want: Vec<(usize, usize)> = (0..=34)
+        .step_by(2)
+        .flat_map(|r| (0..=34).step_by(2).map(move |c| (r, c)))
+        .filter(|&(r, c)| {
+            let (r, c) = (r as f64, c as f64);
+            inside(r, c) && inside(r + 6.0, c) && inside(r, c + 6.0) && inside(r + 6.0, c + 6.0)
+        })
+        .collect();
+    let record = dir.path().join("stack.npy.patches.json");
+    assert_eq!(recorded_places(&record), want);
+    assert!(want.len() > 20, "{}", want.len());
+    let o = bin(&[
+        "cut",
+        "--input",
+        input.to_str().unwrap(),
+        "--patch",
+        "6",
+        "--polygon",
+        "1,1;2,2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("is not a polygon"), "{}", text(&o));
+}

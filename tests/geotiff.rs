@@ -112,6 +112,24 @@ fn a_cut_geotiff_stack_is_the_stack_cut_cuts_from_rasterios_pixels() {
         std::fs::read(&tif_cut).unwrap(),
         std::fs::read(fx.join("cut.npy")).unwrap()
     );
+    // Within a triangle too: the dataset's `polygon` is `cut --polygon`.
+    let triangle = "[[2, 1], [2, 29], [38, 15]]";
+    let with = CUT_FIELDS.replace(
+        "size: [4, 4]}]}",
+        &format!("size: [4, 4]}}], polygon: {triangle}}}"),
+    );
+    let fields = format!("kind: geotiff, path: [{}], {with}", files.join(", "));
+    let tri = run(d, "triangle", &fields);
+    cut_cli(
+        &[fx.join("scenes.npy")],
+        &fx.join("tri.npy"),
+        &["--polygon", "2,1;2,29;38,15"],
+    );
+    assert_same_tables(
+        &tri,
+        &run(d, "tri_npy", "kind: npy, path: fixtures/tri.npy"),
+    );
+    assert!(dataset_files(&tri)["cut"]["places"].as_u64().unwrap() < 14);
     let files = dataset_files(&ours);
     // Rows 2, 10, 18, 26 and columns 1, 7, 13, 19 (16 places) less the 2 that cover the box
     // (row 10, columns 7 and 13).
@@ -120,6 +138,15 @@ fn a_cut_geotiff_stack_is_the_stack_cut_cuts_from_rasterios_pixels() {
         d,
         "too_big",
         "kind: geotiff, path: [fixtures/s1_00.tif, fixtures/s1_01.tif], cut: {patch: 41}",
+    );
+    let e2 = refused(
+        d,
+        "line",
+        "kind: geotiff, path: [fixtures/s1_00.tif, fixtures/s1_01.tif], cut: {patch: 4, polygon: [[0, 0], [5, 5]]}",
+    );
+    assert!(
+        e2.contains("datasets[0].cut.polygon") && e2.contains("3 vertices"),
+        "{e2}"
     );
     assert!(
         e.contains("datasets[0].cut") && e.contains("no 41x41 patch fits"),

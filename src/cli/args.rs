@@ -393,6 +393,9 @@ pub struct CutArgs {
     /// A box no patch may overlap (a target): r0:r1,c0:c1; give it once per box.
     #[arg(long)]
     pub avoid: Vec<isar_clutter::io::cut::Window>,
+    /// A region (r0,c0;r1,c1;r2,c2;... in pixels) patches must lie wholly inside.
+    #[arg(long)]
+    pub polygon: Option<isar_clutter::io::polygon::Polygon>,
     /// A mask of the scene (.npy [H, W], bool or uint8): no patch covers a non-zero pixel.
     #[arg(long, value_name = "MASK.npy")]
     pub avoid_mask: Option<PathBuf>,

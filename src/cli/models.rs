@@ -97,6 +97,7 @@ pub fn cut(a: CutArgs) -> Result<()> {
         stride: a.stride.unwrap_or(a.patch),
         window: a.window,
         avoid: a.avoid,
+        polygon: a.polygon,
         avoid_mask: a.avoid_mask,
     };
     let t = std::time::Instant::now();

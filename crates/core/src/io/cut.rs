@@ -131,6 +131,8 @@ pub struct CutOptions {
     pub window: Option<Window>,
     /// Boxes no patch may overlap.
     pub avoid: Vec<Window>,
+    /// A region patches must lie wholly inside (pixel coordinates), besides the window.
+    pub polygon: Option<super::polygon::Polygon>,
     /// A mask of the scene (`.npy`, `[H, W]`, `bool` or `uint8`): no patch may cover a
     /// non-zero pixel.
     pub avoid_mask: Option<PathBuf>,
@@ -195,6 +197,7 @@ pub fn places(h: usize, w: usize, o: &CutOptions) -> Result<Vec<(usize, usize)>>
         );
     }
     let (p, s) = (o.patch, o.stride);
+    let (p_rows, p_cols) = (p.rows as f64, p.cols as f64);
     let mut out = vec![];
     let mut r = win.r0;
     while r + p.rows <= win.r1 {
@@ -206,7 +209,11 @@ pub fn places(h: usize, w: usize, o: &CutOptions) -> Result<Vec<(usize, usize)>>
                 c0: c,
                 c1: c + p.cols,
             };
-            if !o.avoid.iter().any(|a| a.overlaps(&patch)) {
+            let held = o.polygon.as_ref().is_none_or(|p| {
+                let (r, c) = (r as f64, c as f64);
+                p.holds((r, r + p_rows), (c, c + p_cols))
+            });
+            if held && !o.avoid.iter().any(|a| a.overlaps(&patch)) {
                 out.push((r, c));
             }
             c += s.cols;
@@ -216,7 +223,7 @@ pub fn places(h: usize, w: usize, o: &CutOptions) -> Result<Vec<(usize, usize)>>
     if out.is_empty() {
         bail!(
             "no {}x{} patch fits in the window {}:{},{}:{} of the {h}x{w} scene outside the boxes \
-             to avoid",
+             to avoid (and inside the polygon)",
             p.rows,
             p.cols,
             win.r0,
@@ -497,6 +504,7 @@ mod tests {
             stride: stride.parse().unwrap(),
             window: window.map(|w| w.parse().unwrap()),
             avoid: avoid.iter().map(|a| a.parse().unwrap()).collect(),
+            polygon: None,
             avoid_mask: None,
         }
     }

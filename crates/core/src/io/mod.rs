@@ -15,6 +15,7 @@ pub mod model;
 pub mod netcdf;
 pub mod npy;
 pub mod outdir;
+pub mod polygon;
 pub mod scenes;
 pub mod sicd;
 pub mod stream;

@@ -448,6 +448,7 @@ mod tests {
             stride: Size2 { rows: 3, cols: 7 },
             window: Some(s.window),
             avoid: vec![Window::at(8, 10, 1, 1)],
+            polygon: None,
             avoid_mask: None,
         };
         let places = super::super::cut::places(20, 30, &o).unwrap();

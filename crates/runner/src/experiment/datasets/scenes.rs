@@ -13,6 +13,7 @@ use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::{CutOptions, Size2, Window};
 use crate::io::npy::Stack;
+use crate::io::polygon::Polygon;
 use crate::io::scenes::{OpenScene, Place, Scene, Scenes};
 use ndarray::Array3;
 use num_complex::{Complex32, Complex64};
@@ -162,6 +163,9 @@ pub struct CutSpec {
     /// Boxes no patch may overlap (targets, buildings), in scene pixels.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub avoid: Vec<WindowSpec>,
+    /// A region patches must lie wholly inside: its vertices `[row, column]` in scene pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polygon: Option<Vec<[f64; 2]>>,
     /// A mask of the first scene's size (`.npy`, `bool` or `uint8`): no patch may cover a
     /// non-zero pixel. Relative to the spec file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -330,6 +334,15 @@ pub(super) fn patches<S: Scene>(
             return Err(ctx.err(format!("{at}.{name}"), "must be at least 1 x 1"));
         }
     }
+    let polygon = match &c.polygon {
+        Some(v) => Some(Polygon::new(v.clone()).ok_or_else(|| {
+            ctx.err(
+                format!("{at}.polygon"),
+                "a polygon is 3 vertices [row, column] or more, finite",
+            )
+        })?),
+        None => None,
+    };
     let options = CutOptions {
         patch,
         stride,
@@ -339,6 +352,7 @@ pub(super) fn patches<S: Scene>(
             .iter()
             .map(|w| Window::at(w.row, w.col, w.size[0], w.size[1]))
             .collect(),
+        polygon,
         avoid_mask: c.avoid_mask.as_ref().map(|p| ctx.resolve(p)),
     };
     let places =
