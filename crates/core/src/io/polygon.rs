@@ -138,7 +138,9 @@ mod tests {
         for _ in 0..300 {
             // A star-shaped polygon (simple): 5-9 vertices round (30, 30) at sorted angles.
             let n = rng.random_range(5..10);
-            let mut angles: Vec<f64> = (0..n).map(|_| rng.random_range(0.0..6.283)).collect();
+            let mut angles: Vec<f64> = (0..n)
+                .map(|_| rng.random_range(0.0..std::f64::consts::TAU))
+                .collect();
             angles.sort_by(f64::total_cmp);
             let v = angles
                 .iter()
