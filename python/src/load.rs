@@ -6,7 +6,7 @@
 
 use isar_clutter_core::io::cut::Window;
 use isar_clutter_core::io::geotiff::{GeoTiff, TiffError};
-use isar_clutter_core::io::scenes::{OpenScene, Place, Scenes};
+use isar_clutter_core::io::scenes::{OpenScene, Place, Scene, Scenes};
 use isar_clutter_core::io::sicd::{Sicd, SicdError};
 use isar_clutter_core::io::uavsar::open_stack;
 use ndarray::Array3;
@@ -34,13 +34,8 @@ pub fn load_uavsar<'py>(
     let window = window.map(|(row, col, rows, cols)| Window::at(row, col, rows, cols));
     let stack = open_stack(&slcs, &annotations, window)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let mut out: Array3<Complex32> =
-        isar_clutter_core::alloc::try_zeros(stack.shape(), "the UAVSAR stack")
-            .map_err(|e| PyMemoryError::new_err(e.to_string()))?;
-    let values = out.as_slice_mut().expect("standard layout");
-    py.detach(|| stack.read_into(values))
-        .map_err(|e| PyOSError::new_err(e.to_string()))?;
-    Ok(out.into_pyarray(py))
+    // The annotations are checked at opening: what fails later is the reading.
+    read_stack(py, &stack, "UAVSAR", |_| true)
 }
 
 /// load_geotiff(paths, window=None)
@@ -107,6 +102,20 @@ where
                 .map_err(|m| PyValueError::new_err(format!("calibration: {m}")))?;
         }
     }
+    read_stack(py, &stack, what, is_io)
+}
+
+/// The window of every scene of `stack` as a complex64 `[N, H, W]` array, read with the GIL
+/// released (`what` names the format; `is_io` as for [`load_scenes`]).
+fn read_stack<'py, S: Scene + Sync>(
+    py: Python<'py>,
+    stack: &Scenes<S>,
+    what: &str,
+    is_io: fn(&S::Error) -> bool,
+) -> PyResult<Bound<'py, PyArray3<Complex32>>>
+where
+    S::Error: Send,
+{
     let mut out: Array3<Complex32> =
         isar_clutter_core::alloc::try_zeros(stack.shape(), &format!("the {what} stack"))
             .map_err(|e| PyMemoryError::new_err(e.to_string()))?;

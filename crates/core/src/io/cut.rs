@@ -209,9 +209,9 @@ pub fn places(h: usize, w: usize, o: &CutOptions) -> Result<Vec<(usize, usize)>>
                 c0: c,
                 c1: c + p.cols,
             };
-            let held = o.polygon.as_ref().is_none_or(|p| {
+            let held = o.polygon.as_ref().is_none_or(|poly| {
                 let (r, c) = (r as f64, c as f64);
-                p.holds((r, r + p_rows), (c, c + p_cols))
+                poly.holds((r, r + p_rows), (c, c + p_cols))
             });
             if held && !o.avoid.iter().any(|a| a.overlaps(&patch)) {
                 out.push((r, c));

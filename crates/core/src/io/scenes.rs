@@ -163,23 +163,19 @@ impl<S: OpenScene> Scenes<S> {
                 })
             })
             .collect::<Result<Vec<S>, _>>()?;
-        Scenes::new(scenes, paths, window)
+        Scenes::new(scenes, window)
     }
 }
 
 impl<S: Scene> Scenes<S> {
-    /// The opened `scenes` (of `paths`), `window` (default: the whole scene, every scene then
-    /// of one size) checked against each; a window in map coordinates is the pixels that
+    /// The opened `scenes`, `window` (default: the whole scene, every scene then of one size)
+    /// checked against each; a window in map coordinates is the pixels that
     /// cover it in the first scene, which every scene must share.
     ///
     /// # Errors
     /// A [`StackError`] naming the field (`path` with the file's index, or `window`) and the
     /// file.
-    pub fn new(
-        scenes: Vec<S>,
-        paths: &[PathBuf],
-        window: Option<Place>,
-    ) -> Result<Scenes<S>, StackError> {
+    pub fn new(scenes: Vec<S>, window: Option<Place>) -> Result<Scenes<S>, StackError> {
         let err = |field, index, message: String| StackError {
             field,
             index,
@@ -189,16 +185,17 @@ impl<S: Scene> Scenes<S> {
             return Err(err("path", None, "name at least one file".into()));
         }
         let dims = |i: usize| scenes[i].dims();
+        let path = |i: usize| scenes[i].path().display();
         let window = match window {
             Some(Place::Pixels(w)) => w,
             Some(Place::Map { x, y }) => {
                 let pixels = |i: usize| -> Result<Window, StackError> {
                     let affine = scenes[i].affine().ok_or_else(|| {
-                        let p = paths[i].display();
+                        let p = path(i);
                         err("window", None, format!("{p} gives no map transform: give the window in pixels (row, col, size)"))
                     })?;
                     map_window(affine, x, y)
-                        .map_err(|m| err("window", None, format!("{}: {m}", paths[i].display())))
+                        .map_err(|m| err("window", None, format!("{}: {m}", path(i))))
                 };
                 let w = pixels(0)?;
                 for i in 1..scenes.len() {
@@ -209,8 +206,8 @@ impl<S: Scene> Scenes<S> {
                             format!(
                                 "the box lies on other pixels of {} than of {}: the scenes are \
                                  not on one grid; give the window in pixels",
-                                paths[i].display(),
-                                paths[0].display()
+                                path(i),
+                                path(0)
                             ),
                         ));
                     }
@@ -225,10 +222,10 @@ impl<S: Scene> Scenes<S> {
                         format!(
                             "{} is {} x {} where {} is {} x {}: give a window inside every \
                              scene",
-                            paths[i].display(),
+                            path(i),
                             dims(i).0,
                             dims(i).1,
-                            paths[0].display(),
+                            path(0),
                             dims(0).0,
                             dims(0).1
                         ),
@@ -254,7 +251,7 @@ impl<S: Scene> Scenes<S> {
                     window.r1,
                     window.c0,
                     window.c1,
-                    paths[i].display(),
+                    path(i),
                     dims(i).0,
                     dims(i).1
                 ),
@@ -324,6 +321,20 @@ impl<S: Scene> Scenes<S> {
         Ok(())
     }
 
+    /// The places of the patches `o` cuts from the window ([`super::cut::masked_places`] in
+    /// the first scene, the window this stack's).
+    ///
+    /// # Errors
+    /// As there, naming the first scene's file.
+    pub fn cut_places(&self, o: &super::cut::CutOptions) -> anyhow::Result<Vec<(usize, usize)>> {
+        let within = super::cut::CutOptions {
+            window: Some(self.window),
+            ..o.clone()
+        };
+        let first = &self.scenes[0];
+        super::cut::masked_places(first.dims(), &within, first.path())
+    }
+
     /// What the manifest records: the window and each file's description.
     pub fn describe(&self) -> serde_json::Value {
         let w = &self.window;
@@ -353,12 +364,7 @@ pub fn cut_scenes<S: OpenScene + Sync>(
     let stack = Scenes::<S>::open(paths, o.window.map(Place::Pixels))
         .map_err(|e| anyhow::anyhow!("--input {e}"))?;
     let (rows, cols) = stack.scenes[0].dims();
-    let w = stack.window;
-    let within = super::cut::CutOptions {
-        window: Some(w),
-        ..o.clone()
-    };
-    let places = super::cut::masked_places((rows, cols), &within, &paths[0])?;
+    let places = stack.cut_places(o)?;
     let t = stack.scenes.len();
     let samples = places.len() * t;
     let (ph, pw) = (o.patch.rows, o.patch.cols);

@@ -326,12 +326,12 @@ pub fn open_stack(
         });
     }
     // The scenes' field is `slc` here.
-    super::scenes::Scenes::new(scenes, slcs, window.map(super::scenes::Place::Pixels)).map_err(
-        |e| StackError {
+    super::scenes::Scenes::new(scenes, window.map(super::scenes::Place::Pixels)).map_err(|e| {
+        StackError {
             field: if e.field == "path" { "slc" } else { e.field },
             ..e
-        },
-    )
+        }
+    })
 }
 
 /// The annotation of scene `i` (`slc`; see [`open_stack`] for `annotations`), and the

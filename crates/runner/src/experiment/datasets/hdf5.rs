@@ -8,14 +8,14 @@
 
 use super::cost::{file_sizes, Cost, Sizes, C128};
 use super::kind::{DataError, DatasetKind, Layout, Materialised};
-use super::scenes::{patches, CutSpec, Patches, SceneWindow};
+use super::scenes::{CutScenes, CutSpec, SceneWindow};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::h5stack::{H5Scene, H5Stack};
 use crate::io::npy::{NpyError, Stack};
 use crate::io::scenes::Scenes;
 use ndarray::Array3;
-use num_complex::{Complex32, Complex64};
+use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -48,8 +48,8 @@ pub struct Spec {
 pub struct Hdf5Dataset {
     /// The stack, checked.
     pub stack: H5Stack,
-    /// A single scene's window and the patches cut from it (`None`: a stack).
-    pub scene: Option<(Scenes<H5Scene>, Patches)>,
+    /// A single scene, its window and the patches cut from it (`None`: a stack).
+    pub scene: Option<CutScenes<H5Scene>>,
 }
 
 impl DatasetKind for Hdf5Dataset {
@@ -84,10 +84,14 @@ impl DatasetKind for Hdf5Dataset {
                     Some(w) => Some(w.place().map_err(|m| ctx.err(format!("{at}.window"), m))?),
                     None => None,
                 };
-                let scenes = Scenes::new(vec![H5Scene(stack.clone())], &[path], window)
+                let scenes = Scenes::new(vec![H5Scene(stack.clone())], window)
                     .map_err(|e| ctx.err(format!("{at}.{}", e.field), e.message))?;
-                let patches = patches(cut, &scenes, ctx, &format!("{at}.cut"))?;
-                Some((scenes, patches))
+                Some(CutScenes::new(
+                    scenes,
+                    Some(cut),
+                    ctx,
+                    &format!("{at}.cut"),
+                )?)
             }
             (None, true) => {
                 return Err(ctx.err(
@@ -114,7 +118,7 @@ impl DatasetKind for Hdf5Dataset {
 
     fn shape(&self) -> (usize, usize, usize) {
         match &self.scene {
-            Some((_, c)) => (c.places.len(), c.patch.rows, c.patch.cols),
+            Some(scene) => scene.shape(),
             None => self.stack.shape(),
         }
     }
@@ -160,32 +164,22 @@ impl DatasetKind for Hdf5Dataset {
     }
 
     fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
-        if let Some((scenes, c)) = &self.scene {
-            let mut out: Array3<Complex32> = try_zeros(self.shape(), "the hdf5 patches")?;
-            let values = out.as_slice_mut().expect("standard layout");
-            scenes
-                .read_patches(&c.places, c.patch, values)
-                .map_err(|reason| NpyError::Data {
-                    path: self.stack.path.clone(),
-                    reason,
-                })?;
-            return Ok(Materialised::plain(Stack::Single(out), false));
+        let error = |reason| NpyError::Data {
+            path: self.stack.path.clone(),
+            reason,
+        };
+        if let Some(scene) = &self.scene {
+            return scene.materialise("the hdf5 patches", |e| error(e).into());
         }
         let mut out: Array3<Complex64> = try_zeros(self.shape(), "the hdf5 stack")?;
         self.stack
             .read_into(out.as_slice_mut().expect("standard layout"))
-            .map_err(|reason| NpyError::Data {
-                path: self.stack.path.clone(),
-                reason,
-            })?;
+            .map_err(error)?;
         Ok(Materialised::plain(Stack::Generated(out), false))
     }
 
     fn metadata(&self) -> Option<serde_json::Value> {
-        let (scenes, c) = self.scene.as_ref()?;
-        let mut m = scenes.describe();
-        m["cut"] = serde_json::json!({"options": c.options, "places": c.places.len()});
-        Some(m)
+        self.scene.as_ref().map(CutScenes::metadata)
     }
 
     fn redraw(

@@ -183,13 +183,86 @@ pub struct Patches {
     pub places: Vec<(usize, usize)>,
 }
 
+/// Scenes and the patches their window is cut into (`None`: one sample a scene): what the
+/// scene kinds (`geotiff`, `sicd`, `uavsar`, a single `hdf5` scene) read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CutScenes<S> {
+    /// The scenes, checked, and the window read from each.
+    pub stack: Scenes<S>,
+    /// The patches the window is cut into.
+    pub cut: Option<Patches>,
+}
+
+impl<S: Scene> CutScenes<S> {
+    /// `stack`, cut as `cut` says (`at`: the cut's YAML path) or whole.
+    ///
+    /// # Errors
+    /// A [`SpecError`] at `at` where the cut's sizes, polygon or mask are bad or no patch
+    /// fits.
+    pub(super) fn new(
+        stack: Scenes<S>,
+        cut: Option<&CutSpec>,
+        ctx: &Ctx,
+        at: &str,
+    ) -> Result<Self, SpecError> {
+        let cut = match cut {
+            Some(c) => Some(patches(c, &stack, ctx, at)?),
+            None => None,
+        };
+        Ok(CutScenes { stack, cut })
+    }
+
+    /// `(N, H, W)`: a sample per place and scene, or per scene.
+    pub fn shape(&self) -> (usize, usize, usize) {
+        match &self.cut {
+            Some(c) => (
+                c.places.len() * self.stack.scenes.len(),
+                c.patch.rows,
+                c.patch.cols,
+            ),
+            None => self.stack.shape(),
+        }
+    }
+
+    /// Reads the samples into a complex64 stack (`what` names it where memory is refused;
+    /// `error` makes the format's error a dataset's).
+    ///
+    /// # Errors
+    /// If the stack does not fit in memory or a file cannot be read.
+    pub fn materialise(
+        &self,
+        what: &str,
+        error: impl Fn(S::Error) -> DataError,
+    ) -> Result<Materialised, DataError> {
+        let mut out: Array3<Complex32> = try_zeros(self.shape(), what)?;
+        let values = out.as_slice_mut().expect("standard layout");
+        match &self.cut {
+            Some(c) => self.stack.read_patches(&c.places, c.patch, values),
+            None => self.stack.read_into(values),
+        }
+        .map_err(error)?;
+        Ok(Materialised::plain(Stack::Single(out), false))
+    }
+
+    /// What the manifest records: the window, each file's description and the cut.
+    pub fn metadata(&self) -> serde_json::Value {
+        let mut m = self.stack.describe();
+        if let Some(c) = &self.cut {
+            m["cut"] = serde_json::json!({
+                "options": c.options,
+                "places": c.places.len(),
+                "order": "sample p * scenes + t is scene t at place p (row-major places)",
+            });
+        }
+        m
+    }
+}
+
 /// A validated scene dataset of format `F`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneDataset<F: SceneFormat> {
-    /// The scenes, checked, and the window read from each.
-    pub stack: Scenes<F::Scene>,
-    /// The patches the window is cut into (`None`: one sample a scene).
-    pub cut: Option<Patches>,
+    /// The scenes and their cut.
+    pub data: CutScenes<F::Scene>,
 }
 
 impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
@@ -229,26 +302,16 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
                     .map_err(|m| ctx.err(format!("{at}.calibration"), m))?;
             }
         }
-        let cut = match &spec.cut {
-            Some(c) => Some(patches(c, &stack, ctx, &format!("{at}.cut"))?),
-            None => None,
-        };
-        Ok(SceneDataset { stack, cut })
+        let data = CutScenes::new(stack, spec.cut.as_ref(), ctx, &format!("{at}.cut"))?;
+        Ok(SceneDataset { data })
     }
 
     fn shape(&self) -> (usize, usize, usize) {
-        match &self.cut {
-            Some(c) => (
-                c.places.len() * self.stack.scenes.len(),
-                c.patch.rows,
-                c.patch.cols,
-            ),
-            None => self.stack.shape(),
-        }
+        self.data.shape()
     }
 
     fn input_files(&self) -> Vec<PathBuf> {
-        self.stack.paths()
+        self.data.stack.paths()
     }
 
     fn worth_sharing(&self) -> bool {
@@ -289,14 +352,7 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
 
     fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
         let what = format!("the {} stack", F::NAME);
-        let mut out: Array3<Complex32> = try_zeros(self.shape(), &what)?;
-        let values = out.as_slice_mut().expect("standard layout");
-        match &self.cut {
-            Some(c) => self.stack.read_patches(&c.places, c.patch, values),
-            None => self.stack.read_into(values),
-        }
-        .map_err(Into::into)?;
-        Ok(Materialised::plain(Stack::Single(out), false))
+        self.data.materialise(&what, Into::into)
     }
 
     fn redraw(
@@ -309,20 +365,12 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
     }
 
     fn metadata(&self) -> Option<serde_json::Value> {
-        let mut m = self.stack.describe();
-        if let Some(c) = &self.cut {
-            m["cut"] = serde_json::json!({
-                "options": c.options,
-                "places": c.places.len(),
-                "order": "sample p * scenes + t is scene t at place p (row-major places)",
-            });
-        }
-        Some(m)
+        Some(self.data.metadata())
     }
 }
 
 /// The places of the cut `c` of `stack`'s window (`at`: the cut's YAML path).
-pub(super) fn patches<S: Scene>(
+fn patches<S: Scene>(
     c: &CutSpec,
     stack: &Scenes<S>,
     ctx: &Ctx,
@@ -355,9 +403,9 @@ pub(super) fn patches<S: Scene>(
         polygon,
         avoid_mask: c.avoid_mask.as_ref().map(|p| ctx.resolve(p)),
     };
-    let places =
-        crate::io::cut::masked_places(stack.scenes[0].dims(), &options, stack.scenes[0].path())
-            .map_err(|e| ctx.err(at.to_string(), format!("{e:#}")))?;
+    let places = stack
+        .cut_places(&options)
+        .map_err(|e| ctx.err(at.to_string(), format!("{e:#}")))?;
     Ok(Patches {
         patch,
         options,

@@ -8,14 +8,12 @@
 
 use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Materialised};
-use super::scenes::{patches, CutSpec, Patches, Paths, WindowSpec};
-use crate::alloc::try_zeros;
+use super::scenes::{CutScenes, CutSpec, Paths, WindowSpec};
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::Window;
-use crate::io::npy::Stack;
-use crate::io::uavsar::{open_stack, SceneStack};
+use crate::io::uavsar::{open_stack, UavsarScene};
 use ndarray::Array3;
-use num_complex::{Complex32, Complex64};
+use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -43,10 +41,8 @@ pub struct Spec {
 /// A validated `uavsar` dataset.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UavsarDataset {
-    /// The scenes, checked against their annotations, and the window read from each.
-    pub stack: SceneStack,
-    /// The patches the window is cut into (`None`: one sample a scene).
-    pub cut: Option<Patches>,
+    /// The scenes, checked against their annotations, and their cut.
+    pub data: CutScenes<UavsarScene>,
 }
 
 impl DatasetKind for UavsarDataset {
@@ -87,26 +83,16 @@ impl DatasetKind for UavsarDataset {
             };
             ctx.err(path, e.message)
         })?;
-        let cut = match &spec.cut {
-            Some(c) => Some(patches(c, &stack, ctx, &format!("{at}.cut"))?),
-            None => None,
-        };
-        Ok(UavsarDataset { stack, cut })
+        let data = CutScenes::new(stack, spec.cut.as_ref(), ctx, &format!("{at}.cut"))?;
+        Ok(UavsarDataset { data })
     }
 
     fn shape(&self) -> (usize, usize, usize) {
-        match &self.cut {
-            Some(c) => (
-                c.places.len() * self.stack.scenes.len(),
-                c.patch.rows,
-                c.patch.cols,
-            ),
-            None => self.stack.shape(),
-        }
+        self.data.shape()
     }
 
     fn input_files(&self) -> Vec<PathBuf> {
-        let s = &self.stack.scenes;
+        let s = &self.data.stack.scenes;
         let annotations = s.iter().map(|s| s.annotation.clone());
         s.iter().map(|s| s.slc.clone()).chain(annotations).collect()
     }
@@ -149,20 +135,12 @@ impl DatasetKind for UavsarDataset {
 
     fn materialise(&self, _: u64) -> Result<Materialised, DataError> {
         // complex64 as stored: half the memory of complex128, analysed as a mapped `.npy`.
-        let mut out: Array3<Complex32> = try_zeros(self.shape(), "the uavsar stack")?;
-        let values = out.as_slice_mut().expect("standard layout");
-        match &self.cut {
-            Some(c) => self.stack.read_patches(&c.places, c.patch, values)?,
-            None => self.stack.read_into(values)?,
-        }
-        Ok(Materialised::plain(Stack::Single(out), false))
+        self.data.materialise("the uavsar stack", Into::into)
     }
 
     fn metadata(&self) -> Option<serde_json::Value> {
-        let c = self.cut.as_ref()?;
-        let mut m = self.stack.describe();
-        m["cut"] = serde_json::json!({"options": c.options, "places": c.places.len()});
-        Some(m)
+        self.data.cut.as_ref()?;
+        Some(self.data.metadata())
     }
 
     fn redraw(
