@@ -75,18 +75,18 @@ test-cuda: hdf5
 
 ## python: the Python package isar_clutter (python/: maturin and pyo3 over the core crate)
 ## installed into PYVENV, a virtualenv under $HOME like the target directory, with what its tests
-## need (pinned): pytest, numpy, rasterio (GDAL) and sarpy (NGA's SICD library), which write
-## the GeoTIFF and SICD test files, and PyTorch
+## need (pinned): pytest, numpy, rasterio (GDAL), sarpy (NGA's SICD library) and h5py, which
+## write the GeoTIFF, SICD and HDF5 test files (h5py also reads HDF5 for isar_clutter.load), and PyTorch
 ## (the PyPI wheel, a large CUDA build; its CPU path is what the tests use). A user's own
 ## environment: pip install ./python
 PYVENV ?= $(HOME)/.cache/isar-clutter/venv-python
 PYVENV_DEPS := maturin==1.16.0 pytest==8.4.2 numpy==2.3.5 torch==2.15.0 rasterio==1.4.3 \
-	sarpy==1.3.64
-$(PYVENV)/.deps-2:
+	sarpy==1.3.64 h5py==3.16.0
+$(PYVENV)/.deps-3:
 	$(PYTHON) -m venv $(PYVENV)
 	$(PYVENV)/bin/pip install --quiet $(PYVENV_DEPS)
 	touch $@
-python: $(PYVENV)/.deps-2
+python: $(PYVENV)/.deps-3
 	PATH=$(PYVENV)/bin:$$PATH $(PYVENV)/bin/pip install --quiet --no-build-isolation ./python
 
 ## hdf5: Debian's libhdf5-dev (and pkg-config) for the mat73 feature, installed with apt when

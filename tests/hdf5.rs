@@ -2,7 +2,9 @@
 //! h5py in the project's virtualenv `.venv`, run at test time): one stack stored as h5py's
 //! complex compound (chunked, gzip), as MATLAB's `{real, imag}` compound, as float pairs, as
 //! real and imaginary datasets and with the samples last gives, in each form, the analysis the
-//! same pixels give as `.npy` (read back by h5py), value for value; a missing dataset,
+//! same pixels give as `.npy` (read back by h5py), value for value (also chunked with the
+//! samples last, big-endian, int16 and real-only data); which stacks are mapped rather than
+//! read; a missing dataset,
 //! strings, a single scene, an imaginary part of another shape and a truncated file are
 //! refused at validation naming the file and the field.
 #![cfg(feature = "mat73")]
@@ -48,11 +50,44 @@ fn every_form_of_an_hdf5_stack_is_analysed_as_its_pixels_are() {
         ("parts", format!("{h5}, dataset: /re, imag: /im")),
         ("hwn", format!("{h5}, dataset: hwn, layout: hwn")),
         ("matlab", format!("{h5}, dataset: matlab")),
+        (
+            "hwn_chunked",
+            format!("{h5}, dataset: hwn_chunked, layout: hwn"),
+        ),
+        (
+            "pairs_hwn",
+            format!("{h5}, dataset: pairs_hwn, layout: hwn"),
+        ),
+        ("complex_be", format!("{h5}, dataset: complex_be")),
     ];
+    analysed_alike(dir.path(), &forms);
+    analysed_alike(
+        dir.path(),
+        &[
+            ("ints_npy", "kind: npy, path: fixtures/ints.npy".to_string()),
+            ("ints", format!("{h5}, dataset: ints")),
+            ("ints_be", format!("{h5}, dataset: ints_be")),
+        ],
+    );
+    analysed_alike(
+        dir.path(),
+        &[
+            (
+                "real_npy",
+                "kind: npy, path: fixtures/real32.npy".to_string(),
+            ),
+            ("real32", format!("{h5}, dataset: real32")),
+        ],
+    );
+}
+
+/// Each of `forms` (a name and a dataset's fields) analysed gives the first's tables, value for
+/// value.
+fn analysed_alike(dir: &Path, forms: &[(&str, String)]) {
     let mut tables = vec![];
-    for (name, fields) in &forms {
-        let s = spec(dir.path(), name, fields);
-        let out = dir.path().join(format!("out_{name}"));
+    for (name, fields) in forms {
+        let s = spec(dir, name, fields);
+        let out = dir.join(format!("out_{name}"));
         let o = bin(&[
             "run",
             s.to_str().unwrap(),
@@ -77,6 +112,44 @@ fn every_form_of_an_hdf5_stack_is_analysed_as_its_pixels_are() {
                 tables[k][*n]
             );
         }
+    }
+}
+
+/// A contiguous dataset of complex64, complex128 or real floats in the machine's byte order is
+/// mapped as a `.npy` file is (no copy: the reason a 1 GB stack is analysed as fast as its
+/// `.npy`, BENCHMARKS.md); big-endian, chunked or integer data are read, in single precision
+/// where their numbers fit.
+#[test]
+fn contiguous_native_hdf5_stacks_are_mapped_and_others_read() {
+    use isar_clutter::io::h5stack::{H5Stack, Storage};
+    use isar_clutter::io::npy::Dtype;
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let file = fx.join("stack.h5");
+    let storage = |name: &str, imag: Option<&str>| {
+        H5Stack::open(&file, name, imag, false)
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"))
+            .storage
+    };
+    let mapped = |dtype| Storage::Mapped { offset: 0, dtype };
+    let kind = |s: Storage| match s {
+        Storage::Mapped { dtype, .. } => mapped(dtype),
+        s => s,
+    };
+    for (name, imag, want) in [
+        ("pairs", None, mapped(Dtype::Complex64)),
+        ("hwn", None, mapped(Dtype::Complex128)),
+        ("real32", None, mapped(Dtype::Float32)),
+        ("matlab", None, mapped(Dtype::Complex64)),
+        ("re", Some("im"), Storage::Double),
+        ("science/slc/HH", None, Storage::Single),
+        ("complex_be", None, Storage::Single),
+        ("ints", None, Storage::Single),
+        ("ints_be", None, Storage::Single),
+    ] {
+        assert_eq!(kind(storage(name, imag)), want, "{name}");
     }
 }
 

@@ -87,7 +87,7 @@ fn calibrated_plants_d_and_e_give_their_recorded_similarity_objective() {
             &fit.plant,
             fit.motion,
             fit.noise_db,
-            record.seed,
+            &fit_seeds(record.seed, fit.seeds),
         )
         .unwrap();
         assert!(

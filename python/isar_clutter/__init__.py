@@ -9,7 +9,7 @@ The analysis, the fit and the generation of the isar-clutter command line, in pr
     model.save("models/m2")                     # a model folder the command line reads
 
 ``isar_clutter.load`` reads radar scenes in the field's formats into the same arrays (UAVSAR
-``.slc`` stacks, complex GeoTIFF scenes, SICD images; checked as the command line's dataset kinds check them).
+``.slc`` stacks, complex GeoTIFF scenes, SICD images, HDF5 stacks and scenes; checked as the command line's dataset kinds check them).
 
 Sample ``i`` of a seed is byte for byte the one ``isar-clutter generate --seed`` writes,
 whether drawn alone, in blocks or by the command line. ``isar_clutter.torch.ClutterDataset``
@@ -22,10 +22,14 @@ from pathlib import Path
 from typing import Optional, Sequence, Tuple, Union
 
 from ._native import Model, __version__, analyse, epoch_seed, fit, load_geotiff, load_sicd, load_uavsar
+from .hdf5 import load_hdf5
 
 __all__ = ["Model", "__version__", "analyse", "epoch_seed", "fit", "load"]
 
 PathArg = Union[str, "os.PathLike[str]"]
+
+#: The file name suffixes ``load`` reads as HDF5.
+HDF5_SUFFIXES = {".h5", ".hdf5", ".he5"}
 
 
 def _paths(p: Union[PathArg, Sequence[PathArg], None]) -> list:
@@ -42,6 +46,9 @@ def load(
     annotation: Union[PathArg, Sequence[PathArg], None] = None,
     window: Optional[Tuple[int, int, int, int]] = None,
     calibration: Optional[str] = None,
+    dataset: Optional[str] = None,
+    imag: Optional[str] = None,
+    layout: str = "nhw",
 ):
     """A stack of radar images as a numpy array ``[N, H, W]``, ready for ``analyse`` and ``fit``.
 
@@ -61,6 +68,12 @@ def load(
       (``"sigma0"``, ``"beta0"``, ``"gamma0"``, ``"rcs"``) multiplies each pixel by the root
       of the file's ``Radiometric`` scale polynomial there, so that ``|x|**2`` is that
       quantity.
+    - HDF5 files (``.h5``, ``.hdf5``, ``.he5``: h5py's stacks, NISAR RSLC and OPERA CSLC
+      frames), read with h5py (``pip install h5py``): the dataset at ``dataset`` (its path
+      in the file), complex compounds, float pairs, or real numbers with the imaginary
+      parts in the dataset ``imag``; a stack ``[N, H, W]`` (``layout="hwn"``: ``[H, W, N]``)
+      or a single scene ``[H, W]`` read in ``window`` (giving ``[1, rows, cols]``).
+      complex64 where the stored numbers fit a float32, else complex128.
 
     A bad file raises ``ValueError`` naming the field (``slc[i]``, ``annotation``, ``path[i]``,
     ``window``), the file and the format's field at fault (a TIFF tag, a NITF field, a SICD XML
@@ -68,6 +81,12 @@ def load(
     """
     paths = _paths(path)
     kinds = {Path(p).suffix.lower() for p in paths}
+    if kinds and kinds <= HDF5_SUFFIXES:
+        if len(paths) != 1 or annotation is not None or calibration is not None:
+            raise ValueError("HDF5: give one file, its dataset= (and imag=, layout=, window=)")
+        return load_hdf5(paths[0], dataset, imag, layout, window)
+    if dataset is not None or imag is not None:
+        raise ValueError("dataset= and imag= name datasets of an HDF5 file (.h5, .hdf5, .he5)")
     if calibration is not None and not (kinds and kinds <= {".nitf", ".ntf"}):
         raise ValueError("calibration reads SICD's scale factors: give .nitf/.ntf files")
     if kinds == {".slc"}:
@@ -77,8 +96,8 @@ def load(
     if kinds and kinds <= {".nitf", ".ntf"} and annotation is None:
         return load_sicd(paths, window, calibration)
     raise ValueError(
-        "load reads UAVSAR .slc files (with an annotation), GeoTIFF .tif/.tiff and SICD "
-        f".nitf/.ntf files; "
+        "load reads UAVSAR .slc files (with an annotation), GeoTIFF .tif/.tiff, SICD "
+        f".nitf/.ntf and HDF5 .h5/.hdf5/.he5 files; "
         f"{sorted(kinds) or 'no path'} given "
         "(other formats: the command line's dataset kinds, docs/spec.md)"
     )

@@ -1,5 +1,6 @@
 """``isar_clutter.load`` reads UAVSAR scenes written by numpy, GeoTIFF scenes written by GDAL
-(rasterio) and SICD images written by sarpy, not by the tool, as those read them, and refuses
+(rasterio), SICD images written by sarpy and HDF5 files written by h5py, not by the tool, as
+those read them (or as written), and refuses
 bad files naming the field and the file; the SICD example goes from images to a model and a
 DataLoader."""
 
@@ -136,3 +137,53 @@ def test_the_sicd_example_fits_a_model_and_fills_a_dataloader(tmp_path):
     assert "read 3 windows of 16 x 16" in o.stdout, o.stdout
     assert "first batch: (4, 16, 16)" in o.stdout, o.stdout
     assert ic.Model.load(tmp_path / "model").method == "method2"
+
+
+def test_hdf5_stacks_and_scenes_are_read_as_written(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    rng = np.random.default_rng(29)
+    x = (rng.standard_normal((4, 16, 12)) + 1j * rng.standard_normal((4, 16, 12))).astype(np.complex64)
+    f = tmp_path / "stack.h5"
+    with h5py.File(f, "w") as h:
+        h.create_dataset("science/HH", data=x, chunks=(1, 16, 12), compression="gzip")
+        h["pairs"] = np.stack([x.real, x.imag], axis=-1)
+        h["re"], h["im"] = x.real.astype(np.float64), x.imag.astype(np.float64)
+        h["hwn"] = np.transpose(x, (1, 2, 0)).astype(">c16")
+        parts = np.empty(x.shape, dtype=[("real", "<f4"), ("imag", "<f4")])
+        parts["real"], parts["imag"] = x.real, x.imag
+        h["matlab"] = parts
+        ints = np.empty(x.shape, dtype=[("re", "<i2"), ("im", "<i2")])
+        ints["re"], ints["im"] = np.round(x.real * 1000), np.round(x.imag * 1000)
+        h["ints"] = ints
+        h["frame"] = x[0]
+        h["text"] = np.array([b"abc"] * 6).reshape(1, 2, 3)
+    for name, kw in [("science/HH", {}), ("/pairs", {}), ("matlab", {})]:
+        got = ic.load(f, dataset=name, **kw)
+        assert got.dtype == np.complex64 and np.array_equal(got, x), name
+    parts = ic.load(f, dataset="re", imag="im")
+    assert parts.dtype == np.complex128 and np.array_equal(parts, x.astype(np.complex128))
+    hwn = ic.load(f, dataset="hwn", layout="hwn")
+    assert hwn.dtype == np.complex128 and np.array_equal(hwn, x.astype(np.complex128))
+    ints = ic.load(f, dataset="ints")
+    assert ints.dtype == np.complex64
+    assert np.array_equal(ints, np.round(x.real * 1000) + 1j * np.round(x.imag * 1000))
+    scene = ic.load(f, dataset="frame", window=(2, 3, 5, 4))
+    assert scene.shape == (1, 5, 4) and np.array_equal(scene[0], x[0, 2:7, 3:7])
+    for kw, words in [
+        ({"dataset": "nope"}, ["dataset:", "no dataset 'nope'", "science"]),
+        ({"dataset": "text"}, ["dataset:", "not numbers"]),
+        ({"dataset": "re", "imag": "matlab"}, ["imag:", "must both hold real numbers"]),
+        ({"dataset": "re", "imag": "pairs"}, ["imag:", "must have one shape"]),
+        ({"dataset": "frame", "window": (10, 0, 8, 4)}, ["window:", "not inside"]),
+        ({"dataset": "pairs", "window": (0, 0, 2, 2)}, ["window:", "a stack"]),
+        ({}, ["dataset:", "give the stack's path"]),
+    ]:
+        with pytest.raises(ValueError) as e:
+            ic.load(f, **kw)
+        assert all(w in str(e.value) for w in words), (kw, str(e.value))
+    bad = tmp_path / "truncated.h5"
+    bad.write_bytes(f.read_bytes()[:500])
+    with pytest.raises(ValueError, match=r"path: .*truncated\.h5"):
+        ic.load(bad, dataset="pairs")
+    with pytest.raises(ValueError, match="HDF5 file"):
+        ic.load(scenes(tmp_path)[0], dataset="x")

@@ -33,10 +33,11 @@ pub enum Part {
     All,
 }
 
-/// Fits the plants of `part` with `samples` images per simulation from `seed` (plants A-C:
-/// the mean over the simulations of `seeds` seeds, `calibration::fit_seeds`; the other
-/// part's fits are kept from the record at `out`, if any), writes the record to `out`
-/// atomically and prints each plant's result.
+/// Fits the plants of `part` with `samples` images per simulation from `seed` (each
+/// evaluation the mean over the simulations of `seeds` seeds, `calibration::fit_seeds`: the
+/// values of Table 16 for plants A-C, every similarity cell for D and E; the other part's
+/// fits are kept from the record at `out`, if any), writes the record to `out` atomically and
+/// prints each plant's result.
 ///
 /// # Errors
 /// If a table is missing from the reference, a simulation or a run fails, or `out` cannot be
@@ -67,7 +68,7 @@ pub fn calibrate_plants(
         (Part::Variance, Some(r)) => r.similarity.clone(),
         _ => ["D", "E"]
             .iter()
-            .map(|p| fit_similarity(p, seed))
+            .map(|p| fit_similarity(p, &fit_seeds(seed, seeds)))
             .collect::<Result<_>>()?,
     };
     let record = FitRecord {
@@ -219,32 +220,40 @@ fn spec_text(plant: &str, motion: f64, noise_db: f64, seed: u64) -> Result<Strin
     ))
 }
 
-/// Runs the similarity experiment on `plant` with `(motion, noise_db)` in `work` and returns
-/// each target's log residual.
+/// Runs the similarity experiment on `plant` with `(motion, noise_db)` in `work` once per seed
+/// of `seeds` and returns each target's log residual of the mean of its cell over the runs
+/// (the fit is to the expectation over seeds, not to one draw).
 fn residuals(
     plant: &str,
     (motion, noise_db): (f64, f64),
-    seed: u64,
+    seeds: &[u64],
     targets: &[Target],
     work: &Path,
 ) -> Result<Vec<f64>> {
-    let file = work.join("spec.yaml");
-    std::fs::write(&file, spec_text(plant, motion, noise_db, seed)?)?;
-    let dir = work.join("run");
-    if dir.exists() {
-        std::fs::remove_dir_all(&dir)?;
+    let mut sums = vec![0.0; targets.len()];
+    for &seed in seeds {
+        let file = work.join("spec.yaml");
+        std::fs::write(&file, spec_text(plant, motion, noise_db, seed)?)?;
+        let dir = work.join("run");
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir)?;
+        }
+        let plan = plan::load(&file)?;
+        let mut ro = RunOptions::new(dir.clone(), crate::run::options::default_threads());
+        ro.quiet = true;
+        ro.progress_bar = false;
+        let summary = driver::run(&plan, &ro)?;
+        anyhow::ensure!(summary.failed.is_empty(), "a job of the fit's run failed");
+        let mut tables = extract::Tables::default();
+        for (sum, t) in sums.iter_mut().zip(targets) {
+            *sum += tables.value(&dir, &t.query)?;
+        }
     }
-    let plan = plan::load(&file)?;
-    let mut ro = RunOptions::new(dir.clone(), crate::run::options::default_threads());
-    ro.quiet = true;
-    ro.progress_bar = false;
-    let summary = driver::run(&plan, &ro)?;
-    anyhow::ensure!(summary.failed.is_empty(), "a job of the fit's run failed");
-    let mut tables = extract::Tables::default();
-    targets
+    Ok(targets
         .iter()
-        .map(|t| Ok(residual(t.table, tables.value(&dir, &t.query)?, t.printed)))
-        .collect()
+        .zip(&sums)
+        .map(|(t, sum)| residual(t.table, sum / seeds.len() as f64, t.printed))
+        .collect())
 }
 
 /// Mean square of the residuals of the fitted tables' cells.
@@ -259,15 +268,16 @@ fn objective(targets: &[Target], r: &[f64], plant: &str) -> f64 {
     sq.iter().sum::<f64>() / sq.len() as f64
 }
 
-/// The fit's objective for `plant` (D or E) with `(motion, noise_db)`, simulated from `seed`
-/// as the fit simulates: what the record's `objective[1]` states for the fitted factors.
+/// The fit's objective for `plant` (D or E) with `(motion, noise_db)`, simulated from `seeds`
+/// (the means of their runs) as the fit simulates: what the record's `objective[1]` states for
+/// the fitted factors.
 ///
 /// # Errors
 /// If the reference lacks a table or the run fails.
-pub fn objective_at(plant: &str, motion: f64, noise_db: f64, seed: u64) -> Result<f64> {
+pub fn objective_at(plant: &str, motion: f64, noise_db: f64, seeds: &[u64]) -> Result<f64> {
     let targets = targets(plant)?;
     let work = tempfile::tempdir()?;
-    let r = residuals(plant, (motion, noise_db), seed, &targets, work.path())?;
+    let r = residuals(plant, (motion, noise_db), seeds, &targets, work.path())?;
     Ok(objective(&targets, &r, plant))
 }
 
@@ -276,20 +286,21 @@ fn inside(x: &[f64]) -> bool {
     (-(8f64.ln())..=1024f64.ln()).contains(&x[0]) && (-6.0..=0.0).contains(&x[1])
 }
 
-/// Fits `(motion, noise_db)` of `plant` (D or E) to its similarity tables.
-fn fit_similarity(plant: &str, seed: u64) -> Result<SimilarityFit> {
+/// Fits `(motion, noise_db)` of `plant` (D or E) to its similarity tables, each cell the mean
+/// over the runs from `seeds`.
+fn fit_similarity(plant: &str, seeds: &[u64]) -> Result<SimilarityFit> {
     let targets = targets(plant)?;
     let work = tempfile::tempdir()?;
     let at = |x: &[f64]| (x[0].exp(), 10.0 * x[1]);
     let start = [0.0, -4.0];
-    let before = residuals(plant, at(&start), seed, &targets, work.path())?;
+    let before = residuals(plant, at(&start), seeds, &targets, work.path())?;
     let mut f = |x: &[f64]| -> Result<f64> {
         if !inside(x) {
             return Ok(f64::INFINITY);
         }
         let v = objective(
             &targets,
-            &residuals(plant, at(x), seed, &targets, work.path())?,
+            &residuals(plant, at(x), seeds, &targets, work.path())?,
             plant,
         );
         eprintln!(
@@ -301,7 +312,7 @@ fn fit_similarity(plant: &str, seed: u64) -> Result<SimilarityFit> {
     };
     let best = nelder_mead(&mut f, &start, &[4f64.ln(), 1.0], 40, 1e-3)?;
     let (motion, noise_db) = at(&best.x);
-    let after = residuals(plant, (motion, noise_db), seed, &targets, work.path())?;
+    let after = residuals(plant, (motion, noise_db), seeds, &targets, work.path())?;
     let mut tables: Vec<TableResidual> = Vec::new();
     for (t, (b, a)) in targets.iter().zip(before.iter().zip(&after)) {
         if tables.last().is_none_or(|r| r.table != t.table) {
@@ -333,6 +344,7 @@ fn fit_similarity(plant: &str, seed: u64) -> Result<SimilarityFit> {
         tables,
         evaluations: best.evaluations + 2,
         generated_samples: GENERATED,
+        seeds: seeds.len(),
         scales: MotionScales::for_plant(plant),
     })
 }

@@ -4,7 +4,11 @@
 `/science/slc/HH` (h5py's complex compound {r, i}, chunked a sample at a time and gzip
 compressed), `/pairs` (float32 [4, 16, 12, 2]: real, imaginary), `/re` and `/im` (float64
 real and imaginary parts), `/hwn` (complex128 [16, 12, 4], samples last), `/matlab` (a
-compound of float32 `real` and `imag`, MATLAB's names); and what the
+compound of float32 `real` and `imag`, MATLAB's names), `/hwn_chunked` (complex64 [16, 12,
+4], chunked and gzip compressed), `/pairs_hwn` (float32 pairs, samples last, chunked),
+`/complex_be` (big-endian complex64); `/ints` (a chunked compound of int16 `r` and `i`, the
+stack times 1000 rounded; `/ints_be` the same big-endian and contiguous) with `ints.npy`,
+and `/real32` (the real parts alone, float32) with `real32.npy`; and what the
 refusals need: `/text` (strings), `/scene` (a single [16, 12] scene), `/im_short` (float64 of
 another shape), and `/frame/VV`, a single complex64 [40, 30] scene chunked 8 x 8 and gzip
 compressed (an OPERA CSLC frame's form). `stack.npy` is the stack as h5py reads
@@ -35,6 +39,17 @@ def main(out: Path) -> None:
         parts = np.empty(shape, dtype=[("real", "<f4"), ("imag", "<f4")])
         parts["real"], parts["imag"] = x.real, x.imag
         f["matlab"] = parts
+        # Read in blocks (samples last, chunked) or with libhdf5's conversion (int16).
+        f.create_dataset("hwn_chunked", data=np.transpose(x, (1, 2, 0)), chunks=(8, 6, 3),
+                         compression="gzip")
+        f.create_dataset("pairs_hwn", data=np.stack([x.real, x.imag], axis=-1)
+                         .transpose(1, 2, 0, 3).astype(np.float32), chunks=(16, 12, 3, 2))
+        ints = np.empty(shape, dtype=[("r", "<i2"), ("i", "<i2")])
+        ints["r"], ints["i"] = np.round(x.real * 1000), np.round(x.imag * 1000)
+        f.create_dataset("ints", data=ints, chunks=(3, 16, 12))
+        f["ints_be"] = ints.astype([("r", ">i2"), ("i", ">i2")])
+        f["real32"] = x.real
+        f["complex_be"] = x.astype(">c8")
         f["text"] = np.array([b"abc"] * 6).reshape(1, 2, 3)
         f["scene"] = x[0]
         f["im_short"] = x.imag[:3].astype(np.float64)
@@ -44,6 +59,9 @@ def main(out: Path) -> None:
     with h5py.File(out / "stack.h5", "r") as f:
         np.save(out / "stack.npy", f["science/slc/HH"][...])
         np.save(out / "frame.npy", f["frame/VV"][...])
+        ints = f["ints"][...]
+        np.save(out / "ints.npy", (ints["r"] + 1j * ints["i"]).astype(np.complex64))
+        np.save(out / "real32.npy", f["real32"][...])
     data = (out / "stack.h5").read_bytes()
     (out / "truncated.h5").write_bytes(data[: len(data) // 2])
 

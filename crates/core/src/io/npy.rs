@@ -369,16 +369,31 @@ impl Stack {
     /// [`NpyError`] if the file cannot be read, is truncated, or is not 3-D.
     pub fn load(path: &Path) -> Result<Stack, NpyError> {
         let header = read_header(path)?;
+        if header.shape.len() != 3 {
+            return Err(NpyError::Data {
+                path: path.to_path_buf(),
+                reason: format!("a stack is 3-D, this array has shape {:?}", header.shape),
+            });
+        }
+        Stack::map_at(path, header)
+    }
+
+    /// Maps the stack `header` describes in `path`: its elements, stored as an `.npy` file's
+    /// would be (little-endian, packed), from byte `header.data_offset` on; another format's
+    /// contiguous data (an HDF5 dataset's) is mapped so, without a copy.
+    ///
+    /// # Errors
+    /// [`NpyError`] if the file cannot be opened or mapped, or holds fewer bytes than the
+    /// header promises.
+    ///
+    /// # Panics
+    /// If `header.shape` is not 3-D.
+    pub fn map_at(path: &Path, header: NpyHeader) -> Result<Stack, NpyError> {
+        assert_eq!(header.shape.len(), 3, "a stack's header");
         let data_err = |reason: String| NpyError::Data {
             path: path.to_path_buf(),
             reason,
         };
-        if header.shape.len() != 3 {
-            return Err(data_err(format!(
-                "a stack is 3-D, this array has shape {:?}",
-                header.shape
-            )));
-        }
         let file = File::open(path).map_err(|cause| NpyError::Io {
             path: path.to_path_buf(),
             cause,

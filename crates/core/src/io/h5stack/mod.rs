@@ -4,19 +4,20 @@
 //! `r`/`i`, as h5py and NISAR write them, `real`/`imag` or `re`/`im`), real (a second dataset
 //! of the same shape may hold the imaginary parts), or float pairs (a last dimension of 2:
 //! real, imaginary). Read with libhdf5 through `hdf5-metno` in a build with the cargo feature
-//! `mat73` (`read.rs`), the samples one at a time (a hyperslab each, chunked and compressed
-//! datasets included), so memory holds the stack and one sample, never the file; a build
+//! `mat73` (`read.rs`): a contiguous dataset of complex64 or complex128 elements is mapped as
+//! an `.npy` file is; any other is read in blocks of whole chunks (chunked and compressed
+//! datasets included), so memory holds the stack and one block, never the file; a build
 //! without it refuses such a stack, saying so. A single scene `[H, W]` ([`H5Scene`]) is read a
 //! window at a time instead, to be cut into patches.
 
-use num_complex::Complex64;
+use crate::io::npy::Stack;
 use std::path::Path;
 
 #[cfg(feature = "mat73")]
 mod read;
 mod types;
 
-pub use types::{Form, H5Stack, OpenError};
+pub use types::{Form, H5Stack, OpenError, Storage};
 
 impl H5Stack {
     /// Opens the stack `dataset` of `path` (with the imaginary parts in `imag`, for real
@@ -71,20 +72,40 @@ impl H5Stack {
         }
     }
 
-    /// Reads the stack into `out` (`N x H x W` values, sample after sample), a sample at a
-    /// time.
+    /// The stack, `[N, H, W]` or, mapped, as stored (then `[H, W, N]` where [`H5Stack::hwn`]):
+    /// a contiguous, unfiltered dataset whose elements are byte for byte complex64,
+    /// complex128 or real floats is mapped as an `.npy` file's data is ([`Stack::Mapped`], no
+    /// copy); any other is read in blocks of whole chunks of samples into complex64
+    /// ([`Stack::Single`], where its numbers fit a `f32`: floats of 4 bytes, integers of 2) or
+    /// complex128 (`[N, H, W]` whatever the stored order).
     ///
     /// # Errors
-    /// What libhdf5 says, naming the file and the dataset.
-    pub fn read_into(&self, out: &mut [Complex64]) -> Result<(), String> {
+    /// What libhdf5 says, naming the dataset; a failed allocation.
+    pub fn load(&self) -> Result<Stack, String> {
         #[cfg(feature = "mat73")]
         {
-            read::read_into(self, out)
+            read::load(self)
         }
         #[cfg(not(feature = "mat73"))]
         {
-            let _ = out;
             Err(format!("{}: this build reads no HDF5", self.path.display()))
+        }
+    }
+
+    /// Whether the stack [`H5Stack::load`] gives keeps the stored axis order (a mapped `[H,
+    /// W, N]` dataset), which its analysis must then be told.
+    pub fn loaded_hwn(&self) -> bool {
+        self.hwn && matches!(self.storage, Storage::Mapped { .. })
+    }
+
+    /// Bytes of memory [`H5Stack::load`] allocates (none where it maps the file).
+    pub fn loaded_bytes(&self) -> f64 {
+        let (n, h, w) = self.shape();
+        let values = n as f64 * h as f64 * w as f64;
+        match self.storage {
+            Storage::Mapped { .. } => 0.0,
+            Storage::Single => 8.0 * values,
+            Storage::Double => 16.0 * values,
         }
     }
 }

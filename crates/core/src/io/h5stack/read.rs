@@ -1,39 +1,52 @@
 //! The HDF5 side of [`super::H5Stack`] (the `mat73` feature): the checks of a stack's dataset
-//! and the read of its samples, one hyperslab each, converted by libhdf5 to `f64`.
+//! and the read of its samples: a contiguous, unfiltered dataset whose elements are complex64,
+//! complex128 or real floats byte for byte is mapped as a `.npy` file's data is; any other is
+//! read in blocks of whole chunks, in single precision where its numbers fit.
 
-use super::types::{Form, H5Stack, OpenError};
+use super::types::{Form, H5Stack, OpenError, Storage};
 use crate::io::mat::v73::{is_number, Parts};
+use crate::io::npy::{Dtype, NpyHeader, Stack};
+use hdf5_metno::plist::dataset_create::Layout;
 use hdf5_metno::types::{CompoundField, CompoundType, TypeDescriptor};
+use hdf5_metno::Conversion;
 use hdf5_metno::H5Type;
-use ndarray::{s, Array2, Array3};
-use num_complex::Complex64;
+use ndarray::{s, Array2, Array3, Array4, ArrayViewMut3, Axis};
+use num_complex::{Complex, Complex32, Complex64};
+use std::ops::Range;
 use std::path::Path;
 
-/// A compound of two `f64` with the field names `$re`, `$im`, read from a file's complex
-/// compound of those names (libhdf5 converts the numbers' widths); MATLAB's `{real, imag}`
-/// is the MAT v7.3 reader's [`Parts`].
+/// A compound of two numbers of type `F` with the field names `$re`, `$im`: the memory type
+/// a file's complex compound of those names is read as (libhdf5 converts other widths);
+/// MATLAB's `{real, imag}` is the MAT v7.3 reader's [`Parts`].
 macro_rules! pair_type {
     ($name:ident, $re:literal, $im:literal) => {
         #[doc = concat!("A complex value as the compound `{", $re, ", ", $im, "}` holds it.")]
         #[derive(Debug, Clone, Copy, Default, PartialEq)]
         #[repr(C)]
-        struct $name {
-            re: f64,
-            im: f64,
+        struct $name<F> {
+            re: F,
+            im: F,
         }
 
-        // SAFETY: the descriptor is the struct's `repr(C)` layout: two f64 at 0 and 8.
-        unsafe impl H5Type for $name {
+        // SAFETY: the descriptor is the struct's `repr(C)` layout: two `F`, at 0 and
+        // `size_of::<F>()`.
+        unsafe impl<F: H5Type> H5Type for $name<F> {
             fn type_descriptor() -> TypeDescriptor {
+                let size = std::mem::size_of::<F>();
                 TypeDescriptor::Compound(CompoundType {
                     fields: vec![
-                        CompoundField::typed::<f64>($re, 0, 0),
-                        CompoundField::typed::<f64>($im, 8, 1),
+                        CompoundField::typed::<F>($re, 0, 0),
+                        CompoundField::typed::<F>($im, size, 1),
                     ],
-                    size: 16,
+                    size: 2 * size,
                 })
             }
         }
+
+        // SAFETY: two `F: Pod` side by side in `repr(C)`: no padding, all-zero bytes valid.
+        unsafe impl<F: bytemuck::Zeroable> bytemuck::Zeroable for $name<F> {}
+        // SAFETY: as above.
+        unsafe impl<F: bytemuck::Pod> bytemuck::Pod for $name<F> {}
     };
 }
 
@@ -66,6 +79,11 @@ pub(super) fn open(
         )
     })?;
     let (form, dims, scene) = shape_of(&file, dataset).map_err(|e| ("dataset", at(e)))?;
+    let storage = file
+        .dataset(dataset)
+        .map_err(h5)
+        .and_then(|ds| storage(&ds, form, imag.is_some()))
+        .map_err(|e| ("dataset", at(e)))?;
     if let Some(im) = imag {
         let (f, d, _) = shape_of(&file, im).map_err(|e| ("imag", at(e)))?;
         if form != Form::Real || f != Form::Real {
@@ -93,37 +111,119 @@ pub(super) fn open(
         form,
         dims,
         hwn,
+        storage,
         scene,
     })
 }
 
-/// Sample `k` of `ds` (samples last with `hwn`) as `[H, W]` elements of type `T`.
-fn sample<T: H5Type>(
+/// Bytes of stack values read per hyperslab (rounded to whole chunks of samples): few calls
+/// into libhdf5 (a hyperslab a sample cost ~0.4 ms, 13 s for 32,768 samples of 64 x 64) and a
+/// bounded buffer beside the stack.
+const BLOCK_BYTES: usize = 32 << 20;
+
+/// Samples `k` of `ds` (samples last with `hwn`) as `[B, H, W]` elements of type `T`.
+fn slab<T: H5Type>(
     ds: &hdf5_metno::Dataset,
-    k: usize,
+    k: Range<usize>,
     hwn: bool,
-) -> hdf5_metno::Result<Array2<T>> {
+) -> hdf5_metno::Result<Array3<T>> {
     if hwn {
         ds.read_slice(s![.., .., k])
+            .map(|a: Array3<T>| a.permuted_axes([2, 0, 1]))
     } else {
         ds.read_slice(s![k, .., ..])
     }
 }
 
-/// Sample `k` of the compound dataset `ds` of element type `T`, as complex values.
-fn compound<T: H5Type + Copy>(
-    ds: &hdf5_metno::Dataset,
-    k: usize,
-    hwn: bool,
-    parts: impl Fn(T) -> Complex64,
-) -> hdf5_metno::Result<Array2<Complex64>> {
-    Ok(sample::<T>(ds, k, hwn)?.mapv(parts))
+/// The stored element is one of `.npy`'s types byte for byte (libhdf5 reads it into that
+/// memory type without a conversion): which, for `form` (real data with a separate
+/// imaginary dataset never is).
+fn native_dtype(ds: &hdf5_metno::Dataset, form: Form, imag: bool) -> Option<Dtype> {
+    let t = ds.dtype().ok()?;
+    let same = |c: Option<Conversion>| c == Some(Conversion::NoOp);
+    let pick = |single: Option<Conversion>, double: Option<Conversion>, dtypes: [Dtype; 2]| {
+        if same(single) {
+            Some(dtypes[0])
+        } else if same(double) {
+            Some(dtypes[1])
+        } else {
+            None
+        }
+    };
+    let complex = [Dtype::Complex64, Dtype::Complex128];
+    match form {
+        Form::Compound(0) => pick(
+            t.conv_to::<PairRI<f32>>(),
+            t.conv_to::<PairRI<f64>>(),
+            complex,
+        ),
+        Form::Compound(1) => pick(
+            t.conv_to::<Parts<f32>>(),
+            t.conv_to::<Parts<f64>>(),
+            complex,
+        ),
+        Form::Compound(_) => pick(
+            t.conv_to::<PairReIm<f32>>(),
+            t.conv_to::<PairReIm<f64>>(),
+            complex,
+        ),
+        Form::Pairs => pick(t.conv_to::<f32>(), t.conv_to::<f64>(), complex),
+        Form::Real if !imag => pick(
+            t.conv_to::<f32>(),
+            t.conv_to::<f64>(),
+            [Dtype::Float32, Dtype::Float64],
+        ),
+        Form::Real => None,
+    }
 }
 
-/// See [`H5Stack::read_into`].
-pub(super) fn read_into(st: &H5Stack, out: &mut [Complex64]) -> Result<(), String> {
-    let (n, h, w) = st.shape();
-    assert_eq!(out.len(), n * h * w, "the stack's values");
+/// Whether every number of the element type `t` fits a `f32` exactly (floats of 4 bytes or
+/// fewer, integers of 2 bytes or fewer): such a stack is read in single precision.
+fn single(t: &TypeDescriptor) -> bool {
+    use hdf5_metno::types::{FloatSize, IntSize};
+    match t {
+        TypeDescriptor::Float(FloatSize::U8) => false,
+        TypeDescriptor::Float(_) => true,
+        TypeDescriptor::Integer(s) | TypeDescriptor::Unsigned(s) => {
+            matches!(s, IntSize::U1 | IntSize::U2)
+        }
+        TypeDescriptor::Compound(c) => c.fields.iter().all(|f| single(&f.ty)),
+        _ => false,
+    }
+}
+
+/// How `ds` (of `form`, with a separate imaginary dataset or not) is brought into memory:
+/// mapped where it is contiguous, unfiltered, in the file itself and of an `.npy` element
+/// type byte for byte; else read in the precision its numbers need.
+fn storage(ds: &hdf5_metno::Dataset, form: Form, imag: bool) -> Result<Storage, String> {
+    let plain = ds.layout() == Layout::Contiguous
+        && ds.filters().is_empty()
+        && ds.dcpl().map(|p| p.external().is_empty()).unwrap_or(false);
+    if let (true, Some(offset), Some(dtype)) = (plain, ds.offset(), native_dtype(ds, form, imag)) {
+        return Ok(Storage::Mapped { offset, dtype });
+    }
+    let element = ds
+        .dtype()
+        .and_then(|t| t.to_descriptor())
+        .map_err(|e| format!("an unreadable element type: {}", h5(e)))?;
+    Ok(if single(&element) {
+        Storage::Single
+    } else {
+        Storage::Double
+    })
+}
+
+/// See [`H5Stack::load`].
+pub(super) fn load(st: &H5Stack) -> Result<Stack, String> {
+    if let Storage::Mapped { offset, dtype } = st.storage {
+        let header = NpyHeader {
+            data_offset: usize::try_from(offset).map_err(|e| e.to_string())?,
+            dtype,
+            fortran_order: false,
+            shape: st.dims.to_vec(),
+        };
+        return Stack::map_at(&st.path, header).map_err(|e| e.to_string());
+    }
     let at = |e: hdf5_metno::Error| format!("dataset {:?}: {}", st.dataset, h5(e));
     let file = hdf5_metno::File::open(&st.path).map_err(at)?;
     let ds = file.dataset(&st.dataset).map_err(at)?;
@@ -131,42 +231,103 @@ pub(super) fn read_into(st: &H5Stack, out: &mut [Complex64]) -> Result<(), Strin
         Some(name) => Some(file.dataset(name).map_err(at)?),
         None => None,
     };
-    let hwn = st.hwn;
-    for (k, sample_out) in out.chunks_exact_mut((h * w).max(1)).enumerate().take(n) {
-        let values: Array2<Complex64> = match st.form {
-            Form::Compound(0) => compound(&ds, k, hwn, |p: PairRI| Complex64::new(p.re, p.im)),
-            Form::Compound(1) => {
-                compound(&ds, k, hwn, |p: Parts<f64>| Complex64::new(p.real, p.imag))
-            }
-            Form::Compound(_) => compound(&ds, k, hwn, |p: PairReIm| Complex64::new(p.re, p.im)),
-            Form::Real => {
-                let re = sample::<f64>(&ds, k, hwn).map_err(at)?;
-                match &imag {
-                    Some(im) => {
-                        let im = sample::<f64>(im, k, hwn).map_err(at)?;
-                        Ok(ndarray::Zip::from(&re)
-                            .and(&im)
-                            .map_collect(|&a, &b| Complex64::new(a, b)))
-                    }
-                    None => Ok(re.mapv(|a| Complex64::new(a, 0.0))),
-                }
-            }
-            Form::Pairs => {
-                let p: hdf5_metno::Result<Array3<f64>> = if hwn {
-                    ds.read_slice(s![.., .., k, ..])
-                } else {
-                    ds.read_slice(s![k, .., .., ..])
-                };
-                p.map(|p| {
-                    Array2::from_shape_fn((h, w), |(r, c)| {
-                        Complex64::new(p[[r, c, 0]], p[[r, c, 1]])
-                    })
-                })
+    let (n, h, w) = st.shape();
+    // Whole chunks of samples per block, so that no chunk is inflated twice.
+    let chunk = ds
+        .chunk()
+        .map_or(1, |c| c[if st.hwn { 2 } else { 0 }])
+        .max(1);
+    let per = (BLOCK_BYTES / (16 * h * w).max(1)).max(1).div_ceil(chunk) * chunk;
+    let blocks = (0..n).step_by(per).map(|k| k..(k + per).min(n));
+    let sets = (&ds, imag.as_ref(), st);
+    let alloc = |e: crate::alloc::AllocError| e.to_string();
+    // Complex values stored `[N, H, W]`: one read straight into the stack (libhdf5 copies
+    // each chunk into place, or converts it); others a block at a time.
+    let whole = !st.hwn && matches!(st.form, Form::Compound(_) | Form::Pairs);
+    if st.storage == Storage::Single {
+        let mut out: Array3<Complex32> =
+            crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
+        if whole {
+            read_whole(&ds, st.form, out.as_slice_mut().expect("standard layout")).map_err(at)?;
+        } else {
+            for k in blocks {
+                read_block(sets, k.clone(), out.slice_mut(s![k, .., ..])).map_err(at)?;
             }
         }
-        .map_err(at)?;
-        for (o, v) in sample_out.iter_mut().zip(values.iter()) {
-            *o = *v;
+        Ok(Stack::Single(out))
+    } else {
+        let mut out: Array3<Complex64> =
+            crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
+        if whole {
+            read_whole(&ds, st.form, out.as_slice_mut().expect("standard layout")).map_err(at)?;
+        } else {
+            for k in blocks {
+                read_block(sets, k.clone(), out.slice_mut(s![k, .., ..])).map_err(at)?;
+            }
+        }
+        Ok(Stack::Generated(out))
+    }
+}
+
+/// The whole dataset `ds` of complex values (`form`: a compound or float pairs), stored
+/// `[N, H, W]`, read into `out` in one call, as numbers of type `F`.
+fn read_whole<F: H5Type + bytemuck::Pod>(
+    ds: &hdf5_metno::Dataset,
+    form: Form,
+    out: &mut [Complex<F>],
+) -> hdf5_metno::Result<()>
+where
+    Complex<F>: bytemuck::Pod,
+{
+    let r = ds.as_reader();
+    let n = match form {
+        Form::Compound(0) => r.read_into_raw(bytemuck::cast_slice_mut::<_, PairRI<F>>(out))?,
+        Form::Compound(1) => r.read_into_raw(bytemuck::cast_slice_mut::<_, Parts<F>>(out))?,
+        Form::Compound(_) => r.read_into_raw(bytemuck::cast_slice_mut::<_, PairReIm<F>>(out))?,
+        Form::Pairs => r.read_into_raw(bytemuck::cast_slice_mut::<_, F>(out))? / 2,
+        Form::Real => unreachable!("real data are read a block at a time"),
+    };
+    debug_assert_eq!(n, out.len());
+    Ok(())
+}
+
+/// Samples `k` of the stack into `out` (`[B, H, W]`), read as numbers of type `F`.
+fn read_block<F: H5Type + Copy + Default>(
+    (ds, imag, st): (&hdf5_metno::Dataset, Option<&hdf5_metno::Dataset>, &H5Stack),
+    k: Range<usize>,
+    mut out: ArrayViewMut3<Complex<F>>,
+) -> hdf5_metno::Result<()> {
+    let hwn = st.hwn;
+    let zero = F::default();
+    match st.form {
+        Form::Compound(0) => out.zip_mut_with(&slab::<PairRI<F>>(ds, k, hwn)?, |o, p| {
+            *o = Complex::new(p.re, p.im)
+        }),
+        Form::Compound(1) => out.zip_mut_with(&slab::<Parts<F>>(ds, k, hwn)?, |o, p| {
+            *o = Complex::new(p.real, p.imag)
+        }),
+        Form::Compound(_) => out.zip_mut_with(&slab::<PairReIm<F>>(ds, k, hwn)?, |o, p| {
+            *o = Complex::new(p.re, p.im)
+        }),
+        Form::Real => {
+            out.zip_mut_with(&slab::<F>(ds, k.clone(), hwn)?, |o, &re| {
+                *o = Complex::new(re, zero)
+            });
+            if let Some(im) = imag {
+                out.zip_mut_with(&slab::<F>(im, k, hwn)?, |o, &im| o.im = im);
+            }
+        }
+        Form::Pairs => {
+            let p: Array4<F> = if hwn {
+                ds.read_slice::<F, _, _>(s![.., .., k, ..])?
+                    .permuted_axes([2, 0, 1, 3])
+            } else {
+                ds.read_slice(s![k, .., .., ..])?
+            };
+            ndarray::Zip::from(&mut out)
+                .and(p.index_axis(Axis(3), 0))
+                .and(p.index_axis(Axis(3), 1))
+                .for_each(|o, &re, &im| *o = Complex::new(re, im));
         }
     }
     Ok(())
@@ -240,13 +401,13 @@ pub(super) fn read_window(
     let slab = s![win.r0..win.r1, win.c0..win.c1];
     let values: Array2<Complex64> = match st.form {
         Form::Compound(0) => ds
-            .read_slice::<PairRI, _, _>(slab)
+            .read_slice::<PairRI<f64>, _, _>(slab)
             .map(|a| a.mapv(|p| Complex64::new(p.re, p.im))),
         Form::Compound(1) => ds
             .read_slice::<Parts<f64>, _, _>(slab)
             .map(|a| a.mapv(|p| Complex64::new(p.real, p.imag))),
         Form::Compound(_) => ds
-            .read_slice::<PairReIm, _, _>(slab)
+            .read_slice::<PairReIm<f64>, _, _>(slab)
             .map(|a| a.mapv(|p| Complex64::new(p.re, p.im))),
         Form::Real | Form::Pairs => {
             let re: Array2<f64> = ds.read_slice(slab).map_err(at)?;

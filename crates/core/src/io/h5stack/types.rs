@@ -15,6 +15,23 @@ pub enum Form {
     Pairs,
 }
 
+/// How a stack's values are brought into memory ([`H5Stack::load`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Storage {
+    /// Mapped from the file: contiguous, unfiltered elements that are byte for byte those of
+    /// an `.npy` file of this type, from this byte of the file on.
+    Mapped {
+        /// Where the elements start.
+        offset: u64,
+        /// Their type.
+        dtype: crate::io::npy::Dtype,
+    },
+    /// Read into complex64 (every stored number fits a `f32`).
+    Single,
+    /// Read into complex128.
+    Double,
+}
+
 /// A stack in an HDF5 file, checked: its dataset exists, holds numbers, and has a stack's
 /// shape.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,6 +48,8 @@ pub struct H5Stack {
     pub dims: [usize; 3],
     /// Whether the samples are the last dimension (`[H, W, N]`).
     pub hwn: bool,
+    /// How [`H5Stack::load`] brings it into memory.
+    pub storage: Storage,
     /// A single scene `[H, W]` (`dims` `[1, H, W]`), read a window at a time
     /// ([`H5Stack::read_window`]) and cut into patches rather than read whole.
     pub scene: bool,

@@ -115,6 +115,10 @@ pub struct SimilarityFit {
     pub evaluations: usize,
     /// Samples each generation method drew per run.
     pub generated_samples: usize,
+    /// Runs averaged per evaluation, from the record's seed ([`fit_seeds`]); records before
+    /// it ran one.
+    #[serde(default = "one_seed")]
+    pub seeds: usize,
     /// What `motion` multiplies (absent: everything, as records before it).
     #[serde(default)]
     pub scales: MotionScales,

@@ -6,16 +6,13 @@
 //! libhdf5). A single scene `[H, W]` (a NISAR RSLC or OPERA CSLC frame) is cut into patches
 //! (`cut`, inside `window`), each patch a sample, read a band of patch rows at a time.
 
-use super::cost::{file_sizes, Cost, Sizes, C128};
+use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Layout, Materialised};
 use super::scenes::{CutScenes, CutSpec, SceneWindow};
-use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
-use crate::io::h5stack::{H5Scene, H5Stack};
-use crate::io::npy::{NpyError, Stack};
+use crate::io::h5stack::{H5Scene, H5Stack, Storage};
+use crate::io::npy::NpyError;
 use crate::io::scenes::Scenes;
-use ndarray::Array3;
-use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -150,11 +147,31 @@ impl DatasetKind for Hdf5Dataset {
     fn cost(&self) -> Cost {
         let (n, h, w) = self.shape();
         let np = n as f64 * h as f64 * w as f64;
-        // The complex128 stack and one sample as libhdf5 hands it over.
+        if self.scene.is_some() {
+            // The complex64 patches and a band of patch rows of the scene.
+            return Cost {
+                peak: C64 * np,
+                kept: C64 * np,
+                flops: 2.0 * np,
+                ..Cost::default()
+            };
+        }
+        // The stack as read (nothing where the file is mapped) and one block of samples as
+        // libhdf5 hands it over; a mapped stack's complex128 copy widens from the file.
+        let kept = self.stack.loaded_bytes();
         Cost {
-            peak: C128 * (np + 2.0 * h as f64 * w as f64),
-            kept: C128 * np,
+            peak: kept
+                + if kept > 0.0 {
+                    (32u64 << 20) as f64
+                } else {
+                    0.0
+                },
+            kept,
             flops: 2.0 * np,
+            widen: match self.stack.storage {
+                Storage::Mapped { dtype, .. } => dtype.size() as f64 * np,
+                _ => 0.0,
+            },
             ..Cost::default()
         }
     }
@@ -171,11 +188,8 @@ impl DatasetKind for Hdf5Dataset {
         if let Some(scene) = &self.scene {
             return scene.materialise("the hdf5 patches", |e| error(e).into());
         }
-        let mut out: Array3<Complex64> = try_zeros(self.shape(), "the hdf5 stack")?;
-        self.stack
-            .read_into(out.as_slice_mut().expect("standard layout"))
-            .map_err(error)?;
-        Ok(Materialised::plain(Stack::Generated(out), false))
+        let stack = self.stack.load().map_err(error)?;
+        Ok(Materialised::plain(stack, self.stack.loaded_hwn()))
     }
 
     fn metadata(&self) -> Option<serde_json::Value> {
@@ -187,7 +201,7 @@ impl DatasetKind for Hdf5Dataset {
         _: usize,
         _: u64,
         _: &Materialised,
-    ) -> Option<Result<Array3<Complex64>, DataError>> {
+    ) -> Option<Result<ndarray::Array3<num_complex::Complex64>, DataError>> {
         None
     }
 }
