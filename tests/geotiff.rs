@@ -4,7 +4,8 @@
 //! complex float32 tiles give, in a window, the analysis the same pixels give when rasterio
 //! reads them and saves them as `.npy`, value for value (a window given in pixels or as a box
 //! of map coordinates, or cut into patches as `isar-clutter cut` cuts them), and their
-//! georeferencing reaches the manifest; a truncated file, an unsigned 8-bit image, an LZW-compressed one and a window
+//! georeferencing reaches the manifest; a box of longitude and latitude over ground control
+//! points is the window GDAL's GCP transformer gives; a truncated file, an unsigned 8-bit image, an LZW-compressed one and a window
 //! outside the scenes are refused at validation, naming the file and the field.
 
 mod common;
@@ -213,14 +214,62 @@ fn bad_geotiff_files_are_refused_naming_the_file_and_the_field() {
             && e.contains("s1_00.tif: its format gives no radiometric scale factors"),
         "{e}"
     );
-    // A map box on scenes georeferenced by ground control points only.
+    // A map box on a scene without georeferencing.
     let e = refused(
         d,
-        "gcps",
-        "kind: geotiff, path: [fixtures/s1_00.tif, fixtures/s1_01.tif], window: {x: [11.0, 11.001], y: [47.999, 48.0]}",
+        "nogeo",
+        "kind: geotiff, path: [fixtures/nogeo.tif], window: {x: [11.0, 11.001], y: [47.999, 48.0]}",
     );
     assert!(
-        e.contains("datasets[0].window") && e.contains("s1_00.tif gives no map transform"),
+        e.contains("datasets[0].window") && e.contains("nogeo.tif gives no georeferencing"),
         "{e}"
     );
+}
+
+/// A box of longitude and latitude on scenes georeferenced by ground control points only (as
+/// Sentinel-1 SLC measurement files are) is the window GDAL's GCP transformer maps it to
+/// (rasterio's `GCPTransformer` in the fixture script), and the analysis of that window is
+/// that of rasterio's pixels; the manifest states the fit's order and residual.
+#[test]
+fn a_longitude_latitude_box_on_ground_control_points_is_gdals_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let want: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fx.join("gcp_box.json")).unwrap()).unwrap();
+    let files: Vec<String> = (0..3).map(|k| format!("fixtures/gcp_0{k}.tif")).collect();
+    let fields = format!(
+        "kind: geotiff, path: [{}], window: {{x: {}, y: {}}}",
+        files.join(", "),
+        want["x"],
+        want["y"]
+    );
+    let ours = run(d, "gcp_box", &fields);
+    assert_same_tables(
+        &ours,
+        &run(d, "gcp_npy", "kind: npy, path: fixtures/gcp_window.npy"),
+    );
+    let files = dataset_files(&ours);
+    assert_eq!(files["window"]["rows"], want["rows"], "{files}");
+    assert_eq!(files["window"]["cols"], want["cols"], "{files}");
+    let fit = &files["window"]["gcp_fit"];
+    assert_eq!(fit["order"], json!(2), "{files}");
+    let residual = fit["max_residual_pixels"].as_f64().unwrap();
+    // The bent map's inverse is no quadratic: the fit misses its points by under a pixel
+    // (0.83 here), and the window is still GDAL's.
+    assert!(residual > 0.1 && residual < 1.0, "{files}");
+    // The four corner points of `s1_0{k}.tif` fit a plane (order 1) exactly.
+    let s1: Vec<String> = (0..3).map(|k| format!("fixtures/s1_0{k}.tif")).collect();
+    let fields = format!(
+        "kind: geotiff, path: [{}], window: {{x: [11.0007, 11.0023], y: [47.9979, 47.9995]}}",
+        s1.join(", ")
+    );
+    let s1 = run(d, "s1_box", &fields);
+    assert_same_tables(
+        &s1,
+        &run(d, "s1_npy", "kind: npy, path: fixtures/window.npy"),
+    );
+    assert_eq!(dataset_files(&s1)["window"]["gcp_fit"]["order"], json!(1));
 }

@@ -3,13 +3,15 @@
 //! then a rename), so a reader never sees a half-written file; generated samples streamed with
 //! direct I/O (`stream`); clutter stacks cut from scenes (`cut`); UAVSAR single-look complex scenes and
 //! their annotations (`uavsar`); complex stacks in HDF5 files (`h5stack`); output folders the tool owns
-//! (`outdir`: claim, lock, completeness; `journal`: what the tool wrote there).
+//! (`outdir`: claim, lock, completeness; `journal`: what the tool wrote there); map coordinates
+//! to pixels (`mapping`: affine transforms and ground control points).
 
 pub mod atomic;
 pub mod cut;
 pub mod geotiff;
 pub mod h5stack;
 pub mod journal;
+pub mod mapping;
 pub mod mat;
 pub mod model;
 pub mod netcdf;

@@ -6,6 +6,7 @@
 //! that name the field, the scene and the file ([`StackError`]).
 
 use super::cut::{Size2, Window};
+use super::mapping::{map_window, Georeference, MapWindow};
 use num_complex::Complex32;
 use std::path::{Path, PathBuf};
 
@@ -55,10 +56,9 @@ pub trait Scene: Sized {
     fn read_window(&self, window: &Window, out: &mut [Complex32]) -> Result<(), Self::Error>;
     /// What a run's manifest records of the file (its format's metadata).
     fn describe(&self) -> serde_json::Value;
-    /// The affine map from pixel corners to the file's map coordinates,
-    /// `[x0, dx/dcol, dx/drow, y0, dy/dcol, dy/drow]` (pixel `(row, col)`'s top-left corner at
-    /// `x = x0 + col dx/dcol + row dx/drow`, ...), where the format gives one.
-    fn affine(&self) -> Option<[f64; 6]> {
+    /// How its pixels lie in the file's map coordinates (an affine transform, or ground
+    /// control points), where the format gives it.
+    fn georeference(&self) -> Option<Georeference> {
         None
     }
     /// Makes every later read give calibrated values of `quantity` (`sigma0`, `beta0`,
@@ -80,60 +80,14 @@ pub enum Place {
     /// Pixels of every scene.
     Pixels(Window),
     /// The pixels that cover the box `x` x `y` of map coordinates (the reference system of
-    /// the files' affine transform), every scene on the same grid.
+    /// the files' affine transform or ground control points: longitude and latitude for
+    /// Sentinel-1's), every scene on the same grid.
     Map {
         /// `[x0, x1]`.
         x: [f64; 2],
         /// `[y0, y1]`.
         y: [f64; 2],
     },
-}
-
-/// The pixel window that covers the map box `x` x `y` under `affine` (see [`Scene::affine`]):
-/// the box's corners in pixel coordinates, rounded outwards (a coordinate within 1e-6 of a
-/// whole pixel taken as that pixel).
-///
-/// # Errors
-/// If the transform is singular, or the box lies above or left of the image.
-pub fn map_window(affine: [f64; 6], x: [f64; 2], y: [f64; 2]) -> Result<Window, String> {
-    let [x0, a, b, y0, d, e] = affine;
-    let det = a * e - b * d;
-    if det == 0.0 || !det.is_finite() {
-        return Err(format!("its affine transform {affine:?} is singular"));
-    }
-    let (mut rows, mut cols) = (
-        [f64::INFINITY, f64::NEG_INFINITY],
-        [f64::INFINITY, f64::NEG_INFINITY],
-    );
-    for xx in x {
-        for yy in y {
-            let (u, v) = (xx - x0, yy - y0);
-            let col = (e * u - b * v) / det;
-            let row = (a * v - d * u) / det;
-            cols = [cols[0].min(col), cols[1].max(col)];
-            rows = [rows[0].min(row), rows[1].max(row)];
-        }
-    }
-    let snap = |v: f64| {
-        if (v - v.round()).abs() < 1e-6 {
-            v.round()
-        } else {
-            v
-        }
-    };
-    let (r0, r1) = (snap(rows[0]).floor(), snap(rows[1]).ceil());
-    let (c0, c1) = (snap(cols[0]).floor(), snap(cols[1]).ceil());
-    if r0 < 0.0 || c0 < 0.0 {
-        return Err(format!(
-            "the box x {x:?}, y {y:?} starts at pixel row {r0}, column {c0}: outside the image"
-        ));
-    }
-    Ok(Window {
-        r0: r0 as usize,
-        r1: r1 as usize,
-        c0: c0 as usize,
-        c1: c1 as usize,
-    })
 }
 
 /// Coregistered scenes of one format: the same window of each is one sample.
@@ -143,6 +97,10 @@ pub struct Scenes<S> {
     pub scenes: Vec<S>,
     /// The window read from each.
     pub window: Window,
+    /// For a window given as a map box over ground control points: the order of the
+    /// polynomial fitted to them and its largest residual at them (pixels), of the first
+    /// scene ([`crate::io::mapping`]).
+    pub gcp_fit: Option<(usize, f64)>,
 }
 
 impl<S: OpenScene> Scenes<S> {
@@ -186,20 +144,22 @@ impl<S: Scene> Scenes<S> {
         }
         let dims = |i: usize| scenes[i].dims();
         let path = |i: usize| scenes[i].path().display();
+        let mut gcp_fit = None;
         let window = match window {
             Some(Place::Pixels(w)) => w,
             Some(Place::Map { x, y }) => {
-                let pixels = |i: usize| -> Result<Window, StackError> {
-                    let affine = scenes[i].affine().ok_or_else(|| {
+                let pixels = |i: usize| -> Result<MapWindow, StackError> {
+                    let georef = scenes[i].georeference().ok_or_else(|| {
                         let p = path(i);
-                        err("window", None, format!("{p} gives no map transform: give the window in pixels (row, col, size)"))
+                        err("window", None, format!("{p} gives no georeferencing (no map transform, no ground control points): give the window in pixels (row, col, size)"))
                     })?;
-                    map_window(affine, x, y)
+                    map_window(&georef, x, y)
                         .map_err(|m| err("window", None, format!("{}: {m}", path(i))))
                 };
-                let w = pixels(0)?;
+                let first = pixels(0)?;
+                gcp_fit = first.fit;
                 for i in 1..scenes.len() {
-                    if pixels(i)? != w {
+                    if pixels(i)?.window != first.window {
                         return Err(err(
                             "window",
                             None,
@@ -212,7 +172,7 @@ impl<S: Scene> Scenes<S> {
                         ));
                     }
                 }
-                w
+                first.window
             }
             None => {
                 if let Some(i) = (0..scenes.len()).find(|&i| dims(i) != dims(0)) {
@@ -257,7 +217,11 @@ impl<S: Scene> Scenes<S> {
                 ),
             ));
         }
-        Ok(Scenes { scenes, window })
+        Ok(Scenes {
+            scenes,
+            window,
+            gcp_fit,
+        })
     }
 
     /// `(N, H, W)`: the scenes and the window's size.
@@ -338,8 +302,15 @@ impl<S: Scene> Scenes<S> {
     /// What the manifest records: the window and each file's description.
     pub fn describe(&self) -> serde_json::Value {
         let w = &self.window;
+        let mut window = serde_json::json!({"rows": [w.r0, w.r1], "cols": [w.c0, w.c1]});
+        if let Some((order, residual)) = self.gcp_fit {
+            window["gcp_fit"] = serde_json::json!({
+                "order": order,
+                "max_residual_pixels": residual,
+            });
+        }
         serde_json::json!({
-            "window": {"rows": [w.r0, w.r1], "cols": [w.c0, w.c1]},
+            "window": window,
             "files": self.scenes.iter().map(S::describe).collect::<Vec<_>>(),
         })
     }
@@ -476,24 +447,5 @@ mod tests {
             }
         }
         assert!(places.len() > 6 && !places.contains(&(8, 10)), "{places:?}");
-    }
-
-    #[test]
-    fn a_map_box_is_the_pixels_that_cover_it() {
-        // 2.5 m columns east, 5 m rows south from (500000, 5300000).
-        let north_up = [500000.0, 2.5, 0.0, 5300000.0, 0.0, -5.0];
-        let w = map_window(north_up, [500017.5, 500057.5], [5299895.0, 5299975.0]).unwrap();
-        assert_eq!(w, Window::at(5, 7, 16, 16));
-        // Partly covered pixels are in.
-        let w = map_window(north_up, [500018.0, 500057.0], [5299896.0, 5299974.0]).unwrap();
-        assert_eq!(w, Window::at(5, 7, 16, 16));
-        // A rotated grid: x along rows, y along columns.
-        let w = map_window([10.0, 0.0, 2.0, 20.0, 3.0, 0.0], [14.0, 20.0], [26.0, 41.0]).unwrap();
-        assert_eq!(w, Window::at(2, 2, 3, 5));
-        assert!(
-            map_window(north_up, [499990.0, 500010.0], [5299900.0, 5299950.0])
-                .unwrap_err()
-                .contains("outside the image")
-        );
     }
 }

@@ -6,8 +6,8 @@
 //! its tables ([`results`]) and its manifest ([`manifest`]).
 
 pub use isar_clutter_core::io::{
-    atomic, cut, file_id, geotiff, h5stack, journal, mat, model, netcdf, npy, outdir, polygon,
-    scenes, sicd, stream, strip_bom, uavsar, zarr, FileId,
+    atomic, cut, file_id, geotiff, h5stack, journal, mapping, mat, model, netcdf, npy, outdir,
+    polygon, scenes, sicd, stream, strip_bom, uavsar, zarr, FileId,
 };
 
 pub mod frame;

@@ -21,6 +21,7 @@ pub use ifd::tag_name;
 pub use layout::{Blocks, Compression, GeoTiff, Num, TiffError};
 
 use super::cut::Window;
+use super::mapping::{Gcp, Georeference};
 use super::scenes::{OpenScene, Scene, Scenes};
 use ifd::Ifd;
 use num_complex::Complex32;
@@ -262,15 +263,35 @@ impl Scene for GeoTiff {
         GeoTiff::describe(self)
     }
 
-    /// The affine transform of the tags, moved by half a pixel where the raster's points are
-    /// pixel centres (GeoKey 1025, `RasterPixelIsPoint`), as GDAL reads it.
-    fn affine(&self) -> Option<[f64; 6]> {
-        let [x0, a, b, y0, d, e] = self.georef.affine?;
+    /// The affine transform of the tags, or else their ground control points (two tie points
+    /// or more), moved by half a pixel where the raster's points are pixel centres (GeoKey
+    /// 1025, `RasterPixelIsPoint`), as GDAL reads them.
+    fn georeference(&self) -> Option<Georeference> {
         let point = self.georef.geokeys.get(&1025) == Some(&georef::KeyValue::Ints(vec![2]));
-        Some(if point {
-            [x0 - 0.5 * (a + b), a, b, y0 - 0.5 * (d + e), d, e]
-        } else {
-            [x0, a, b, y0, d, e]
+        let half = if point { 0.5 } else { 0.0 };
+        if let Some([x0, a, b, y0, d, e]) = self.georef.affine {
+            return Some(Georeference::Affine([
+                x0 - half * (a + b),
+                a,
+                b,
+                y0 - half * (d + e),
+                d,
+                e,
+            ]));
+        }
+        (self.georef.tiepoints.len() >= 2).then(|| {
+            Georeference::Gcps(
+                self.georef
+                    .tiepoints
+                    .iter()
+                    .map(|t| Gcp {
+                        col: t[0] + half,
+                        row: t[1] + half,
+                        x: t[3],
+                        y: t[4],
+                    })
+                    .collect(),
+            )
         })
     }
 }

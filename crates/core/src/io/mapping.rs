@@ -1,0 +1,362 @@
+//! From map coordinates to pixels: a scene's georeferencing ([`Georeference`]: an affine
+//! transform, or ground control points as Sentinel-1 SLC files carry them) and the pixel
+//! window that covers a box of map coordinates ([`map_window`]). Ground control points are
+//! turned into pixels as GDAL's GCP transformer does by default (`GDALCreateGCPTransformer`
+//! with order 0): a least-squares polynomial from map coordinates to pixel coordinates, of
+//! order 2 from 6 points on, order 1 from 3; the fit's largest residual at the points is
+//! reported with the window.
+
+use super::cut::Window;
+
+/// One ground control point: the pixel position `(row, col)` (of the pixel grid's corners:
+/// pixel `(r, c)` covers `[r, r + 1) x [c, c + 1)`) and its map coordinates `(x, y)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gcp {
+    /// Row position.
+    pub row: f64,
+    /// Column position.
+    pub col: f64,
+    /// Map x (longitude in a geographic system).
+    pub x: f64,
+    /// Map y (latitude in a geographic system).
+    pub y: f64,
+}
+
+/// How a scene's pixels lie in its map coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Georeference {
+    /// `[x0, dx/dcol, dx/drow, y0, dy/dcol, dy/drow]` (GDAL's `GeoTransform` order: pixel
+    /// `(row, col)`'s top-left corner at `x = x0 + col dx/dcol + row dx/drow`, ...).
+    Affine([f64; 6]),
+    /// Ground control points.
+    Gcps(Vec<Gcp>),
+}
+
+/// The pixel window that covers a map box, and how exactly the georeferencing placed it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapWindow {
+    /// The pixels.
+    pub window: Window,
+    /// For ground control points: the fit's order and its largest residual at the points
+    /// (pixels); `None` for an affine transform (exact).
+    pub fit: Option<(usize, f64)>,
+}
+
+/// Points mapped along each edge of a box (its corners included): a polynomial map bends the
+/// box's edges, so the corners alone may miss pixels the box covers.
+const EDGE_POINTS: usize = 17;
+
+/// The pixel window that covers the box `x` x `y` of map coordinates under `georef`: the
+/// box's edges in pixel coordinates (corners, and [`EDGE_POINTS`] points an edge for ground
+/// control points), rounded outwards (a coordinate within 1e-6 of a whole pixel taken as that
+/// pixel).
+///
+/// # Errors
+/// If the transform is singular, too few or degenerate ground control points, or the box
+/// lies above or left of the image.
+pub fn map_window(georef: &Georeference, x: [f64; 2], y: [f64; 2]) -> Result<MapWindow, String> {
+    let (to_pixel, fit): (Box<dyn Fn(f64, f64) -> (f64, f64)>, _) = match georef {
+        Georeference::Affine(affine) => {
+            let [x0, a, b, y0, d, e] = *affine;
+            let det = a * e - b * d;
+            if det == 0.0 || !det.is_finite() {
+                return Err(format!("its affine transform {affine:?} is singular"));
+            }
+            let f = move |xx: f64, yy: f64| {
+                let (u, v) = (xx - x0, yy - y0);
+                ((a * v - d * u) / det, (e * u - b * v) / det)
+            };
+            (Box::new(f), None)
+        }
+        Georeference::Gcps(points) => {
+            let p = GcpFit::new(points)?;
+            let fit = Some((p.order, p.max_residual(points)));
+            (Box::new(move |xx, yy| p.pixel(xx, yy)), fit)
+        }
+    };
+    let steps = if fit.is_some() { EDGE_POINTS - 1 } else { 1 };
+    let (mut rows, mut cols) = (
+        [f64::INFINITY, f64::NEG_INFINITY],
+        [f64::INFINITY, f64::NEG_INFINITY],
+    );
+    let at = |t: usize, [a, b]: [f64; 2]| a + (b - a) * t as f64 / steps as f64;
+    for t in 0..=steps {
+        for (xx, yy) in [
+            (at(t, x), y[0]),
+            (at(t, x), y[1]),
+            (x[0], at(t, y)),
+            (x[1], at(t, y)),
+        ] {
+            let (row, col) = to_pixel(xx, yy);
+            rows = [rows[0].min(row), rows[1].max(row)];
+            cols = [cols[0].min(col), cols[1].max(col)];
+        }
+    }
+    let snap = |v: f64| {
+        if (v - v.round()).abs() < 1e-6 {
+            v.round()
+        } else {
+            v
+        }
+    };
+    let (r0, r1) = (snap(rows[0]).floor(), snap(rows[1]).ceil());
+    let (c0, c1) = (snap(cols[0]).floor(), snap(cols[1]).ceil());
+    if !(r0.is_finite() && c0.is_finite() && r1.is_finite() && c1.is_finite()) {
+        return Err(format!("the box x {x:?}, y {y:?} maps to no finite pixels"));
+    }
+    if r0 < 0.0 || c0 < 0.0 {
+        return Err(format!(
+            "the box x {x:?}, y {y:?} starts at pixel row {r0}, column {c0}: outside the image"
+        ));
+    }
+    Ok(MapWindow {
+        window: Window {
+            r0: r0 as usize,
+            r1: r1 as usize,
+            c0: c0 as usize,
+            c1: c1 as usize,
+        },
+        fit,
+    })
+}
+
+/// Row and column as polynomials of the map coordinates, fitted to ground control points by
+/// least squares (GDAL's reverse GCP transform: terms `1, x, y` and, at order 2, `x^2, x y,
+/// y^2`, in coordinates centred on the points' mean and scaled by their spread, which leaves
+/// the fitted polynomial the same and the equations well conditioned).
+struct GcpFit {
+    order: usize,
+    centre: [f64; 2],
+    scale: [f64; 2],
+    row: Vec<f64>,
+    col: Vec<f64>,
+}
+
+impl GcpFit {
+    fn new(points: &[Gcp]) -> Result<GcpFit, String> {
+        let order = match points.len() {
+            n if n >= 6 => 2,
+            n if n >= 3 => 1,
+            n => {
+                return Err(format!(
+                    "{n} ground control point(s): a map box needs 3 or more"
+                ))
+            }
+        };
+        let n = points.len() as f64;
+        let centre = [
+            points.iter().map(|p| p.x).sum::<f64>() / n,
+            points.iter().map(|p| p.y).sum::<f64>() / n,
+        ];
+        let spread = |f: fn(&Gcp) -> f64, m: f64| {
+            let s = points.iter().map(|p| (f(p) - m).abs()).fold(0.0, f64::max);
+            if s > 0.0 {
+                s
+            } else {
+                1.0
+            }
+        };
+        let scale = [spread(|p| p.x, centre[0]), spread(|p| p.y, centre[1])];
+        let mut fit = GcpFit {
+            order,
+            centre,
+            scale,
+            row: Vec::new(),
+            col: Vec::new(),
+        };
+        let terms: Vec<Vec<f64>> = points.iter().map(|p| fit.terms(p.x, p.y)).collect();
+        let solve = |target: fn(&Gcp) -> f64| {
+            let values: Vec<f64> = points.iter().map(target).collect();
+            least_squares(&terms, &values).ok_or_else(|| {
+                format!(
+                    "its {} ground control points are degenerate (on a line?): no order-{order} \
+                     map from map to pixel coordinates",
+                    points.len()
+                )
+            })
+        };
+        fit.row = solve(|p| p.row)?;
+        fit.col = solve(|p| p.col)?;
+        Ok(fit)
+    }
+
+    /// The polynomial's terms at `(x, y)`.
+    fn terms(&self, x: f64, y: f64) -> Vec<f64> {
+        let u = (x - self.centre[0]) / self.scale[0];
+        let v = (y - self.centre[1]) / self.scale[1];
+        if self.order == 1 {
+            vec![1.0, u, v]
+        } else {
+            vec![1.0, u, v, u * u, u * v, v * v]
+        }
+    }
+
+    /// `(row, col)` of the map point `(x, y)`.
+    fn pixel(&self, x: f64, y: f64) -> (f64, f64) {
+        let t = self.terms(x, y);
+        let dot = |c: &[f64]| c.iter().zip(&t).map(|(a, b)| a * b).sum::<f64>();
+        (dot(&self.row), dot(&self.col))
+    }
+
+    /// The largest distance (pixels) between a point's position and the fit's.
+    fn max_residual(&self, points: &[Gcp]) -> f64 {
+        points
+            .iter()
+            .map(|p| {
+                let (r, c) = self.pixel(p.x, p.y);
+                (r - p.row).hypot(c - p.col)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The least-squares solution of `terms c = values` (one row of terms a point), by the normal
+/// equations and Gaussian elimination with partial pivoting; `None` if they are singular.
+fn least_squares(terms: &[Vec<f64>], values: &[f64]) -> Option<Vec<f64>> {
+    let k = terms.first()?.len();
+    let mut a = vec![vec![0.0; k + 1]; k];
+    for (t, v) in terms.iter().zip(values) {
+        for i in 0..k {
+            for j in 0..k {
+                a[i][j] += t[i] * t[j];
+            }
+            a[i][k] += t[i] * v;
+        }
+    }
+    let norm = a
+        .iter()
+        .flat_map(|r| r[..k].iter())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    for col in 0..k {
+        let pivot = (col..k).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() <= 1e-12 * norm {
+            return None;
+        }
+        a.swap(col, pivot);
+        for i in col + 1..k {
+            let f = a[i][col] / a[col][col];
+            for j in col..=k {
+                a[i][j] -= f * a[col][j];
+            }
+        }
+    }
+    let mut c = vec![0.0; k];
+    for i in (0..k).rev() {
+        let s: f64 = (i + 1..k).map(|j| a[i][j] * c[j]).sum();
+        c[i] = (a[i][k] - s) / a[i][i];
+    }
+    Some(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn window(g: &Georeference, x: [f64; 2], y: [f64; 2]) -> Window {
+        map_window(g, x, y).unwrap().window
+    }
+
+    #[test]
+    fn a_map_box_is_the_pixels_that_cover_it() {
+        // 2.5 m columns east, 5 m rows south from (500000, 5300000).
+        let north_up = Georeference::Affine([500000.0, 2.5, 0.0, 5300000.0, 0.0, -5.0]);
+        let w = window(&north_up, [500017.5, 500057.5], [5299895.0, 5299975.0]);
+        assert_eq!(w, Window::at(5, 7, 16, 16));
+        // Partly covered pixels are in.
+        let w = window(&north_up, [500018.0, 500057.0], [5299896.0, 5299974.0]);
+        assert_eq!(w, Window::at(5, 7, 16, 16));
+        // A rotated grid: x along rows, y along columns.
+        let rotated = Georeference::Affine([10.0, 0.0, 2.0, 20.0, 3.0, 0.0]);
+        assert_eq!(
+            window(&rotated, [14.0, 20.0], [26.0, 41.0]),
+            Window::at(2, 2, 3, 5)
+        );
+        assert!(
+            map_window(&north_up, [499990.0, 500010.0], [5299900.0, 5299950.0])
+                .unwrap_err()
+                .contains("outside the image")
+        );
+    }
+
+    /// Ground control points of an affine grid give its window (order 1 from 4 points, order 2
+    /// from a grid: the fit is exact for a map that is a polynomial of its order), and points
+    /// of a bent map give, at order 2, what a dense search over the fitted map finds.
+    #[test]
+    fn ground_control_points_give_the_window_their_fit_maps_the_box_to() {
+        let affine = |r: f64, c: f64| (11.0 + c * 1e-4, 48.0 - r * 1e-4);
+        let grid = |rows: &[f64], cols: &[f64], f: &dyn Fn(f64, f64) -> (f64, f64)| {
+            let mut g = vec![];
+            for &row in rows {
+                for &col in cols {
+                    let (x, y) = f(row, col);
+                    g.push(Gcp { row, col, x, y });
+                }
+            }
+            g
+        };
+        let box_x = [11.0 + 7.0e-4, 11.0 + 23.0e-4];
+        let box_y = [48.0 - 21.0e-4, 48.0 - 5.0e-4];
+        for points in [
+            grid(&[0.0, 40.0], &[0.0, 30.0], &affine),
+            grid(&[0.0, 10.0, 20.0, 40.0], &[0.0, 15.0, 30.0], &affine),
+        ] {
+            let m = map_window(&Georeference::Gcps(points.clone()), box_x, box_y).unwrap();
+            assert_eq!(
+                m.window,
+                Window::at(5, 7, 16, 16),
+                "{} points",
+                points.len()
+            );
+            assert!(m.fit.unwrap().1 < 1e-6, "{m:?}");
+        }
+        // A bent map: the slow oracle is the whole box, on a fine grid of map points, run
+        // through the fitted map, and the window the smallest holding every pixel it reaches.
+        let bent = |r: f64, c: f64| {
+            (
+                11.0 + c * 1e-4 + r * c * 2e-7,
+                48.0 - r * 1e-4 + c * c * 3e-8,
+            )
+        };
+        let points = grid(
+            &[0.0, 10.0, 20.0, 30.0, 40.0],
+            &[0.0, 10.0, 20.0, 30.0],
+            &bent,
+        );
+        let m = map_window(&Georeference::Gcps(points.clone()), box_x, box_y).unwrap();
+        let (order, residual) = m.fit.unwrap();
+        assert_eq!(order, 2);
+        assert!(residual > 1e-6 && residual < 0.5, "{residual}");
+        let fit = GcpFit::new(&points).unwrap();
+        let (mut rows, mut cols) = ([f64::MAX, f64::MIN], [f64::MAX, f64::MIN]);
+        let n = 320;
+        for i in 0..=n {
+            for j in 0..=n {
+                let x = box_x[0] + (box_x[1] - box_x[0]) * i as f64 / n as f64;
+                let y = box_y[0] + (box_y[1] - box_y[0]) * j as f64 / n as f64;
+                let (r, c) = fit.pixel(x, y);
+                rows = [rows[0].min(r), rows[1].max(r)];
+                cols = [cols[0].min(c), cols[1].max(c)];
+            }
+        }
+        let oracle = Window {
+            r0: rows[0].floor() as usize,
+            r1: rows[1].ceil() as usize,
+            c0: cols[0].floor() as usize,
+            c1: cols[1].ceil() as usize,
+        };
+        assert_eq!(m.window, oracle);
+        assert_ne!(
+            m.window,
+            Window::at(5, 7, 16, 16),
+            "the bend moves the window"
+        );
+        let few = grid(&[0.0], &[0.0, 30.0], &affine);
+        assert!(map_window(&Georeference::Gcps(few), box_x, box_y)
+            .unwrap_err()
+            .contains("3 or more"));
+        let line = grid(&[0.0, 10.0, 20.0, 30.0], &[5.0], &affine);
+        assert!(map_window(&Georeference::Gcps(line), box_x, box_y)
+            .unwrap_err()
+            .contains("degenerate"));
+    }
+}
