@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """Generation rate from Python beside the command line's, in one run (issue 29's speed check).
 
-    ISAR_CLUTTER_BIN=... python bench/python_bench.py [--samples 20000]
+    ISAR_CLUTTER_BIN=... python bench/python_bench.py [--samples 20000] [--method method1]
+        [--size 48 64] [--no-loader]
 
-Fits Method 2 (half-width 8) to 200 samples of 64 x 64 clutter with the command line, then
+Fits Method 2 (or --method; half-width 8) to 200 samples of 64 x 64 clutter (or --size) with
+the command line, then
 times, best of --repeats:
   * `isar-clutter generate` of --samples samples into a `.npy` in a temporary folder (its own
     rate line, which excludes the process start but includes writing the file);
@@ -30,16 +32,20 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--samples", type=int, default=20000)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--method", default="method2")
+    ap.add_argument("--size", type=int, nargs=2, default=[64, 64], metavar=("ROWS", "COLS"))
+    ap.add_argument("--no-loader", action="store_true", help="skip the DataLoader rates")
     args = ap.parse_args()
     binary = os.environ.get("ISAR_CLUTTER_BIN", "target/release/isar-clutter")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         rng = np.random.default_rng(1)
-        z = rng.standard_normal((200, 64, 64)) + 1j * rng.standard_normal((200, 64, 64))
+        shape = (200, *args.size)
+        z = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
         z = (z + 0.6 * np.roll(z, 1, 2) + 0.3 * np.roll(z, 1, 1)).astype(np.complex64)
         np.save(tmp / "stack.npy", z)
-        folder = tmp / "m2"
-        subprocess.run([binary, "fit", "--input", tmp / "stack.npy", "--method", "method2",
+        folder = tmp / "model"
+        subprocess.run([binary, "fit", "--input", tmp / "stack.npy", "--method", args.method,
                         "--half-width", "8", "--out", folder], check=True, capture_output=True)
         model = ic.Model.load(folder)
         n = args.samples
@@ -55,9 +61,13 @@ def main() -> int:
             t = time.perf_counter()
             model.generate(n, r)
             py.append(n / (time.perf_counter() - t))
+        print("command line:", " ".join(f"{v:.0f}" for v in cli), file=sys.stderr)
+        print("Python:      ", " ".join(f"{v:.0f}" for v in py), file=sys.stderr)
         rates = {"command line generate (samples/s)": max(cli),
                  "Model.generate in Python (samples/s)": max(py)}
         try:
+            if args.no_loader:
+                raise ImportError
             import torch  # noqa: F401
             from torch.utils.data import DataLoader
             from isar_clutter.torch import ClutterDataset

@@ -5,6 +5,15 @@
 //! `isar-clutter generate --seed` writes); `load_uavsar`, `load_geotiff` and `load_sicd` read radar
 //! scenes (`load.rs`). The Python package `isar_clutter` wraps it.
 
+/// Large blocks (the generated samples, stacks read) come straight from the kernel with
+/// transparent huge pages requested, as in the command line
+/// ([`isar_clutter_core::alloc::LargeMapAlloc`]): with the system allocator, the pages of a
+/// fresh numpy array of samples were faulted in 4 KiB at a time, and `Model.generate` ran at
+/// 0.78 of the command line's rate (BENCHMARKS.md). The extension's own allocations only:
+/// arrays numpy allocates itself are Python's.
+#[global_allocator]
+static GLOBAL: isar_clutter_core::alloc::LargeMapAlloc = isar_clutter_core::alloc::LargeMapAlloc;
+
 use isar_clutter_core::io::model::ModelInfo;
 use isar_clutter_core::stats::analysis::{Analysis, Direction};
 use isar_clutter_core::synthesis::{FitOptions, Model as CoreModel};
