@@ -59,6 +59,10 @@ fn every_form_of_an_hdf5_stack_is_analysed_as_its_pixels_are() {
             format!("{h5}, dataset: pairs_hwn, layout: hwn"),
         ),
         ("complex_be", format!("{h5}, dataset: complex_be")),
+        ("shuffled", format!("{h5}, dataset: shuffled")),
+        ("c128_chunked", format!("{h5}, dataset: c128_chunked")),
+        ("pairs_chunked", format!("{h5}, dataset: pairs_chunked")),
+        ("fletcher", format!("{h5}, dataset: fletcher")),
     ];
     analysed_alike(dir.path(), &forms);
     analysed_alike(

@@ -6,7 +6,9 @@ compressed), `/pairs` (float32 [4, 16, 12, 2]: real, imaginary), `/re` and `/im`
 real and imaginary parts), `/hwn` (complex128 [16, 12, 4], samples last), `/matlab` (a
 compound of float32 `real` and `imag`, MATLAB's names), `/hwn_chunked` (complex64 [16, 12,
 4], chunked and gzip compressed), `/pairs_hwn` (float32 pairs, samples last, chunked),
-`/complex_be` (big-endian complex64); `/ints` (a chunked compound of int16 `r` and `i`, the
+`/complex_be` (big-endian complex64), `/shuffled` (gzip'd and shuffled in chunks that
+leave partial ones at every edge), `/c128_chunked`, `/pairs_chunked` (float pairs, chunked,
+shuffled), `/fletcher` (chunks with checksums); `/ints` (a chunked compound of int16 `r` and `i`, the
 stack times 1000 rounded; `/ints_be` the same big-endian and contiguous) with `ints.npy`,
 and `/real32` (the real parts alone, float32) with `real32.npy`; and what the
 refusals need: `/text` (strings), `/scene` (a single [16, 12] scene), `/im_short` (float64 of
@@ -48,6 +50,15 @@ def main(out: Path) -> None:
         ints["r"], ints["i"] = np.round(x.real * 1000), np.round(x.imag * 1000)
         f.create_dataset("ints", data=ints, chunks=(3, 16, 12))
         f["ints_be"] = ints.astype([("r", ">i2"), ("i", ">i2")])
+        # Chunks inflated on every core: partial chunks at every edge, shuffled, complex128,
+        # float pairs; and a checksum (read by libhdf5).
+        f.create_dataset("shuffled", data=x, chunks=(3, 5, 7), compression="gzip", shuffle=True)
+        f.create_dataset("c128_chunked", data=x.astype(np.complex128), chunks=(2, 16, 12),
+                         compression="gzip")
+        f.create_dataset("pairs_chunked", data=np.stack([x.real, x.imag], axis=-1),
+                         chunks=(3, 7, 5, 2), compression="gzip", shuffle=True)
+        f.create_dataset("fletcher", data=x, chunks=(2, 8, 12), compression="gzip",
+                         fletcher32=True)
         f["real32"] = x.real
         f["complex_be"] = x.astype(">c8")
         f["text"] = np.array([b"abc"] * 6).reshape(1, 2, 3)

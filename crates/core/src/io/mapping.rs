@@ -42,6 +42,9 @@ pub struct MapWindow {
     pub fit: Option<(usize, f64)>,
 }
 
+/// `(row, col)` of a map point.
+type ToPixel = Box<dyn Fn(f64, f64) -> (f64, f64)>;
+
 /// Points mapped along each edge of a box (its corners included): a polynomial map bends the
 /// box's edges, so the corners alone may miss pixels the box covers.
 const EDGE_POINTS: usize = 17;
@@ -55,7 +58,7 @@ const EDGE_POINTS: usize = 17;
 /// If the transform is singular, too few or degenerate ground control points, or the box
 /// lies above or left of the image.
 pub fn map_window(georef: &Georeference, x: [f64; 2], y: [f64; 2]) -> Result<MapWindow, String> {
-    let (to_pixel, fit): (Box<dyn Fn(f64, f64) -> (f64, f64)>, _) = match georef {
+    let (to_pixel, fit): (ToPixel, _) = match georef {
         Georeference::Affine(affine) => {
             let [x0, a, b, y0, d, e] = *affine;
             let det = a * e - b * d;
@@ -216,11 +219,11 @@ fn least_squares(terms: &[Vec<f64>], values: &[f64]) -> Option<Vec<f64>> {
     let k = terms.first()?.len();
     let mut a = vec![vec![0.0; k + 1]; k];
     for (t, v) in terms.iter().zip(values) {
-        for i in 0..k {
-            for j in 0..k {
-                a[i][j] += t[i] * t[j];
+        for (row, &ti) in a.iter_mut().zip(t) {
+            for (cell, &tj) in row.iter_mut().zip(t) {
+                *cell += ti * tj;
             }
-            a[i][k] += t[i] * v;
+            row[k] += ti * v;
         }
     }
     let norm = a
@@ -233,10 +236,12 @@ fn least_squares(terms: &[Vec<f64>], values: &[f64]) -> Option<Vec<f64>> {
             return None;
         }
         a.swap(col, pivot);
-        for i in col + 1..k {
-            let f = a[i][col] / a[col][col];
-            for j in col..=k {
-                a[i][j] -= f * a[col][j];
+        let (top, below) = a.split_at_mut(col + 1);
+        let pivot_row = &top[col];
+        for row in below {
+            let f = row[col] / pivot_row[col];
+            for (x, p) in row[col..].iter_mut().zip(&pivot_row[col..]) {
+                *x -= f * p;
             }
         }
     }

@@ -14,6 +14,8 @@ use crate::io::npy::Stack;
 use std::path::Path;
 
 #[cfg(feature = "mat73")]
+mod chunks;
+#[cfg(feature = "mat73")]
 mod read;
 mod types;
 

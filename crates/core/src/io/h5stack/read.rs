@@ -3,6 +3,7 @@
 //! complex128 or real floats byte for byte is mapped as a `.npy` file's data is; any other is
 //! read in blocks of whole chunks, in single precision where its numbers fit.
 
+use super::chunks;
 use super::types::{Form, H5Stack, OpenError, Storage};
 use crate::io::mat::v73::{is_number, Parts};
 use crate::io::npy::{Dtype, NpyHeader, Stack};
@@ -232,6 +233,33 @@ pub(super) fn load(st: &H5Stack) -> Result<Stack, String> {
         None => None,
     };
     let (n, h, w) = st.shape();
+    let alloc = |e: crate::alloc::AllocError| e.to_string();
+    // Plain chunks of complex values: inflated on every core, straight into the stack.
+    let plan = match (st.hwn, &imag, native_dtype(&ds, st.form, false)) {
+        (false, None, Some(dtype)) => chunks::plan(&ds, dtype, st.form == Form::Pairs),
+        _ => None,
+    };
+    if let Some(plan) = plan {
+        drop(ds);
+        drop(file);
+        return if st.storage == Storage::Single {
+            let mut out: Array3<Complex32> =
+                crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
+            plan.read(
+                &st.path,
+                chunks::into_complex64(out.as_slice_mut().expect("standard")),
+            )?;
+            Ok(Stack::Single(out))
+        } else {
+            let mut out: Array3<Complex64> =
+                crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
+            plan.read(
+                &st.path,
+                chunks::into_complex128(out.as_slice_mut().expect("standard")),
+            )?;
+            Ok(Stack::Generated(out))
+        };
+    }
     // Whole chunks of samples per block, so that no chunk is inflated twice.
     let chunk = ds
         .chunk()
@@ -240,7 +268,6 @@ pub(super) fn load(st: &H5Stack) -> Result<Stack, String> {
     let per = (BLOCK_BYTES / (16 * h * w).max(1)).max(1).div_ceil(chunk) * chunk;
     let blocks = (0..n).step_by(per).map(|k| k..(k + per).min(n));
     let sets = (&ds, imag.as_ref(), st);
-    let alloc = |e: crate::alloc::AllocError| e.to_string();
     // Complex values stored `[N, H, W]`: one read straight into the stack (libhdf5 copies
     // each chunk into place, or converts it); others a block at a time.
     let whole = !st.hwn && matches!(st.form, Form::Compound(_) | Form::Pairs);
