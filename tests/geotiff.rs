@@ -131,6 +131,32 @@ fn a_cut_geotiff_stack_is_the_stack_cut_cuts_from_rasterios_pixels() {
         &run(d, "tri_npy", "kind: npy, path: fixtures/tri.npy"),
     );
     assert!(dataset_files(&tri)["cut"]["places"].as_u64().unwrap() < 14);
+    // The same triangle by its longitudes and latitudes, through the scenes' ground control
+    // points (x = 11 + col / 10^4, y = 48 - row / 10^4), gives the same patches.
+    let on_map = CUT_FIELDS.replace(
+        "size: [4, 4]}]}",
+        "size: [4, 4]}], polygon_map: [[11.0001, 47.9998], [11.0029, 47.9998], [11.0015, 47.9962]]}",
+    );
+    let fields = format!("kind: geotiff, path: [{}], {on_map}", files.join(", "));
+    let tri_map = run(d, "triangle_map", &fields);
+    assert_same_tables(&tri_map, &tri);
+    assert_eq!(
+        dataset_files(&tri_map)["cut"]["places"],
+        dataset_files(&tri)["cut"]["places"]
+    );
+    let both = with.replace(
+        "polygon:",
+        "polygon_map: [[11.0, 48.0], [11.1, 48.0], [11.0, 47.9]], polygon:",
+    );
+    let e = refused(
+        d,
+        "both_polygons",
+        &format!("kind: geotiff, path: [{}], {both}", files.join(", ")),
+    );
+    assert!(
+        e.contains("cut.polygon_map") && e.contains("not both"),
+        "{e}"
+    );
     let files = dataset_files(&ours);
     // Rows 2, 10, 18, 26 and columns 1, 7, 13, 19 (16 places) less the 2 that cover the box
     // (row 10, columns 7 and 13).
@@ -222,6 +248,16 @@ fn bad_geotiff_files_are_refused_naming_the_file_and_the_field() {
     );
     assert!(
         e.contains("datasets[0].window") && e.contains("nogeo.tif gives no georeferencing"),
+        "{e}"
+    );
+    let e = refused(
+        d,
+        "nogeo_polygon",
+        "kind: geotiff, path: [fixtures/nogeo.tif], cut: {patch: 8, polygon_map: [[11.0, 48.0], [11.1, 48.0], [11.0, 47.9]]}",
+    );
+    assert!(
+        e.contains("datasets[0].cut.polygon_map")
+            && e.contains("nogeo.tif gives no georeferencing"),
         "{e}"
     );
 }

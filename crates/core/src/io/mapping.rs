@@ -42,6 +42,9 @@ pub struct MapWindow {
     pub fit: Option<(usize, f64)>,
 }
 
+/// A GCP fit's order and largest residual at its points (pixels).
+pub type Fit = (usize, f64);
+
 /// `(row, col)` of a map point.
 type ToPixel = Box<dyn Fn(f64, f64) -> (f64, f64)>;
 
@@ -58,25 +61,7 @@ const EDGE_POINTS: usize = 17;
 /// If the transform is singular, too few or degenerate ground control points, or the box
 /// lies above or left of the image.
 pub fn map_window(georef: &Georeference, x: [f64; 2], y: [f64; 2]) -> Result<MapWindow, String> {
-    let (to_pixel, fit): (ToPixel, _) = match georef {
-        Georeference::Affine(affine) => {
-            let [x0, a, b, y0, d, e] = *affine;
-            let det = a * e - b * d;
-            if det == 0.0 || !det.is_finite() {
-                return Err(format!("its affine transform {affine:?} is singular"));
-            }
-            let f = move |xx: f64, yy: f64| {
-                let (u, v) = (xx - x0, yy - y0);
-                ((a * v - d * u) / det, (e * u - b * v) / det)
-            };
-            (Box::new(f), None)
-        }
-        Georeference::Gcps(points) => {
-            let p = GcpFit::new(points)?;
-            let fit = Some((p.order, p.max_residual(points)));
-            (Box::new(move |xx, yy| p.pixel(xx, yy)), fit)
-        }
-    };
+    let (to_pixel, fit) = transform(georef)?;
     let steps = if fit.is_some() { EDGE_POINTS - 1 } else { 1 };
     let (mut rows, mut cols) = (
         [f64::INFINITY, f64::NEG_INFINITY],
@@ -120,6 +105,49 @@ pub fn map_window(georef: &Georeference, x: [f64; 2], y: [f64; 2]) -> Result<Map
             c1: c1 as usize,
         },
         fit,
+    })
+}
+
+/// The pixel positions `[row, col]` of the map points `[x, y]` under `georef`, and for ground
+/// control points the fit's order and largest residual (as [`MapWindow::fit`]).
+///
+/// # Errors
+/// As [`map_window`]'s, for the georeferencing.
+pub fn map_points(
+    georef: &Georeference,
+    points: &[[f64; 2]],
+) -> Result<(Vec<[f64; 2]>, Option<Fit>), String> {
+    let (to_pixel, fit) = transform(georef)?;
+    let pixels = points
+        .iter()
+        .map(|&[x, y]| {
+            let (r, c) = to_pixel(x, y);
+            [r, c]
+        })
+        .collect();
+    Ok((pixels, fit))
+}
+
+/// The map from map coordinates to pixel positions, and the GCP fit's order and residual.
+fn transform(georef: &Georeference) -> Result<(ToPixel, Option<Fit>), String> {
+    Ok(match georef {
+        Georeference::Affine(affine) => {
+            let [x0, a, b, y0, d, e] = *affine;
+            let det = a * e - b * d;
+            if det == 0.0 || !det.is_finite() {
+                return Err(format!("its affine transform {affine:?} is singular"));
+            }
+            let f = move |xx: f64, yy: f64| {
+                let (u, v) = (xx - x0, yy - y0);
+                ((a * v - d * u) / det, (e * u - b * v) / det)
+            };
+            (Box::new(f), None)
+        }
+        Georeference::Gcps(points) => {
+            let p = GcpFit::new(points)?;
+            let fit = Some((p.order, p.max_residual(points)));
+            (Box::new(move |xx, yy| p.pixel(xx, yy)), fit)
+        }
     })
 }
 

@@ -12,6 +12,7 @@ use super::kind::{DataError, DatasetKind, Materialised};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::{CutOptions, Size2, Window};
+use crate::io::mapping::map_points;
 use crate::io::npy::Stack;
 use crate::io::polygon::Polygon;
 use crate::io::scenes::{OpenScene, Place, Scene, Scenes};
@@ -166,6 +167,11 @@ pub struct CutSpec {
     /// A region patches must lie wholly inside: its vertices `[row, column]` in scene pixels.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub polygon: Option<Vec<[f64; 2]>>,
+    /// The same region given by its vertices `[x, y]` in the scenes' map coordinates
+    /// (longitude and latitude for Sentinel-1's ground control points), turned into scene
+    /// pixels through their georeferencing (`io::mapping`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polygon_map: Option<Vec<[f64; 2]>>,
     /// A mask of the first scene's size (`.npy`, `bool` or `uint8`): no patch may cover a
     /// non-zero pixel. Relative to the spec file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -369,6 +375,44 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
     }
 }
 
+/// The pixel vertices `[row, column]` of the polygon `vertices` (`[x, y]` in map coordinates)
+/// in every scene of `stack`, which must agree (scenes on one grid).
+fn map_polygon<S: Scene>(
+    vertices: &[[f64; 2]],
+    stack: &Scenes<S>,
+) -> Result<Vec<[f64; 2]>, String> {
+    let mut first: Option<Vec<[f64; 2]>> = None;
+    for s in &stack.scenes {
+        let g = s.georeference().ok_or_else(|| {
+            format!(
+                "{} gives no georeferencing (no map transform, no ground control points): give \
+                 `polygon` in pixels",
+                s.path().display()
+            )
+        })?;
+        let (pixels, _) =
+            map_points(&g, vertices).map_err(|m| format!("{}: {m}", s.path().display()))?;
+        match &first {
+            None => first = Some(pixels),
+            Some(f) => {
+                let apart = f
+                    .iter()
+                    .zip(&pixels)
+                    .any(|(a, b)| (a[0] - b[0]).abs() > 1e-6 || (a[1] - b[1]).abs() > 1e-6);
+                if apart {
+                    return Err(format!(
+                        "the polygon lies on other pixels of {} than of {}: the scenes are not \
+                         on one grid; give `polygon` in pixels",
+                        s.path().display(),
+                        stack.scenes[0].path().display()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(first.unwrap_or_default())
+}
+
 /// The places of the cut `c` of `stack`'s window (`at`: the cut's YAML path).
 fn patches<S: Scene>(
     c: &CutSpec,
@@ -382,11 +426,23 @@ fn patches<S: Scene>(
             return Err(ctx.err(format!("{at}.{name}"), "must be at least 1 x 1"));
         }
     }
-    let polygon = match &c.polygon {
-        Some(v) => Some(Polygon::new(v.clone()).ok_or_else(|| {
+    let (vertices, key) = match (&c.polygon, &c.polygon_map) {
+        (Some(_), Some(_)) => return Err(ctx.err(
+            format!("{at}.polygon_map"),
+            "give the region as `polygon` (pixels) or `polygon_map` (map coordinates), not both",
+        )),
+        (Some(v), None) => (Some(v.clone()), "polygon"),
+        (None, Some(v)) => (
+            Some(map_polygon(v, stack).map_err(|m| ctx.err(format!("{at}.polygon_map"), m))?),
+            "polygon_map",
+        ),
+        (None, None) => (None, "polygon"),
+    };
+    let polygon = match vertices {
+        Some(v) => Some(Polygon::new(v).ok_or_else(|| {
             ctx.err(
-                format!("{at}.polygon"),
-                "a polygon is 3 vertices [row, column] or more, finite",
+                format!("{at}.{key}"),
+                "a polygon is 3 vertices or more, finite",
             )
         })?),
         None => None,
