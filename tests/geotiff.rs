@@ -131,6 +131,48 @@ fn a_cut_geotiff_stack_is_the_stack_cut_cuts_from_rasterios_pixels() {
         &run(d, "tri_npy", "kind: npy, path: fixtures/tri.npy"),
     );
     assert!(dataset_files(&tri)["cut"]["places"].as_u64().unwrap() < 14);
+    // `isar-clutter cut` with the triangle, and then the window, by longitude and latitude
+    // (x = 11 + col / 10^4, y = 48 - row / 10^4 through the ground control points): the
+    // stacks of the pixel options, byte for byte.
+    let tri_map = fx.join("tri_map.npy");
+    cut_cli(
+        &tifs,
+        &tri_map,
+        &[
+            "--map-polygon",
+            "11.0001,47.9998;11.0029,47.9998;11.0015,47.9962",
+        ],
+    );
+    assert_eq!(
+        std::fs::read(&tri_map).unwrap(),
+        std::fs::read(fx.join("tri.npy")).unwrap()
+    );
+    let boxed = fx.join("box_cut.npy");
+    let mut args: Vec<String> = vec!["cut".into()];
+    for t in &tifs {
+        args.extend(["--input".into(), t.display().to_string()]);
+    }
+    args.extend(
+        [
+            "--patch",
+            "8",
+            "--stride",
+            "8x6",
+            "--avoid",
+            "10:14,10:14",
+            "--map-box",
+            "11.0001,11.0029,47.9962,47.9998",
+            "--out",
+        ]
+        .map(String::from),
+    );
+    args.push(boxed.display().to_string());
+    let o = common::bin(&args);
+    assert!(o.status.success(), "{}", common::text(&o));
+    assert_eq!(
+        std::fs::read(&boxed).unwrap(),
+        std::fs::read(fx.join("cut.npy")).unwrap()
+    );
     // The same triangle by its longitudes and latitudes, through the scenes' ground control
     // points (x = 11 + col / 10^4, y = 48 - row / 10^4), gives the same patches.
     let on_map = CUT_FIELDS.replace(

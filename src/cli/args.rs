@@ -396,6 +396,14 @@ pub struct CutArgs {
     /// A region (r0,c0;r1,c1;r2,c2;... in pixels) patches must lie wholly inside.
     #[arg(long)]
     pub polygon: Option<isar_clutter::io::polygon::Polygon>,
+    /// Where patches may lie as a box of map coordinates, X0,X1,Y0,Y1 (GeoTIFF scenes: the
+    /// files' map transform or ground control points, longitude and latitude for
+    /// Sentinel-1), instead of --window.
+    #[arg(long, value_name = "X0,X1,Y0,Y1", conflicts_with = "window", value_parser = map_box)]
+    pub map_box: Option<([f64; 2], [f64; 2])>,
+    /// The region of --polygon by its vertices in map coordinates: x0,y0;x1,y1;x2,y2;...
+    #[arg(long, value_name = "X0,Y0;X1,Y1;...", conflicts_with = "polygon")]
+    pub map_polygon: Option<isar_clutter::io::polygon::Polygon>,
     /// A mask of the scene (.npy [H, W], bool or uint8): no patch covers a non-zero pixel.
     #[arg(long, value_name = "MASK.npy")]
     pub avoid_mask: Option<PathBuf>,
@@ -405,6 +413,23 @@ pub struct CutArgs {
     /// Patches per block (memory: two blocks).
     #[arg(long, default_value_t = 256)]
     pub chunk: usize,
+}
+
+/// Parses `--map-box X0,X1,Y0,Y1`.
+fn map_box(text: &str) -> Result<([f64; 2], [f64; 2]), String> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{text:?} is not X0,X1,Y0,Y1"))?;
+    match v[..] {
+        [x0, x1, y0, y1] if v.iter().all(|f| f.is_finite()) && x0 != x1 && y0 != y1 => {
+            Ok(([x0, x1], [y0, y1]))
+        }
+        _ => Err(format!(
+            "{text:?} is not X0,X1,Y0,Y1 (four finite numbers, a box)"
+        )),
+    }
 }
 
 /// Parses `--jobs`: at least 1, capped at what the machine can use

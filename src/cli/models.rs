@@ -115,17 +115,32 @@ pub fn cut(a: CutArgs) -> Result<()> {
     };
     let kinds: std::collections::BTreeSet<String> = a.input.iter().map(|p| suffix(p)).collect();
     let kinds: Vec<&str> = kinds.iter().map(String::as_str).collect();
-    use isar_clutter::io::{geotiff::GeoTiff, scenes::cut_scenes, sicd::Sicd, uavsar::UavsarScene};
+    use isar_clutter::io::scenes::{cut_scenes, MapRegion};
+    use isar_clutter::io::{geotiff::GeoTiff, sicd::Sicd, uavsar::UavsarScene};
     let (input, out, chunk) = (&a.input, &a.out, a.chunk);
+    let map = MapRegion {
+        window: a.map_box,
+        polygon: a.map_polygon.map(|p| p.0),
+    };
+    let scenes = (&options, &map);
     let done = match kinds[..] {
-        ["npy"] if input.len() == 1 => cut::cut_npy(&input[0], out, &options, chunk, progress)?,
+        ["npy"] if input.len() == 1 => {
+            if map != MapRegion::default() {
+                anyhow::bail!(
+                    "--map-box, --map-polygon: {} has no georeferencing; give --window and \
+                     --polygon in pixels",
+                    input[0].display()
+                );
+            }
+            cut::cut_npy(&input[0], out, &options, chunk, progress)?
+        }
         ["tif"] | ["tiff"] | ["tif", "tiff"] => {
-            cut_scenes::<GeoTiff>(input, out, &options, chunk, progress)?
+            cut_scenes::<GeoTiff>(input, out, scenes, chunk, progress)?
         }
         ["nitf"] | ["ntf"] | ["nitf", "ntf"] => {
-            cut_scenes::<Sicd>(input, out, &options, chunk, progress)?
+            cut_scenes::<Sicd>(input, out, scenes, chunk, progress)?
         }
-        ["slc"] => cut_scenes::<UavsarScene>(input, out, &options, chunk, progress)?,
+        ["slc"] => cut_scenes::<UavsarScene>(input, out, scenes, chunk, progress)?,
         _ => {
             let given: Vec<String> = input.iter().map(|p| p.display().to_string()).collect();
             anyhow::bail!(

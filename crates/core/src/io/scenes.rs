@@ -6,7 +6,7 @@
 //! that name the field, the scene and the file ([`StackError`]).
 
 use super::cut::{Size2, Window};
-use super::mapping::{map_window, Georeference, MapWindow};
+use super::mapping::{map_points, map_window, Georeference, MapWindow};
 use num_complex::Complex32;
 use std::path::{Path, PathBuf};
 
@@ -299,6 +299,46 @@ impl<S: Scene> Scenes<S> {
         super::cut::masked_places(first.dims(), &within, first.path())
     }
 
+    /// The pixel vertices `[row, column]` of the polygon `vertices` (`[x, y]` in map
+    /// coordinates) through every scene's georeferencing, which must agree (scenes on one
+    /// grid).
+    ///
+    /// # Errors
+    /// A scene without georeferencing (naming it), a georeferencing that maps nothing, or
+    /// scenes that put the polygon on different pixels.
+    pub fn map_polygon(&self, vertices: &[[f64; 2]]) -> Result<Vec<[f64; 2]>, String> {
+        let mut first: Option<Vec<[f64; 2]>> = None;
+        for s in &self.scenes {
+            let g = s.georeference().ok_or_else(|| {
+                format!(
+                    "{} gives no georeferencing (no map transform, no ground control points): \
+                     give the polygon in pixels",
+                    s.path().display()
+                )
+            })?;
+            let (pixels, _) =
+                map_points(&g, vertices).map_err(|m| format!("{}: {m}", s.path().display()))?;
+            match &first {
+                None => first = Some(pixels),
+                Some(f) => {
+                    let apart = f
+                        .iter()
+                        .zip(&pixels)
+                        .any(|(a, b)| (a[0] - b[0]).abs() > 1e-6 || (a[1] - b[1]).abs() > 1e-6);
+                    if apart {
+                        return Err(format!(
+                            "the polygon lies on other pixels of {} than of {}: the scenes are \
+                             not on one grid; give the polygon in pixels",
+                            s.path().display(),
+                            self.scenes[0].path().display()
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(first.unwrap_or_default())
+    }
+
     /// What the manifest records: the window and each file's description.
     pub fn describe(&self) -> serde_json::Value {
         let w = &self.window;
@@ -316,6 +356,17 @@ impl<S: Scene> Scenes<S> {
     }
 }
 
+/// A window and a polygon in the scenes' map coordinates (`isar-clutter cut --map-box`,
+/// `--map-polygon`), turned into pixels through their georeferencing.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MapRegion {
+    /// The box `x` x `y` ([`Place::Map`]), instead of the options' pixel window.
+    pub window: Option<([f64; 2], [f64; 2])>,
+    /// The vertices `[x, y]` of a region patches must lie inside, instead of the options'
+    /// pixel polygon.
+    pub polygon: Option<Vec<[f64; 2]>>,
+}
+
 /// Cuts the scenes `paths` of format `S` (one, or a time stack of coregistered ones) into the
 /// complex64 stack `out` as [`super::cut::cut_npy`] cuts an `.npy` scene: the same places,
 /// order (sample `p T + t` is scene `t` at place `p`), record and streaming, `chunk` samples a
@@ -327,14 +378,31 @@ impl<S: Scene> Scenes<S> {
 pub fn cut_scenes<S: OpenScene + Sync>(
     paths: &[PathBuf],
     out: &Path,
-    o: &super::cut::CutOptions,
+    (o, map): (&super::cut::CutOptions, &MapRegion),
     chunk: usize,
     progress: impl Fn(usize),
 ) -> anyhow::Result<super::cut::Cut> {
     use anyhow::bail;
-    let stack = Scenes::<S>::open(paths, o.window.map(Place::Pixels))
-        .map_err(|e| anyhow::anyhow!("--input {e}"))?;
+    let place = match map.window {
+        Some((x, y)) => Some(Place::Map { x, y }),
+        None => o.window.map(Place::Pixels),
+    };
+    let stack = Scenes::<S>::open(paths, place).map_err(|e| anyhow::anyhow!("--input {e}"))?;
     let (rows, cols) = stack.scenes[0].dims();
+    let mut options = o.clone();
+    if map.window.is_some() {
+        options.window = Some(stack.window);
+    }
+    if let Some(v) = &map.polygon {
+        let pixels = stack
+            .map_polygon(v)
+            .map_err(|e| anyhow::anyhow!("--map-polygon: {e}"))?;
+        options.polygon = Some(
+            super::polygon::Polygon::new(pixels)
+                .ok_or_else(|| anyhow::anyhow!("--map-polygon: not a polygon in pixels"))?,
+        );
+    }
+    let o = &options;
     let places = stack.cut_places(o)?;
     let t = stack.scenes.len();
     let samples = places.len() * t;

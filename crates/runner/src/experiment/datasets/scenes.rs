@@ -12,7 +12,6 @@ use super::kind::{DataError, DatasetKind, Materialised};
 use crate::alloc::try_zeros;
 use crate::experiment::context::{Ctx, SpecError};
 use crate::io::cut::{CutOptions, Size2, Window};
-use crate::io::mapping::map_points;
 use crate::io::npy::Stack;
 use crate::io::polygon::Polygon;
 use crate::io::scenes::{OpenScene, Place, Scene, Scenes};
@@ -375,44 +374,6 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
     }
 }
 
-/// The pixel vertices `[row, column]` of the polygon `vertices` (`[x, y]` in map coordinates)
-/// in every scene of `stack`, which must agree (scenes on one grid).
-fn map_polygon<S: Scene>(
-    vertices: &[[f64; 2]],
-    stack: &Scenes<S>,
-) -> Result<Vec<[f64; 2]>, String> {
-    let mut first: Option<Vec<[f64; 2]>> = None;
-    for s in &stack.scenes {
-        let g = s.georeference().ok_or_else(|| {
-            format!(
-                "{} gives no georeferencing (no map transform, no ground control points): give \
-                 `polygon` in pixels",
-                s.path().display()
-            )
-        })?;
-        let (pixels, _) =
-            map_points(&g, vertices).map_err(|m| format!("{}: {m}", s.path().display()))?;
-        match &first {
-            None => first = Some(pixels),
-            Some(f) => {
-                let apart = f
-                    .iter()
-                    .zip(&pixels)
-                    .any(|(a, b)| (a[0] - b[0]).abs() > 1e-6 || (a[1] - b[1]).abs() > 1e-6);
-                if apart {
-                    return Err(format!(
-                        "the polygon lies on other pixels of {} than of {}: the scenes are not \
-                         on one grid; give `polygon` in pixels",
-                        s.path().display(),
-                        stack.scenes[0].path().display()
-                    ));
-                }
-            }
-        }
-    }
-    Ok(first.unwrap_or_default())
-}
-
 /// The places of the cut `c` of `stack`'s window (`at`: the cut's YAML path).
 fn patches<S: Scene>(
     c: &CutSpec,
@@ -433,7 +394,11 @@ fn patches<S: Scene>(
         )),
         (Some(v), None) => (Some(v.clone()), "polygon"),
         (None, Some(v)) => (
-            Some(map_polygon(v, stack).map_err(|m| ctx.err(format!("{at}.polygon_map"), m))?),
+            Some(
+                stack
+                    .map_polygon(v)
+                    .map_err(|m| ctx.err(format!("{at}.polygon_map"), m))?,
+            ),
             "polygon_map",
         ),
         (None, None) => (None, "polygon"),
