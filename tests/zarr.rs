@@ -91,4 +91,43 @@ fn a_sweeps_maps_in_one_zarr_store_equal_its_npy_maps() {
     assert!(!zarr_only.join("maps").exists());
     assert_eq!(check(&python, &zarr_only, &both), said);
     assert_eq!(files(&zarr_only.join("maps.zarr")).len(), 1 + 2 * arrays);
+    // Its report draws every job's maps from the store: the maps the figures read (written
+    // into figures/<job>/maps/) are the .npy maps of the first run, value for value.
+    let o = common::bin(&["report".as_ref(), zarr_only.as_os_str()]);
+    assert!(o.status.success(), "{}", common::text(&o));
+    let mut compared = 0;
+    for job in std::fs::read_dir(both.join("maps")).unwrap() {
+        let job = job.unwrap().file_name();
+        let drawn = zarr_only.join("figures").join(&job).join("maps");
+        for map in std::fs::read_dir(both.join("maps").join(&job)).unwrap() {
+            let map = map.unwrap().path();
+            let name = map.file_name().unwrap();
+            let ours = drawn.join(name);
+            if name.to_string_lossy().starts_with("mean") {
+                use ndarray_npy::ReadNpyExt;
+                let read = |p: &Path| -> ndarray::Array2<num_complex::Complex64> {
+                    ndarray::Array2::read_npy(std::fs::File::open(p).unwrap()).unwrap()
+                };
+                assert_eq!(read(&ours), read(&map), "{}", ours.display());
+            } else {
+                let read = |p: &Path| isar_clutter::io::npy::read_real_map(p).unwrap();
+                let (a, b) = (read(&ours), read(&map));
+                assert!(
+                    a.iter()
+                        .zip(&b)
+                        .all(|(x, y)| x == y || (x.is_nan() && y.is_nan())),
+                    "{}",
+                    ours.display()
+                );
+            }
+            compared += 1;
+        }
+        assert!(
+            std::fs::read_dir(zarr_only.join("figures").join(&job))
+                .unwrap()
+                .any(|f| f.unwrap().path().extension().is_some_and(|e| e == "png")),
+            "no figure of {job:?}"
+        );
+    }
+    assert!(compared > 60, "{compared} maps compared");
 }

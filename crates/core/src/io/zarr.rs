@@ -303,6 +303,121 @@ pub fn read_f64(dir: &Path, j: usize) -> Result<Option<Vec<f64>>> {
     ))
 }
 
+/// The job ids of the store at `root` (its root group's `jobs`, in the job dimension's
+/// order); empty where there is no store.
+///
+/// # Errors
+/// If the root's `zarr.json` exists but cannot be read as the store's.
+pub fn jobs(root: &Path) -> Result<Vec<String>> {
+    let meta = root.join("zarr.json");
+    if !meta.is_file() {
+        return Ok(vec![]);
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&meta)?)
+        .with_context(|| format!("{}", meta.display()))?;
+    let ids = v["attributes"]["jobs"]
+        .as_array()
+        .with_context(|| format!("{}: no attributes.jobs", meta.display()))?;
+    ids.iter()
+        .map(|i| {
+            i.as_str()
+                .map(str::to_string)
+                .with_context(|| format!("{}: a job id that is not text", meta.display()))
+        })
+        .collect()
+}
+
+/// One job's map read back from the store.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobMap {
+    /// The map's name (an array's name without a second size's `@RxC`).
+    pub name: String,
+    /// Rows.
+    pub rows: usize,
+    /// Columns.
+    pub cols: usize,
+    /// Its values: real (`float64`) ...
+    pub real: Option<Vec<f64>>,
+    /// ... or complex (`complex128`).
+    pub complex: Option<Vec<Complex64>>,
+}
+
+/// Every map of job `job` in the store at `root` (reading each array's shard index and the
+/// job's chunk only), in the order of the arrays' names; `None` if the store does not list the
+/// job.
+///
+/// # Errors
+/// If the store cannot be read or a chunk is not what its array's metadata says.
+pub fn read_job(root: &Path, job: &str) -> Result<Option<Vec<JobMap>>> {
+    use std::io::{Seek, SeekFrom};
+    let ids = jobs(root)?;
+    let Some(j) = ids.iter().position(|i| i == job) else {
+        return Ok(None);
+    };
+    let n = ids.len() as u64;
+    let mut names: Vec<String> = std::fs::read_dir(root)?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().join("zarr.json").is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut out = vec![];
+    for name in names {
+        let dir = root.join(&name);
+        let meta: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("zarr.json"))?)?;
+        let (rows, cols) = (
+            meta["shape"][1].as_u64().context("shape")? as usize,
+            meta["shape"][2].as_u64().context("shape")? as usize,
+        );
+        let dtype = meta["data_type"].as_str().context("data_type")?.to_string();
+        let shard_path = dir.join("c/0/0/0");
+        let mut shard = std::fs::File::open(&shard_path)
+            .with_context(|| format!("{}", shard_path.display()))?;
+        let len = shard.metadata()?.len();
+        let at = len
+            .checked_sub(16 * (n - j as u64))
+            .with_context(|| format!("{}: shorter than its index", shard_path.display()))?;
+        let mut entry = [0u8; 16];
+        shard.seek(SeekFrom::Start(at))?;
+        shard.read_exact(&mut entry)?;
+        let offset = u64::from_le_bytes(entry[..8].try_into().expect("8 bytes"));
+        let bytes = u64::from_le_bytes(entry[8..].try_into().expect("8 bytes"));
+        if offset == u64::MAX {
+            continue;
+        }
+        let mut packed = vec![0u8; usize::try_from(bytes)?];
+        shard.seek(SeekFrom::Start(offset))?;
+        shard.read_exact(&mut packed)?;
+        let mut raw = vec![];
+        flate2::read::GzDecoder::new(&packed[..]).read_to_end(&mut raw)?;
+        let width = if dtype == "complex128" { 16 } else { 8 };
+        if raw.len() != rows * cols * width {
+            bail!(
+                "{}: job {job}'s chunk holds {} bytes, not {rows} x {cols} {dtype}",
+                shard_path.display(),
+                raw.len()
+            );
+        }
+        let f = |b: &[u8]| f64::from_le_bytes(b.try_into().expect("8 bytes"));
+        let values: Vec<f64> = raw.chunks_exact(8).map(f).collect();
+        let base = name.split('@').next().unwrap_or(&name).to_string();
+        out.push(JobMap {
+            name: base,
+            rows,
+            cols,
+            complex: (width == 16).then(|| {
+                values
+                    .chunks_exact(2)
+                    .map(|p| Complex64::new(p[0], p[1]))
+                    .collect()
+            }),
+            real: (width == 8).then_some(values),
+        });
+    }
+    Ok(Some(out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -341,5 +456,47 @@ mod tests {
             group["attributes"]["jobs"],
             serde_json::json!(["a", "gone", "b"])
         );
+    }
+
+    /// One job's maps read back through the shards' indexes are the staged values: real and
+    /// complex, both sizes of a name (the second's `@RxC` dropped); a job with no chunks has
+    /// none, a job the store does not list is `None`, and no store lists no jobs.
+    #[test]
+    fn a_jobs_maps_are_read_back_by_its_id() {
+        let dir = tempfile::tempdir().unwrap();
+        let a: Vec<f64> = (0..6).map(|i| i as f64 * 0.25).collect();
+        let wide: Vec<f64> = (0..8).map(|i| -f64::from(i)).collect();
+        let mean: Vec<Complex64> = (0..6).map(|i| Complex64::new(i as f64, -1.5)).collect();
+        let jobs: Vec<(String, PathBuf)> = ["x", "y"]
+            .iter()
+            .map(|id| (id.to_string(), dir.path().join(format!("{id}.chunks"))))
+            .collect();
+        write_staged(&jobs[0].1, &[chunk("variance", 2, 3, Values::F64(&a))]).unwrap();
+        let y = [
+            chunk("mean", 2, 3, Values::C128(&mean)),
+            chunk("variance", 2, 3, Values::F64(&a)),
+            chunk("variance", 2, 4, Values::F64(&wide)),
+        ];
+        write_staged(&jobs[1].1, &y).unwrap();
+        let root = dir.path().join("maps.zarr");
+        pack(&root, &jobs, serde_json::json!({})).unwrap();
+        assert_eq!(super::jobs(&root).unwrap(), ["x", "y"]);
+        let got = read_job(&root, "y").unwrap().unwrap();
+        let names: Vec<(&str, usize, usize)> = got
+            .iter()
+            .map(|m| (m.name.as_str(), m.rows, m.cols))
+            .collect();
+        assert_eq!(
+            names,
+            [("mean", 2, 3), ("variance", 2, 3), ("variance", 2, 4)]
+        );
+        assert_eq!(got[0].complex.as_deref(), Some(&mean[..]));
+        assert_eq!(got[1].real.as_deref(), Some(&a[..]));
+        assert_eq!(got[2].real.as_deref(), Some(&wide[..]));
+        let x = read_job(&root, "x").unwrap().unwrap();
+        assert_eq!(x.len(), 1);
+        assert_eq!(x[0].real, read_f64(&root.join("variance"), 0).unwrap());
+        assert_eq!(read_job(&root, "z").unwrap(), None);
+        assert!(super::jobs(&dir.path().join("none")).unwrap().is_empty());
     }
 }

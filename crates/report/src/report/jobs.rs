@@ -47,7 +47,12 @@ fn level_maps(maps: &Path, prefix: &str, kind: &str) -> Result<(Grid, Vec<PathBu
 /// The figures of one job, from `maps/<job>/`, `samples/<job>.npy` and the synthesis
 /// parameters.
 pub(super) fn job_figures(dir: &Path, job: &str, params: Option<&Params>) -> Result<Vec<Task>> {
-    let maps = crate::io::results::files::maps(dir, job);
+    let mut maps = crate::io::results::files::maps(dir, job);
+    if !maps.is_dir() {
+        if let Some(extracted) = zarr_maps(dir, job)? {
+            maps = extracted;
+        }
+    }
     let mut out = correlation_figures(dir, job, &maps)?;
     out.extend(level_figures(dir, job, &maps)?);
     out.extend(moment_figures(dir, job, &maps)?);
@@ -60,6 +65,41 @@ pub(super) fn job_figures(dir: &Path, job: &str, params: Option<&Params>) -> Res
         out.push(example_sample(dir, job, &sample_file)?);
     }
     Ok(out)
+}
+
+/// A job's maps from the run's `maps.zarr` (`outputs: {zarr_maps: true}` without `.npy`
+/// maps), written as the `.npy` files the figures read into `figures/<job>/maps/` (the
+/// report's own folder: the figures' data then name files a reader can open); `None` where
+/// the store does not hold the job.
+fn zarr_maps(dir: &Path, job: &str) -> Result<Option<PathBuf>> {
+    use ndarray_npy::WriteNpyExt;
+    let root = crate::io::results::files::maps_zarr(dir);
+    let Some(maps) = crate::io::zarr::read_job(&root, job)
+        .with_context(|| format!("reading {job}'s maps from {}", root.display()))?
+    else {
+        return Ok(None);
+    };
+    let out = dir.join("figures").join(job).join("maps");
+    std::fs::create_dir_all(&out)?;
+    let mut seen = BTreeSet::new();
+    for m in maps {
+        // A name with a second size keeps the first, as `maps/<job>/` would hold one.
+        if !seen.insert(m.name.clone()) {
+            continue;
+        }
+        let path = names::file(&out, &m.name);
+        let shape = (m.rows, m.cols);
+        crate::io::atomic::atomic_write(&path, |w| {
+            match (m.real, m.complex) {
+                (Some(v), _) => Array2::from_shape_vec(shape, v)?.write_npy(w)?,
+                (_, Some(v)) => Array2::from_shape_vec(shape, v)?.write_npy(w)?,
+                _ => anyhow::bail!("no values"),
+            }
+            Ok(())
+        })
+        .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(Some(out))
 }
 
 /// The correlation maps by level and direction, and a histogram of their values per level

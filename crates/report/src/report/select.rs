@@ -112,14 +112,21 @@ pub fn choose(candidates: &[String], figures_for: FiguresFor) -> Selection {
 }
 
 /// The jobs of `ok` (plan order) with per-job figures in the results folder `dir`: a
-/// `maps/<job>/` folder, a `samples/<job>.npy`, or a job of `with_params` (the jobs with rows
-/// in `synthesis_params.parquet`).
+/// `maps/<job>/` folder, maps in `maps.zarr`, a `samples/<job>.npy`, or a job of
+/// `with_params` (the jobs with rows in `synthesis_params.parquet`).
 pub fn candidates(dir: &Path, ok: &[String], with_params: &BTreeSet<String>) -> Vec<String> {
     use crate::io::results::files;
+    // A store that cannot be read gives no candidates here; drawing a job's maps from it
+    // says why.
+    let in_store: BTreeSet<String> = crate::io::zarr::jobs(&files::maps_zarr(dir))
+        .unwrap_or_default()
+        .into_iter()
+        .collect();
     ok.iter()
         .filter(|job| {
             with_params.contains(job.as_str())
                 || files::maps(dir, job).is_dir()
+                || in_store.contains(job.as_str())
                 || files::samples(dir, job).is_file()
         })
         .cloned()
