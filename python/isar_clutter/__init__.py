@@ -49,6 +49,7 @@ def load(
     dataset: Optional[str] = None,
     imag: Optional[str] = None,
     layout: str = "nhw",
+    map_box: Optional[Tuple[Tuple[float, float], Tuple[float, float]]] = None,
 ):
     """A stack of radar images as a numpy array ``[N, H, W]``, ready for ``analyse`` and ``fit``.
 
@@ -61,7 +62,9 @@ def load(
     - Complex GeoTIFF scenes (``.tif``, ``.tiff``: Sentinel-1 SLC measurement files, Capella
       SLCs; complex int16 / int32 / float32 / float64, or two int16 / float32 samples a pixel;
       strips or tiles, uncompressed or deflate); every scene is one sample, read in
-      ``window`` as above. complex64.
+      ``window`` as above, or in the pixels covering ``map_box`` ``((x0, x1), (y0, y1))``
+      of the files' map coordinates (their affine transform, or their ground control points
+      as GDAL fits them: longitude and latitude for Sentinel-1). complex64.
     - SICD images (``.nitf``, ``.ntf``: NITF 2.1 with SICD XML, Umbra's and Capella's
       single-look complex deliveries; ``RE32F_IM32F``, ``RE16I_IM16I``, ``AMP8I_PHS8I``);
       every image is one sample, read in ``window`` as above. complex64; ``calibration``
@@ -91,8 +94,10 @@ def load(
         raise ValueError("calibration reads SICD's scale factors: give .nitf/.ntf files")
     if kinds == {".slc"}:
         return load_uavsar(paths, _paths(annotation), window)
+    if map_box is not None and not (kinds and kinds <= {".tif", ".tiff"}):
+        raise ValueError("map_box: map coordinates are read from GeoTIFF scenes (.tif, .tiff)")
     if kinds and kinds <= {".tif", ".tiff"} and annotation is None:
-        return load_geotiff(paths, window)
+        return load_geotiff(paths, window, map_box)
     if kinds and kinds <= {".nitf", ".ntf"} and annotation is None:
         return load_sicd(paths, window, calibration)
     raise ValueError(

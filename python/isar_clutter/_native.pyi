@@ -41,8 +41,10 @@ def load_uavsar(
 def load_geotiff(
     paths: Sequence[Union[str, PathLike]],
     window: Optional[Tuple[int, int, int, int]] = None,
+    map_box: Optional[Tuple[Tuple[float, float], Tuple[float, float]]] = None,
 ) -> np.ndarray:
-    """The window ``(row, col, rows, cols)`` of every complex GeoTIFF scene as complex64 [N, H, W]."""
+    """The window ``(row, col, rows, cols)`` (or the pixels covering ``map_box`` ``((x0, x1),
+    (y0, y1))`` in map coordinates) of every complex GeoTIFF scene as complex64 [N, H, W]."""
 
 def load_sicd(
     paths: Sequence[Union[str, PathLike]],

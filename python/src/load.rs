@@ -38,22 +38,39 @@ pub fn load_uavsar<'py>(
     read_stack(py, &stack, "UAVSAR", |_| true)
 }
 
-/// load_geotiff(paths, window=None)
+/// load_geotiff(paths, window=None, map_box=None)
 /// --
 ///
 /// The same window `(row, col, rows, cols)` of every complex GeoTIFF scene in `paths`
-/// (default: the whole scene), as a complex64 `[N, H, W]` array. A bad file is a `ValueError`
+/// (default: the whole scene), or the pixels covering `map_box` `((x0, x1), (y0, y1))` in the
+/// files' map coordinates (their affine transform or ground control points, as the `geotiff`
+/// kind's map `window`), as a complex64 `[N, H, W]` array. A bad file is a `ValueError`
 /// naming the field, the scene, the file and the TIFF tag; an unreadable one an `OSError`.
 #[pyfunction]
-#[pyo3(signature = (paths, window = None))]
+#[pyo3(signature = (paths, window = None, map_box = None))]
 pub fn load_geotiff<'py>(
     py: Python<'py>,
     paths: Vec<PathBuf>,
     window: Option<(usize, usize, usize, usize)>,
+    map_box: Option<([f64; 2], [f64; 2])>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    load_scenes::<GeoTiff>(py, &paths, window, None, "GeoTIFF", |e| {
+    let place =
+        match (window, map_box) {
+            (Some(_), Some(_)) => return Err(PyValueError::new_err(
+                "window: give the window in pixels (window=) or in map coordinates (map_box=), \
+                 not both",
+            )),
+            (None, Some((x, y))) => Some(Place::Map { x, y }),
+            (w, None) => pixels(w),
+        };
+    load_scenes::<GeoTiff>(py, &paths, place, None, "GeoTIFF", |e| {
         matches!(e, TiffError::Io { .. })
     })
+}
+
+/// A window `(row, col, rows, cols)` in pixels.
+fn pixels(window: Option<(usize, usize, usize, usize)>) -> Option<Place> {
+    window.map(|(row, col, rows, cols)| Place::Pixels(Window::at(row, col, rows, cols)))
 }
 
 /// load_sicd(paths, window=None, calibration=None)
@@ -72,7 +89,7 @@ pub fn load_sicd<'py>(
     window: Option<(usize, usize, usize, usize)>,
     calibration: Option<String>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    load_scenes::<Sicd>(py, &paths, window, calibration, "SICD", |e| {
+    load_scenes::<Sicd>(py, &paths, pixels(window), calibration, "SICD", |e| {
         matches!(e, SicdError::Io { .. })
     })
 }
@@ -83,7 +100,7 @@ pub fn load_sicd<'py>(
 fn load_scenes<'py, S: OpenScene + Sync>(
     py: Python<'py>,
     paths: &[PathBuf],
-    window: Option<(usize, usize, usize, usize)>,
+    window: Option<Place>,
     calibration: Option<String>,
     what: &str,
     is_io: fn(&S::Error) -> bool,
@@ -91,8 +108,6 @@ fn load_scenes<'py, S: OpenScene + Sync>(
 where
     S::Error: Send,
 {
-    let window =
-        window.map(|(row, col, rows, cols)| Place::Pixels(Window::at(row, col, rows, cols)));
     let mut stack =
         Scenes::<S>::open(paths, window).map_err(|e| PyValueError::new_err(e.to_string()))?;
     if let Some(q) = &calibration {

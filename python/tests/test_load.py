@@ -91,6 +91,18 @@ def test_geotiff_scenes_are_read_as_rasterio_reads_them(tmp_path):
     paths, want = geotiffs(tiled, "complex64", tiled=True, blockxsize=16, blockysize=16,
                            compress="deflate")
     np.testing.assert_array_equal(ic.load(paths), want)
+    # The same pixels by map coordinates: a UTM grid of 2.5 m columns and 5 m rows.
+    from rasterio.transform import Affine
+    utm = tmp_path / "utm"
+    utm.mkdir()
+    upaths, uwant = geotiffs(utm, "complex64", crs="EPSG:32632",
+                             transform=Affine(2.5, 0.0, 500000.0, 0.0, -5.0, 5300000.0))
+    got = ic.load(upaths, map_box=((500007.5, 500020.0), (5299960.0, 5299990.0)))
+    np.testing.assert_array_equal(got, uwant[:, 2:8, 3:8])
+    with pytest.raises(ValueError, match="not both"):
+        ic.load(upaths, window=(0, 0, 2, 2), map_box=((500007.5, 500020.0), (5299960.0, 5299990.0)))
+    with pytest.raises(ValueError, match="gives no georeferencing"):
+        ic.load(paths, map_box=((0.0, 1.0), (0.0, 1.0)))
     paths[1].write_bytes(paths[1].read_bytes()[:-64])
     with pytest.raises(ValueError, match=r"path\[1\]: .*scene_1.tif: TileByteCounts: block \d+ holds"):
         ic.load(paths)
