@@ -13,7 +13,6 @@
 
 use crate::io::npy::Dtype;
 use hdf5_metno::filters::Filter;
-use num_complex::{Complex32, Complex64};
 use rayon::prelude::*;
 use std::io::Read;
 use std::os::unix::fs::FileExt;
@@ -236,14 +235,4 @@ fn apply(step: Step, src: &[u8], dst: &mut [u8]) -> Result<(), String> {
         }
     }
     Ok(())
-}
-
-/// The element type a plan's bytes are read into, for [`super::read`].
-pub(super) fn into_complex64(out: &mut [Complex32]) -> &mut [u8] {
-    bytemuck::cast_slice_mut(out)
-}
-
-/// See [`into_complex64`].
-pub(super) fn into_complex128(out: &mut [Complex64]) -> &mut [u8] {
-    bytemuck::cast_slice_mut(out)
 }

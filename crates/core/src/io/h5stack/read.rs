@@ -232,68 +232,54 @@ pub(super) fn load(st: &H5Stack) -> Result<Stack, String> {
         Some(name) => Some(file.dataset(name).map_err(at)?),
         None => None,
     };
-    let (n, h, w) = st.shape();
-    let alloc = |e: crate::alloc::AllocError| e.to_string();
-    // Plain chunks of complex values: inflated on every core, straight into the stack.
     let plan = match (st.hwn, &imag, native_dtype(&ds, st.form, false)) {
         (false, None, Some(dtype)) => chunks::plan(&ds, dtype, st.form == Form::Pairs),
         _ => None,
     };
-    if let Some(plan) = plan {
-        drop(ds);
-        drop(file);
-        return if st.storage == Storage::Single {
-            let mut out: Array3<Complex32> =
-                crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
-            plan.read(
-                &st.path,
-                chunks::into_complex64(out.as_slice_mut().expect("standard")),
-            )?;
-            Ok(Stack::Single(out))
-        } else {
-            let mut out: Array3<Complex64> =
-                crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
-            plan.read(
-                &st.path,
-                chunks::into_complex128(out.as_slice_mut().expect("standard")),
-            )?;
-            Ok(Stack::Generated(out))
-        };
+    let sets = (&ds, imag.as_ref(), st);
+    let alloc = |e: crate::alloc::AllocError| e.to_string();
+    if st.storage == Storage::Single {
+        let mut out = crate::alloc::try_zeros(st.shape(), "the hdf5 stack").map_err(alloc)?;
+        read_into::<f32>(sets, plan.as_ref(), &mut out)?;
+        Ok(Stack::Single(out))
+    } else {
+        let mut out = crate::alloc::try_zeros(st.shape(), "the hdf5 stack").map_err(alloc)?;
+        read_into::<f64>(sets, plan.as_ref(), &mut out)?;
+        Ok(Stack::Generated(out))
     }
-    // Whole chunks of samples per block, so that no chunk is inflated twice.
+}
+
+/// The stack into `out` (`[N, H, W]`) as numbers of type `F`: plain chunks of complex values
+/// inflated on every core, straight into place (`plan`); other complex values stored `[N, H,
+/// W]` in one libhdf5 read (each chunk copied into place, or converted); the rest in blocks
+/// of whole chunks of samples, so that no chunk is inflated twice.
+fn read_into<F>(
+    (ds, imag, st): (&hdf5_metno::Dataset, Option<&hdf5_metno::Dataset>, &H5Stack),
+    plan: Option<&chunks::ChunkPlan>,
+    out: &mut Array3<Complex<F>>,
+) -> Result<(), String>
+where
+    F: H5Type + Copy + Default + bytemuck::Pod,
+    Complex<F>: bytemuck::Pod,
+{
+    let slice = out.as_slice_mut().expect("standard layout");
+    if let Some(plan) = plan {
+        return plan.read(&st.path, bytemuck::cast_slice_mut(slice));
+    }
+    let at = |e: hdf5_metno::Error| format!("dataset {:?}: {}", st.dataset, h5(e));
+    if !st.hwn && matches!(st.form, Form::Compound(_) | Form::Pairs) {
+        return read_whole(ds, st.form, slice).map_err(at);
+    }
+    let (n, h, w) = st.shape();
     let chunk = ds
         .chunk()
         .map_or(1, |c| c[if st.hwn { 2 } else { 0 }])
         .max(1);
     let per = (BLOCK_BYTES / (16 * h * w).max(1)).max(1).div_ceil(chunk) * chunk;
-    let blocks = (0..n).step_by(per).map(|k| k..(k + per).min(n));
-    let sets = (&ds, imag.as_ref(), st);
-    // Complex values stored `[N, H, W]`: one read straight into the stack (libhdf5 copies
-    // each chunk into place, or converts it); others a block at a time.
-    let whole = !st.hwn && matches!(st.form, Form::Compound(_) | Form::Pairs);
-    if st.storage == Storage::Single {
-        let mut out: Array3<Complex32> =
-            crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
-        if whole {
-            read_whole(&ds, st.form, out.as_slice_mut().expect("standard layout")).map_err(at)?;
-        } else {
-            for k in blocks {
-                read_block(sets, k.clone(), out.slice_mut(s![k, .., ..])).map_err(at)?;
-            }
-        }
-        Ok(Stack::Single(out))
-    } else {
-        let mut out: Array3<Complex64> =
-            crate::alloc::try_zeros((n, h, w), "the hdf5 stack").map_err(alloc)?;
-        if whole {
-            read_whole(&ds, st.form, out.as_slice_mut().expect("standard layout")).map_err(at)?;
-        } else {
-            for k in blocks {
-                read_block(sets, k.clone(), out.slice_mut(s![k, .., ..])).map_err(at)?;
-            }
-        }
-        Ok(Stack::Generated(out))
+    for k in (0..n).step_by(per).map(|k| k..(k + per).min(n)) {
+        read_block((ds, imag, st), k.clone(), out.slice_mut(s![k, .., ..])).map_err(at)?;
     }
+    Ok(())
 }
 
 /// The whole dataset `ds` of complex values (`form`: a compound or float pairs), stored
@@ -419,7 +405,7 @@ fn shape_of(file: &hdf5_metno::File, name: &str) -> Result<(Form, [usize; 3], bo
 pub(super) fn read_window(
     st: &H5Stack,
     win: &crate::io::cut::Window,
-    out: &mut [num_complex::Complex32],
+    out: &mut [Complex32],
 ) -> Result<(), String> {
     assert_eq!(out.len(), win.rows() * win.cols(), "the window's values");
     let at = |e: hdf5_metno::Error| format!("dataset {:?}: {}", st.dataset, h5(e));
@@ -454,7 +440,7 @@ pub(super) fn read_window(
     }
     .map_err(at)?;
     for (o, v) in out.iter_mut().zip(values.iter()) {
-        *o = num_complex::Complex32::new(v.re as f32, v.im as f32);
+        *o = Complex32::new(v.re as f32, v.im as f32);
     }
     Ok(())
 }
