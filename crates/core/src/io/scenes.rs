@@ -61,6 +61,12 @@ pub trait Scene: Sized {
     fn georeference(&self) -> Option<Georeference> {
         None
     }
+    /// Rows of the file's storage blocks (HDF5 chunks, GeoTIFF tiles or strips): a window is
+    /// read in whole blocks, which compressed ones inflate, so reads as tall as a block waste
+    /// the least ([`Scenes::read_patches`]).
+    fn block_rows(&self) -> usize {
+        1
+    }
     /// Makes every later read give calibrated values of `quantity` (`sigma0`, `beta0`,
     /// `gamma0`, `rcs`: `|value|^2` is that quantity) from the file's own scale factors.
     ///
@@ -249,8 +255,10 @@ impl<S: Scene> Scenes<S> {
 
     /// Reads the `patch`-sized patches at `places` (top-left row and column, in the row-major
     /// order of [`super::cut::places`]) of every scene into `out`: sample `p N + t` is scene
-    /// `t` at place `p`, the order of `isar-clutter cut`. Each row of places is one read of a
-    /// band of `patch.rows` rows of each scene, so memory beyond `out` is one band.
+    /// `t` at place `p`, the order of `isar-clutter cut`. Consecutive rows of places are one
+    /// read of a band of each scene, as tall as the patch or, where taller, as the scenes'
+    /// storage blocks ([`Scene::block_rows`]: each compressed block is then inflated once or
+    /// twice, not once a row of places), so memory beyond `out` is one band.
     ///
     /// # Errors
     /// The format's error if a file cannot be read or its data do not decode.
@@ -263,20 +271,32 @@ impl<S: Scene> Scenes<S> {
         let (n, (ph, pw)) = (self.scenes.len(), (patch.rows, patch.cols));
         let px = ph * pw;
         assert_eq!(out.len(), places.len() * n * px, "the patches' values");
+        let tall = self
+            .scenes
+            .iter()
+            .map(S::block_rows)
+            .max()
+            .unwrap_or(1)
+            .max(ph);
         let mut i = 0;
         while i < places.len() {
             let r = places[i].0;
-            let j = i + places[i..].iter().take_while(|p| p.0 == r).count();
+            let j = i + places[i..]
+                .iter()
+                .take_while(|p| p.0 + ph <= r + tall)
+                .count();
             let c0 = places[i..j].iter().map(|p| p.1).min().expect("a place");
             let c1 = places[i..j].iter().map(|p| p.1).max().expect("a place") + pw;
-            let band = Window::at(r, c0, ph, c1 - c0);
-            let mut buf = vec![Complex32::default(); ph * band.cols()];
+            let r1 = places[i..j].iter().map(|p| p.0).max().expect("a place") + ph;
+            let band = Window::at(r, c0, r1 - r, c1 - c0);
+            let mut buf = vec![Complex32::default(); band.rows() * band.cols()];
             for (t, scene) in self.scenes.iter().enumerate() {
                 scene.read_window(&band, &mut buf)?;
-                for (p, &(_, c)) in (i..j).zip(&places[i..j]) {
+                for (p, &(pr, c)) in (i..j).zip(&places[i..j]) {
                     let dst = &mut out[(p * n + t) * px..][..px];
                     for (row, d) in dst.chunks_exact_mut(pw).enumerate() {
-                        d.copy_from_slice(&buf[row * band.cols() + c - c0..][..pw]);
+                        let at = (pr - r + row) * band.cols() + c - c0;
+                        d.copy_from_slice(&buf[at..][..pw]);
                     }
                 }
             }
@@ -447,9 +467,10 @@ pub fn cut_scenes<S: OpenScene + Sync>(
 mod tests {
     use super::*;
 
-    /// A scene held in memory whose pixel `(r, c)` is `r + i c` plus `1000 k` (scene `k`).
+    /// A scene held in memory whose pixel `(r, c)` is `r + i c` plus `1000 k` (scene `k`),
+    /// stored in blocks of the third field's rows.
     #[derive(Debug, Clone, PartialEq)]
-    struct Grid(usize, PathBuf);
+    struct Grid(usize, PathBuf, usize);
 
     impl OpenScene for Grid {
         fn open(path: &Path) -> Result<Grid, String> {
@@ -457,7 +478,7 @@ mod tests {
                 .to_string_lossy()
                 .parse()
                 .map_err(|_| "a number".to_string())?;
-            Ok(Grid(k, path.to_path_buf()))
+            Ok(Grid(k, path.to_path_buf(), 1))
         }
     }
 
@@ -480,6 +501,9 @@ mod tests {
         fn describe(&self) -> serde_json::Value {
             serde_json::Value::Null
         }
+        fn block_rows(&self) -> usize {
+            self.2
+        }
     }
 
     #[test]
@@ -497,19 +521,27 @@ mod tests {
             avoid_mask: None,
         };
         let places = super::super::cut::places(20, 30, &o).unwrap();
-        let mut out = vec![Complex32::default(); places.len() * 3 * 20];
-        s.read_patches(&places, patch, &mut out).unwrap();
-        // The slow oracle: each sample's pixels by their definition.
-        for (p, &(r, c)) in places.iter().enumerate() {
-            for t in 0..3 {
-                for i in 0..4 {
-                    for j in 0..5 {
-                        let want = Complex32::new((r + i + 1000 * t) as f32, (c + j) as f32);
-                        assert_eq!(
-                            out[((p * 3 + t) * 4 + i) * 5 + j],
-                            want,
-                            "place {p}, scene {t}"
-                        );
+        // Bands of one row of places, and (blocks of 11 rows in one scene) bands of several
+        // overlapping rows of places.
+        for blocks in [[1, 1, 1], [1, 11, 2]] {
+            let mut s = s.clone();
+            for (g, b) in s.scenes.iter_mut().zip(blocks) {
+                g.2 = b;
+            }
+            let mut out = vec![Complex32::default(); places.len() * 3 * 20];
+            s.read_patches(&places, patch, &mut out).unwrap();
+            // The slow oracle: each sample's pixels by their definition.
+            for (p, &(r, c)) in places.iter().enumerate() {
+                for t in 0..3 {
+                    for i in 0..4 {
+                        for j in 0..5 {
+                            let want = Complex32::new((r + i + 1000 * t) as f32, (c + j) as f32);
+                            assert_eq!(
+                                out[((p * 3 + t) * 4 + i) * 5 + j],
+                                want,
+                                "place {p}, scene {t}, blocks {blocks:?}"
+                            );
+                        }
                     }
                 }
             }

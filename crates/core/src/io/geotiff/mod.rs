@@ -263,6 +263,11 @@ impl Scene for GeoTiff {
         GeoTiff::describe(self)
     }
 
+    /// Rows of a tile, or of a strip.
+    fn block_rows(&self) -> usize {
+        self.blocks.bh.max(1)
+    }
+
     /// The affine transform of the tags, or else their ground control points (two tie points
     /// or more), moved by half a pixel where the raster's points are pixel centres (GeoKey
     /// 1025, `RasterPixelIsPoint`), as GDAL reads them.

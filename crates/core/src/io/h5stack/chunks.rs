@@ -56,18 +56,9 @@ pub(super) fn plan(ds: &hdf5_metno::Dataset, dtype: Dtype, pairs: bool) -> Optio
     }
     let dims = [shape[0], shape[1], shape[2]];
     let chunk = [chunk[0], chunk[1], chunk[2]];
-    let type_size = if pairs { elem / 2 } else { elem };
-    let mut steps = Vec::new();
-    for f in ds.filters() {
-        steps.push(match f {
-            Filter::Deflate(_) => Step::Deflate,
-            Filter::Shuffle => Step::Shuffle(type_size),
-            _ => return None,
-        });
-    }
+    let steps = steps_of(ds, if pairs { elem / 2 } else { elem })?;
     let grid: Vec<usize> = (0..3).map(|d| dims[d].div_ceil(chunk[d].max(1))).collect();
     let count = grid.iter().product::<usize>();
-    let id = ds.id();
     let places = hdf5_metno::sync::sync(|| {
         let mut places = Vec::with_capacity(count);
         for a in 0..grid[0] {
@@ -78,22 +69,7 @@ pub(super) fn plan(ds: &hdf5_metno::Dataset, dtype: Dtype, pairs: bool) -> Optio
                     if pairs {
                         at.push(0);
                     }
-                    let (mut mask, mut addr, mut size) = (0u32, 0u64, 0u64);
-                    // SAFETY: `id` is an open dataset of `at.len()` dimensions; the outputs
-                    // are valid for writes; libhdf5 is entered under hdf5-metno's lock.
-                    let status = unsafe {
-                        hdf5_metno_sys::h5d::H5Dget_chunk_info_by_coord(
-                            id,
-                            at.as_ptr(),
-                            &mut mask,
-                            &mut addr,
-                            &mut size,
-                        )
-                    };
-                    if status < 0 || addr == hdf5_metno_sys::h5::HADDR_UNDEF || size == 0 {
-                        return None;
-                    }
-                    places.push((addr, size, mask));
+                    places.push(chunk_place(ds, &at)?);
                 }
             }
         }
@@ -106,6 +82,112 @@ pub(super) fn plan(ds: &hdf5_metno::Dataset, dtype: Dtype, pairs: bool) -> Optio
         steps,
         places,
     })
+}
+
+/// The filters of `ds` (elements of `type_size` bytes) if they are only deflate and shuffle.
+fn steps_of(ds: &hdf5_metno::Dataset, type_size: usize) -> Option<Vec<Step>> {
+    ds.filters()
+        .into_iter()
+        .map(|f| match f {
+            Filter::Deflate(_) => Some(Step::Deflate),
+            Filter::Shuffle => Some(Step::Shuffle(type_size)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Where the chunk at `at` (its first element's coordinates) of `ds` lies in the file: its
+/// offset, stored bytes and filter mask; `None` if libhdf5 says none (not allocated).
+fn chunk_place(ds: &hdf5_metno::Dataset, at: &[u64]) -> Option<(u64, u64, u32)> {
+    let (mut mask, mut addr, mut size) = (0u32, 0u64, 0u64);
+    // SAFETY: `ds` is an open dataset of `at.len()` dimensions (the callers pass its rank);
+    // the outputs are valid for writes; the callers hold hdf5-metno's lock.
+    let status = unsafe {
+        hdf5_metno_sys::h5d::H5Dget_chunk_info_by_coord(
+            ds.id(),
+            at.as_ptr(),
+            &mut mask,
+            &mut addr,
+            &mut size,
+        )
+    };
+    (status >= 0 && addr != hdf5_metno_sys::h5::HADDR_UNDEF && size > 0)
+        .then_some((addr, size, mask))
+}
+
+/// Reads the window `win` of the single scene `ds` (`[H, W]`, chunked, elements byte for byte
+/// complex64) of the file `path` into `out` (row after row): the chunks under the window read
+/// and inflated on every core, a band of chunk rows per task; `None` where the scene is not
+/// plain enough (other filters, a chunk not allocated), for libhdf5 to read instead.
+pub(super) fn read_scene_window(
+    ds: &hdf5_metno::Dataset,
+    path: &Path,
+    win: &crate::io::cut::Window,
+    out: &mut [num_complex::Complex32],
+) -> Option<Result<(), String>> {
+    let chunk = ds.chunk()?;
+    let [ch, cw] = chunk[..] else { return None };
+    let steps = steps_of(ds, 8)?;
+    let (ch, cw) = (ch.max(1), cw.max(1));
+    let bands: Vec<usize> = (win.r0 / ch..win.r1.div_ceil(ch)).collect();
+    let cols: Vec<usize> = (win.c0 / cw..win.c1.div_ceil(cw)).collect();
+    let places: Vec<Vec<(u64, u64, u32)>> = hdf5_metno::sync::sync(|| {
+        bands
+            .iter()
+            .map(|&b| {
+                cols.iter()
+                    .map(|&c| chunk_place(ds, &[(b * ch) as u64, (c * cw) as u64]))
+                    .collect::<Option<Vec<_>>>()
+            })
+            .collect::<Option<Vec<_>>>()
+    })?;
+    let file = match std::fs::File::open(path) {
+        Ok(f) => f,
+        Err(e) => return Some(Err(format!("{}: {e}", path.display()))),
+    };
+    let width = win.cols();
+    // The window's rows cut at the chunk rows' edges: one slab of `out` a band.
+    let mut slabs = Vec::with_capacity(bands.len());
+    let mut rest: &mut [u8] = bytemuck::cast_slice_mut(out);
+    for &b in &bands {
+        let rows = ((b + 1) * ch).min(win.r1) - (b * ch).max(win.r0);
+        let (slab, tail) = rest.split_at_mut(rows * width * 8);
+        slabs.push(slab);
+        rest = tail;
+    }
+    let chunk_bytes = ch * cw * 8;
+    let result = slabs
+        .into_par_iter()
+        .zip(&bands)
+        .zip(&places)
+        .try_for_each_init(
+            || (vec![0u8; chunk_bytes], vec![0u8; chunk_bytes], Vec::new()),
+            |(raw, tmp, stored), ((slab, &b), band)| {
+                let r_first = (b * ch).max(win.r0);
+                let rows = slab.len() / (width * 8);
+                for (&c, &(addr, size, mask)) in cols.iter().zip(band) {
+                    let at = [b * ch, c * cw];
+                    stored.resize(usize::try_from(size).map_err(|e| e.to_string())?, 0);
+                    file.read_exact_at(stored, addr).map_err(|e| {
+                        format!(
+                            "{}: chunk {at:?} ({size} bytes at {addr}): {e} (truncated?)",
+                            path.display()
+                        )
+                    })?;
+                    unfilter(&steps, stored, mask, raw, tmp)
+                        .map_err(|e| format!("{}: chunk {at:?}: {e}", path.display()))?;
+                    let (c_first, c_end) = ((c * cw).max(win.c0), ((c + 1) * cw).min(win.c1));
+                    let n = (c_end - c_first) * 8;
+                    for i in 0..rows {
+                        let from = ((r_first + i - b * ch) * cw + (c_first - c * cw)) * 8;
+                        let to = (i * width + (c_first - win.c0)) * 8;
+                        slab[to..to + n].copy_from_slice(&raw[from..from + n]);
+                    }
+                }
+                Ok(())
+            },
+        );
+    Some(result)
 }
 
 impl ChunkPlan {
@@ -138,7 +220,7 @@ impl ChunkPlan {
                                 [a * cn, b * ch, c * cw]
                             )
                         })?;
-                        self.unfilter(stored, mask, raw, tmp).map_err(|e| {
+                        unfilter(&self.steps, stored, mask, raw, tmp).map_err(|e| {
                             format!(
                                 "{}: chunk {:?}: {e}",
                                 path.display(),
@@ -161,53 +243,53 @@ impl ChunkPlan {
                 },
             )
     }
+}
 
-    /// Undoes the filters of one chunk's `stored` bytes into `raw` (its full size; `tmp` of
-    /// the same size for the steps between).
-    fn unfilter(
-        &self,
-        stored: &[u8],
-        mask: u32,
-        raw: &mut Vec<u8>,
-        tmp: &mut Vec<u8>,
-    ) -> Result<(), String> {
-        let want = raw.len();
-        let mut bufs = [std::mem::take(raw), std::mem::take(tmp)];
-        // Where the chunk's bytes are now: `None` the file, else `bufs[i]`.
-        let mut cur: Option<usize> = None;
-        let mut result = Ok(());
-        for (i, step) in self.steps.iter().enumerate().rev() {
-            if mask & (1 << i) != 0 {
-                continue;
-            }
-            let (a, b) = bufs.split_at_mut(1);
-            let (src, dst, to): (&[u8], &mut Vec<u8>, usize) = match cur {
-                None => (stored, &mut a[0], 0),
-                Some(0) => (&a[0][..], &mut b[0], 1),
-                Some(_) => (&b[0][..], &mut a[0], 0),
-            };
-            result = apply(*step, src, &mut dst[..want]);
-            if result.is_err() {
-                break;
-            }
-            cur = Some(to);
+/// Undoes the filters `steps` of one chunk's `stored` bytes into `raw` (its full size; `tmp`
+/// of the same size for the steps between).
+fn unfilter(
+    steps: &[Step],
+    stored: &[u8],
+    mask: u32,
+    raw: &mut Vec<u8>,
+    tmp: &mut Vec<u8>,
+) -> Result<(), String> {
+    let want = raw.len();
+    let mut bufs = [std::mem::take(raw), std::mem::take(tmp)];
+    // Where the chunk's bytes are now: `None` the file, else `bufs[i]`.
+    let mut cur: Option<usize> = None;
+    let mut result = Ok(());
+    for (i, step) in steps.iter().enumerate().rev() {
+        if mask & (1 << i) != 0 {
+            continue;
         }
-        match cur {
-            None if result.is_ok() => {
-                if stored.len() == want {
-                    bufs[0].copy_from_slice(stored);
-                } else {
-                    result = Err(format!("{} bytes stored, {want} expected", stored.len()));
-                }
-            }
-            Some(1) => bufs.swap(0, 1),
-            _ => {}
+        let (a, b) = bufs.split_at_mut(1);
+        let (src, dst, to): (&[u8], &mut Vec<u8>, usize) = match cur {
+            None => (stored, &mut a[0], 0),
+            Some(0) => (&a[0][..], &mut b[0], 1),
+            Some(_) => (&b[0][..], &mut a[0], 0),
+        };
+        result = apply(*step, src, &mut dst[..want]);
+        if result.is_err() {
+            break;
         }
-        let [r, t] = bufs;
-        *raw = r;
-        *tmp = t;
-        result
+        cur = Some(to);
     }
+    match cur {
+        None if result.is_ok() => {
+            if stored.len() == want {
+                bufs[0].copy_from_slice(stored);
+            } else {
+                result = Err(format!("{} bytes stored, {want} expected", stored.len()));
+            }
+        }
+        Some(1) => bufs.swap(0, 1),
+        _ => {}
+    }
+    let [r, t] = bufs;
+    *raw = r;
+    *tmp = t;
+    result
 }
 
 /// Undoes one filter step: `src` into `dst` (the unfiltered size).

@@ -137,6 +137,10 @@ impl crate::io::scenes::Scene for H5Scene {
         self.0.read_window(window, out)
     }
 
+    fn block_rows(&self) -> usize {
+        self.0.chunk_rows
+    }
+
     fn describe(&self) -> serde_json::Value {
         serde_json::json!({
             "path": self.0.path.display().to_string(),

@@ -80,11 +80,14 @@ pub(super) fn open(
         )
     })?;
     let (form, dims, scene) = shape_of(&file, dataset).map_err(|e| ("dataset", at(e)))?;
-    let storage = file
-        .dataset(dataset)
-        .map_err(h5)
-        .and_then(|ds| storage(&ds, form, imag.is_some()))
-        .map_err(|e| ("dataset", at(e)))?;
+    let ds = file.dataset(dataset).map_err(|e| ("dataset", at(h5(e))))?;
+    let storage = storage(&ds, form, imag.is_some()).map_err(|e| ("dataset", at(e)))?;
+    // The image rows' axis: the first of a scene, the second of a stack `[N, H, W]`, the
+    // first of `[H, W, N]`.
+    let row_axis = usize::from(!scene && !hwn);
+    let chunk_rows = ds
+        .chunk()
+        .map_or(1, |c| c.get(row_axis).copied().unwrap_or(1).max(1));
     if let Some(im) = imag {
         let (f, d, _) = shape_of(&file, im).map_err(|e| ("imag", at(e)))?;
         if form != Form::Real || f != Form::Real {
@@ -113,6 +116,7 @@ pub(super) fn open(
         dims,
         hwn,
         storage,
+        chunk_rows,
         scene,
     })
 }
@@ -411,6 +415,15 @@ pub(super) fn read_window(
     let at = |e: hdf5_metno::Error| format!("dataset {:?}: {}", st.dataset, h5(e));
     let file = hdf5_metno::File::open(&st.path).map_err(at)?;
     let ds = file.dataset(&st.dataset).map_err(at)?;
+    // Plain chunks of complex64: read and inflated on every core, straight into place.
+    if st.imag.is_none()
+        && matches!(st.form, Form::Compound(_))
+        && native_dtype(&ds, st.form, false) == Some(Dtype::Complex64)
+    {
+        if let Some(done) = chunks::read_scene_window(&ds, &st.path, win, out) {
+            return done;
+        }
+    }
     let slab = s![win.r0..win.r1, win.c0..win.c1];
     let values: Array2<Complex64> = match st.form {
         Form::Compound(0) => ds

@@ -50,6 +50,8 @@ pub struct H5Stack {
     pub hwn: bool,
     /// How [`H5Stack::load`] brings it into memory.
     pub storage: Storage,
+    /// Rows of its chunks along the image rows (1 where not chunked).
+    pub chunk_rows: usize,
     /// A single scene `[H, W]` (`dims` `[1, H, W]`), read a window at a time
     /// ([`H5Stack::read_window`]) and cut into patches rather than read whole.
     pub scene: bool,
