@@ -243,4 +243,29 @@ fn a_single_hdf5_scene_is_cut_as_isar_clutter_cut_cuts_h5pys_pixels() {
         serde_json::json!("/frame/VV"),
         "{files}"
     );
+    // `isar-clutter cut` of the HDF5 scene itself: the same stack, byte for byte; a stack
+    // or no --dataset refused.
+    let h5_cut = fx.join("h5_cut.npy");
+    let said =
+        common::scenes::cut_cli(&[fx.join("stack.h5")], &h5_cut, &["--dataset", "/frame/VV"]);
+    assert!(said.contains("(14 place(s) x 1 scene(s))"), "{said}");
+    assert_eq!(
+        std::fs::read(&h5_cut).unwrap(),
+        std::fs::read(fx.join("frame_cut.npy")).unwrap()
+    );
+    for (extra, words) in [
+        (vec!["--dataset", "pairs"], "is a stack"),
+        (vec![], "--dataset: give the scene's dataset"),
+    ] {
+        let mut args = vec!["cut", "--input"];
+        let input = fx.join("stack.h5");
+        let out = fx.join("refused.npy");
+        args.push(input.to_str().unwrap());
+        args.extend(["--patch", "8", "--out", out.to_str().unwrap()]);
+        args.extend(extra.iter().copied());
+        let o = bin(&args);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(words), "{}", text(&o));
+        assert!(!out.exists());
+    }
 }

@@ -377,8 +377,9 @@ pub struct GenerateArgs {
 #[derive(Args)]
 pub struct CutArgs {
     /// The scene: an .npy of shape [H, W] or [T, H, W] (complex64/128 or float32/64), or a
-    /// complex GeoTIFF (.tif, .tiff), SICD (.nitf, .ntf) or UAVSAR (.slc, its .ann beside it);
-    /// give those once per scene of a time stack (coregistered, in order).
+    /// complex GeoTIFF (.tif, .tiff), SICD (.nitf, .ntf), UAVSAR (.slc, its .ann beside it)
+    /// or HDF5 scene (.h5, .hdf5, .he5, with --dataset); give those once per scene of a time
+    /// stack (coregistered, in order).
     #[arg(long, required = true)]
     pub input: Vec<PathBuf>,
     /// Patch size: N (square) or ROWSxCOLS.
@@ -404,6 +405,10 @@ pub struct CutArgs {
     /// The region of --polygon by its vertices in map coordinates: x0,y0;x1,y1;x2,y2;...
     #[arg(long, value_name = "X0,Y0;X1,Y1;...", conflicts_with = "polygon")]
     pub map_polygon: Option<isar_clutter::io::polygon::Polygon>,
+    /// For HDF5 scenes (.h5, .hdf5, .he5: an OPERA CSLC or NISAR RSLC frame): the scene's
+    /// dataset in each file, e.g. /data/VV.
+    #[arg(long)]
+    pub dataset: Option<String>,
     /// A mask of the scene (.npy [H, W], bool or uint8): no patch covers a non-zero pixel.
     #[arg(long, value_name = "MASK.npy")]
     pub avoid_mask: Option<PathBuf>,

@@ -141,11 +141,19 @@ pub fn cut(a: CutArgs) -> Result<()> {
             cut_scenes::<Sicd>(input, out, scenes, chunk, progress)?
         }
         ["slc"] => cut_scenes::<UavsarScene>(input, out, scenes, chunk, progress)?,
+        ["h5"] | ["hdf5"] | ["he5"] => {
+            let dataset = a.dataset.as_deref().ok_or_else(|| {
+                anyhow::anyhow!("--dataset: give the scene's dataset in the HDF5 files (/data/VV)")
+            })?;
+            let open = |place| h5_scenes(input, dataset, place);
+            isar_clutter::io::scenes::cut_opened(open, input, out, scenes, chunk, progress)?
+        }
         _ => {
             let given: Vec<String> = input.iter().map(|p| p.display().to_string()).collect();
             anyhow::bail!(
                 "--input: one .npy scene (or time stack), or GeoTIFF (.tif, .tiff), SICD (.nitf, \
-                 .ntf) or UAVSAR (.slc, beside its .ann) scenes of one format; got {}",
+                 .ntf), UAVSAR (.slc, beside its .ann) or HDF5 (.h5, .hdf5, .he5, with \
+                 --dataset) scenes of one format; got {}",
                 given.join(", ")
             )
         }
@@ -163,6 +171,45 @@ pub fn cut(a: CutArgs) -> Result<()> {
         t.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// The single scenes `[H, W]` at `dataset` in the HDF5 files `paths`, checked, with `place`.
+fn h5_scenes(
+    paths: &[std::path::PathBuf],
+    dataset: &str,
+    place: Option<isar_clutter::io::scenes::Place>,
+) -> Result<
+    isar_clutter::io::scenes::Scenes<isar_clutter::io::h5stack::H5Scene>,
+    isar_clutter::io::scenes::StackError,
+> {
+    use isar_clutter::io::h5stack::{H5Scene, H5Stack};
+    use isar_clutter::io::scenes::{Scenes, StackError};
+    let err = |i, message| StackError {
+        field: "path",
+        index: Some(i),
+        message,
+    };
+    let scenes = paths
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let stack = H5Stack::open(p, dataset, None, false)
+                .map_err(|(field, m)| err(i, format!("{m} (--{field})")))?;
+            if !stack.scene {
+                return Err(err(
+                    i,
+                    format!(
+                        "{}: {dataset:?} is a stack {:?}: cut cuts scenes [H, W] (a stack is \
+                         read whole by the hdf5 dataset kind)",
+                        p.display(),
+                        stack.dims
+                    ),
+                ));
+            }
+            Ok(H5Scene(stack))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Scenes::new(scenes, place)
 }
 
 /// Says which temporaries of killed writers of `out` (a `generate` or `fit` stopped by

@@ -398,6 +398,23 @@ pub struct MapRegion {
 pub fn cut_scenes<S: OpenScene + Sync>(
     paths: &[PathBuf],
     out: &Path,
+    options: (&super::cut::CutOptions, &MapRegion),
+    chunk: usize,
+    progress: impl Fn(usize),
+) -> anyhow::Result<super::cut::Cut> {
+    let open = |place| Scenes::<S>::open(paths, place);
+    cut_opened(open, paths, out, options, chunk, progress)
+}
+
+/// [`cut_scenes`] of scenes that `open` opens (with the window it is given) from `paths`: for
+/// a format whose scenes a path alone does not name (a dataset in an HDF5 file).
+///
+/// # Errors
+/// As [`cut_scenes`].
+pub fn cut_opened<S: Scene + Sync>(
+    open: impl FnOnce(Option<Place>) -> Result<Scenes<S>, StackError>,
+    paths: &[PathBuf],
+    out: &Path,
     (o, map): (&super::cut::CutOptions, &MapRegion),
     chunk: usize,
     progress: impl Fn(usize),
@@ -407,7 +424,7 @@ pub fn cut_scenes<S: OpenScene + Sync>(
         Some((x, y)) => Some(Place::Map { x, y }),
         None => o.window.map(Place::Pixels),
     };
-    let stack = Scenes::<S>::open(paths, place).map_err(|e| anyhow::anyhow!("--input {e}"))?;
+    let stack = open(place).map_err(|e| anyhow::anyhow!("--input {e}"))?;
     let (rows, cols) = stack.scenes[0].dims();
     let mut options = o.clone();
     if map.window.is_some() {
