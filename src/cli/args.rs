@@ -415,7 +415,8 @@ pub struct CutArgs {
     /// The stack to write (.npy); an existing file is replaced only if `cut` wrote it.
     #[arg(long)]
     pub out: PathBuf,
-    /// Patches per block (memory: two blocks).
+    /// Patches per block (memory: two blocks); at least the patches of one band of rows as tall
+    /// as the scenes' storage blocks (HDF5 chunks, GeoTIFF tiles).
     #[arg(long, default_value_t = 256)]
     pub chunk: usize,
 }

@@ -456,7 +456,21 @@ pub fn cut_opened<S: Scene + Sync>(
                 .get_or_insert(e.to_string());
         }
     };
-    let chunk = (chunk / t).max(1) * t;
+    // At least the places of one band as tall as the scenes' storage blocks a block, so that
+    // a compressed block is inflated once or twice, not once a block of patches.
+    let tall = stack
+        .scenes
+        .iter()
+        .map(S::block_rows)
+        .max()
+        .unwrap_or(1)
+        .max(ph);
+    let first = places.first().map_or(0, |p| p.0);
+    let per_band = places
+        .iter()
+        .take_while(|p| p.0 + ph <= first + tall)
+        .count();
+    let chunk = (chunk / t).max(1).max(per_band) * t;
     crate::io::atomic::atomic_write_path(out, |tmp| {
         crate::io::stream::write_samples(
             tmp,
