@@ -784,31 +784,3 @@ fn the_binary_does_not_load_libhdf5_at_start() {
         );
     }
 }
-
-/// `cut`'s map options: a box that is not four finite numbers, and a box beside `--window`,
-/// are refused by the argument parser (exit 2), naming the option.
-#[test]
-fn cut_map_options_are_checked_when_parsed() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("o.npy");
-    let out = out.to_str().unwrap();
-    for (extra, words) in [
-        (vec!["--map-box", "1,2,3"], "X0,X1,Y0,Y1"),
-        (vec!["--map-box", "1,1,3,4"], "a box"),
-        (vec!["--map-box", "1,nan,3,4"], "X0,X1,Y0,Y1"),
-        (
-            vec!["--map-box", "1,2,3,4", "--window", "0:8,0:8"],
-            "cannot be used with",
-        ),
-    ] {
-        let mut args = vec!["cut", "--input", "x.tif", "--patch", "8", "--out", out];
-        args.extend(extra.iter().copied());
-        let o = bin(&args);
-        let said = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{extra:?}: {said}");
-        assert!(
-            said.contains(words) && said.contains("--map-box"),
-            "{extra:?}: {said}"
-        );
-    }
-}
