@@ -253,6 +253,13 @@ impl<S: Scene> Scenes<S> {
         Ok(())
     }
 
+    /// The rows of a band read at once for patches of `patch_rows` rows: the patch's, or the
+    /// tallest storage block's of the scenes where taller ([`Scene::block_rows`]).
+    pub fn band_rows(&self, patch_rows: usize) -> usize {
+        let blocks = self.scenes.iter().map(S::block_rows).max().unwrap_or(1);
+        blocks.max(patch_rows)
+    }
+
     /// Reads the `patch`-sized patches at `places` (top-left row and column, in the row-major
     /// order of [`super::cut::places`]) of every scene into `out`: sample `p N + t` is scene
     /// `t` at place `p`, the order of `isar-clutter cut`. Consecutive rows of places are one
@@ -271,13 +278,7 @@ impl<S: Scene> Scenes<S> {
         let (n, (ph, pw)) = (self.scenes.len(), (patch.rows, patch.cols));
         let px = ph * pw;
         assert_eq!(out.len(), places.len() * n * px, "the patches' values");
-        let tall = self
-            .scenes
-            .iter()
-            .map(S::block_rows)
-            .max()
-            .unwrap_or(1)
-            .max(ph);
+        let tall = self.band_rows(ph);
         let mut i = 0;
         while i < places.len() {
             let r = places[i].0;
@@ -458,13 +459,7 @@ pub fn cut_opened<S: Scene + Sync>(
     };
     // At least the places of one band as tall as the scenes' storage blocks a block, so that
     // a compressed block is inflated once or twice, not once a block of patches.
-    let tall = stack
-        .scenes
-        .iter()
-        .map(S::block_rows)
-        .max()
-        .unwrap_or(1)
-        .max(ph);
+    let tall = stack.band_rows(ph);
     let first = places.first().map_or(0, |p| p.0);
     let per_band = places
         .iter()
