@@ -65,6 +65,16 @@ fn every_form_of_an_hdf5_stack_is_analysed_as_its_pixels_are() {
         ("fletcher", format!("{h5}, dataset: fletcher")),
     ];
     analysed_alike(dir.path(), &forms);
+    let ub = "kind: hdf5, path: fixtures/userblock.h5";
+    analysed_alike(
+        dir.path(),
+        &[
+            ("ub_npy", "kind: npy, path: fixtures/stack.npy".to_string()),
+            ("ub_contig", format!("{ub}, dataset: contig")),
+            ("ub_chunked", format!("{ub}, dataset: chunked")),
+            ("ub_plain", format!("{ub}, dataset: plain_chunks")),
+        ],
+    );
     analysed_alike(
         dir.path(),
         &[
@@ -251,6 +261,13 @@ fn a_single_hdf5_scene_is_cut_as_isar_clutter_cut_cuts_h5pys_pixels() {
     assert!(said.contains("(14 place(s) x 1 scene(s))"), "{said}");
     assert_eq!(
         std::fs::read(&h5_cut).unwrap(),
+        std::fs::read(fx.join("frame_cut.npy")).unwrap()
+    );
+    // The same frame behind a user block (chunk addresses counted from its end).
+    let ub_cut = fx.join("ub_cut.npy");
+    common::scenes::cut_cli(&[fx.join("userblock.h5")], &ub_cut, &["--dataset", "frame"]);
+    assert_eq!(
+        std::fs::read(&ub_cut).unwrap(),
         std::fs::read(fx.join("frame_cut.npy")).unwrap()
     );
     for (extra, words) in [

@@ -15,7 +15,8 @@ refusals need: `/text` (strings), `/scene` (a single [16, 12] scene), `/im_short
 another shape), and `/frame/VV`, a single complex64 [40, 30] scene chunked 8 x 8 and gzip
 compressed (an OPERA CSLC frame's form). `stack.npy` is the stack as h5py reads
 `/science/slc/HH` back, `frame.npy` the scene as h5py reads `/frame/VV` back; `truncated.h5`
-the first half of `stack.h5`'s bytes.
+the first half of `stack.h5`'s bytes; `userblock.h5` the stack (contiguous, chunked gzip'd
+and shuffled, chunked plain) and the frame (chunked) behind a 512-byte user block.
 
 Usage: python make_fixtures.py OUT_DIR
 """
@@ -67,6 +68,13 @@ def main(out: Path) -> None:
         frame = rng.standard_normal((40, 30)) + 1j * rng.standard_normal((40, 30))
         f.create_dataset("frame/VV", data=frame.astype(np.complex64), chunks=(8, 8),
                          compression="gzip")
+    # A file with a 512-byte user block before its HDF5 data (h5py's userblock_size): libhdf5's
+    # chunk addresses count from its end, a contiguous dataset's offset from the file's start.
+    with h5py.File(out / "userblock.h5", "w", userblock_size=512) as f:
+        f["contig"] = x
+        f.create_dataset("chunked", data=x, chunks=(3, 5, 7), compression="gzip", shuffle=True)
+        f.create_dataset("plain_chunks", data=x, chunks=(3, 5, 7))
+        f.create_dataset("frame", data=frame.astype(np.complex64), chunks=(8, 8))
     with h5py.File(out / "stack.h5", "r") as f:
         np.save(out / "stack.npy", f["science/slc/HH"][...])
         np.save(out / "frame.npy", f["frame/VV"][...])

@@ -59,6 +59,7 @@ pub(super) fn plan(ds: &hdf5_metno::Dataset, dtype: Dtype, pairs: bool) -> Optio
     let steps = steps_of(ds, if pairs { elem / 2 } else { elem })?;
     let grid: Vec<usize> = (0..3).map(|d| dims[d].div_ceil(chunk[d].max(1))).collect();
     let count = grid.iter().product::<usize>();
+    let base = user_block(ds)?;
     let places = hdf5_metno::sync::sync(|| {
         let mut places = Vec::with_capacity(count);
         for a in 0..grid[0] {
@@ -69,7 +70,7 @@ pub(super) fn plan(ds: &hdf5_metno::Dataset, dtype: Dtype, pairs: bool) -> Optio
                     if pairs {
                         at.push(0);
                     }
-                    places.push(chunk_place(ds, &at)?);
+                    places.push(chunk_place(ds, &at, base)?);
                 }
             }
         }
@@ -97,8 +98,10 @@ fn steps_of(ds: &hdf5_metno::Dataset, type_size: usize) -> Option<Vec<Step>> {
 }
 
 /// Where the chunk at `at` (its first element's coordinates) of `ds` lies in the file: its
-/// offset, stored bytes and filter mask; `None` if libhdf5 says none (not allocated).
-fn chunk_place(ds: &hdf5_metno::Dataset, at: &[u64]) -> Option<(u64, u64, u32)> {
+/// offset from the file's start (libhdf5's address, which counts from the end of a user
+/// block, plus `base`, the user block's size), stored bytes and filter mask; `None` if
+/// libhdf5 says none (not allocated).
+fn chunk_place(ds: &hdf5_metno::Dataset, at: &[u64], base: u64) -> Option<(u64, u64, u32)> {
     let (mut mask, mut addr, mut size) = (0u32, 0u64, 0u64);
     // SAFETY: `ds` is an open dataset of `at.len()` dimensions (the callers pass its rank);
     // the outputs are valid for writes; the callers hold hdf5-metno's lock.
@@ -111,8 +114,16 @@ fn chunk_place(ds: &hdf5_metno::Dataset, at: &[u64]) -> Option<(u64, u64, u32)> 
             &mut size,
         )
     };
-    (status >= 0 && addr != hdf5_metno_sys::h5::HADDR_UNDEF && size > 0)
-        .then_some((addr, size, mask))
+    if status < 0 || addr == hdf5_metno_sys::h5::HADDR_UNDEF || size == 0 {
+        return None;
+    }
+    Some((addr.checked_add(base)?, size, mask))
+}
+
+/// The size of the user block before the HDF5 data of `ds`'s file (h5py's `userblock_size`),
+/// which libhdf5's chunk addresses do not count.
+fn user_block(ds: &hdf5_metno::Dataset) -> Option<u64> {
+    ds.file().ok().map(|f| f.userblock())
 }
 
 /// Reads the window `win` of the single scene `ds` (`[H, W]`, chunked, elements byte for byte
@@ -131,12 +142,13 @@ pub(super) fn read_scene_window(
     let (ch, cw) = (ch.max(1), cw.max(1));
     let bands: Vec<usize> = (win.r0 / ch..win.r1.div_ceil(ch)).collect();
     let cols: Vec<usize> = (win.c0 / cw..win.c1.div_ceil(cw)).collect();
+    let base = user_block(ds)?;
     let places: Vec<Vec<(u64, u64, u32)>> = hdf5_metno::sync::sync(|| {
         bands
             .iter()
             .map(|&b| {
                 cols.iter()
-                    .map(|&c| chunk_place(ds, &[(b * ch) as u64, (c * cw) as u64]))
+                    .map(|&c| chunk_place(ds, &[(b * ch) as u64, (c * cw) as u64], base))
                     .collect::<Option<Vec<_>>>()
             })
             .collect::<Option<Vec<_>>>()
