@@ -96,6 +96,9 @@ pub enum Place {
     },
 }
 
+/// Most bytes of one band of a scene's window read at once for a cut ([`Scenes::band_rows`]).
+pub const BAND_BYTES: usize = 64 << 20;
+
 /// Coregistered scenes of one format: the same window of each is one sample.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenes<S> {
@@ -254,10 +257,13 @@ impl<S: Scene> Scenes<S> {
     }
 
     /// The rows of a band read at once for patches of `patch_rows` rows: the patch's, or the
-    /// tallest storage block's of the scenes where taller ([`Scene::block_rows`]).
+    /// tallest storage block's of the scenes where taller ([`Scene::block_rows`]), as long as
+    /// a band of the window stays within [`BAND_BYTES`] (a file stored in blocks as tall as
+    /// the scene is then read a patch's rows at a time, memory bounded whatever its size).
     pub fn band_rows(&self, patch_rows: usize) -> usize {
         let blocks = self.scenes.iter().map(S::block_rows).max().unwrap_or(1);
-        blocks.max(patch_rows)
+        let fit = BAND_BYTES / (8 * self.window.cols()).max(1);
+        blocks.min(fit).max(patch_rows)
     }
 
     /// Reads the `patch`-sized patches at `places` (top-left row and column, in the row-major
@@ -573,5 +579,12 @@ mod tests {
             }
         }
         assert!(places.len() > 6 && !places.contains(&(8, 10)), "{places:?}");
+        // A band: the patch's rows, a taller block's, but never more than BAND_BYTES of the
+        // window (20 columns of 8 bytes here).
+        let mut s = s.clone();
+        for (b, want) in [(1, 4), (11, 11), (1 << 40, BAND_BYTES / 160)] {
+            s.scenes[1].2 = b;
+            assert_eq!(s.band_rows(4), want, "blocks of {b} rows");
+        }
     }
 }
