@@ -374,22 +374,45 @@ pub fn cut_npy(
         released: std::sync::Mutex::new(0),
     };
     let fill = |first: usize, dst: &mut [Complex32]| cutter.fill(first, dst);
-    crate::io::atomic::atomic_write_path(out, |tmp| {
-        crate::io::stream::write_samples(
-            tmp,
-            &crate::io::model::npy_header_c64(samples, ph, pw),
-            (samples, ph * pw, chunk),
-            crate::io::stream::WriteMode::Direct,
-            fill,
-            progress,
-        )?;
-        Ok(())
-    })?;
+    write_patches(
+        out,
+        (samples, Size2 { rows: ph, cols: pw }, chunk),
+        fill,
+        progress,
+        || Ok(()),
+    )?;
     let record = write_record(out, input.display().to_string(), &header.shape, o, &places)?;
     Ok(Cut {
         scenes,
         places: places.len(),
         record,
+    })
+}
+
+/// Writes `samples` patches of `patch` to the complex64 stack `out` atomically, streamed with
+/// direct I/O in blocks of `chunk` samples that `fill` makes (`fill(first, block)`), saying how
+/// many are written to `progress`; `after` (run before the file is committed) may still refuse
+/// it, as a reader that failed inside `fill` does.
+///
+/// # Errors
+/// If the file cannot be written, or `after` says so.
+pub fn write_patches(
+    out: &Path,
+    (samples, patch, chunk): (usize, Size2, usize),
+    fill: impl Fn(usize, &mut [Complex32]) + Sync,
+    progress: impl Fn(usize),
+    after: impl FnOnce() -> Result<()>,
+) -> Result<()> {
+    crate::io::atomic::atomic_write_path(out, |tmp| {
+        crate::io::stream::write_samples(
+            tmp,
+            &crate::io::model::npy_header_c64(samples, patch.rows, patch.cols),
+            (samples, patch.rows * patch.cols, chunk),
+            crate::io::stream::WriteMode::Direct,
+            fill,
+            progress,
+        )?;
+        after()
     })
 }
 

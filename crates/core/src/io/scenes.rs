@@ -10,6 +10,32 @@ use super::mapping::{map_points, map_window, Georeference, MapWindow};
 use num_complex::Complex32;
 use std::path::{Path, PathBuf};
 
+/// Why a scene file of a format read here (GeoTIFF, SICD) cannot be read: the file unreadable,
+/// or a field of the format (a TIFF tag, a NITF field, a SICD XML element) missing, of a kind
+/// the reader does not take, or inconsistent.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file cannot be opened or read.
+    #[error("cannot read {path}: {cause}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        cause: std::io::Error,
+    },
+    /// A field of the format is at fault.
+    #[error("{path}: {field}: {reason}")]
+    Field {
+        /// The file.
+        path: PathBuf,
+        /// The field: a TIFF tag (or `header`, or a block), a NITF field (`NROWS`, `PVTYPE`,
+        /// ...) or a SICD XML element (`ImageData/PixelType`).
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
 /// What a [`Scenes`] (or a UAVSAR stack) is refused for, and where: the field (`path`, `slc`,
 /// `annotation` or `window`) and, for a list, the index of the scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -472,20 +498,11 @@ pub fn cut_opened<S: Scene + Sync>(
         .take_while(|p| p.0 + ph <= first + tall)
         .count();
     let chunk = (chunk / t).max(1).max(per_band) * t;
-    crate::io::atomic::atomic_write_path(out, |tmp| {
-        crate::io::stream::write_samples(
-            tmp,
-            &crate::io::model::npy_header_c64(samples, ph, pw),
-            (samples, ph * pw, chunk),
-            crate::io::stream::WriteMode::Direct,
-            fill,
-            progress,
-        )?;
-        if let Some(e) = failed.lock().expect("not poisoned").take() {
-            bail!("{e}");
-        }
-        Ok(())
-    })?;
+    let after = || match failed.lock().expect("not poisoned").take() {
+        Some(e) => bail!("{e}"),
+        None => Ok(()),
+    };
+    super::cut::write_patches(out, (samples, o.patch, chunk), fill, progress, after)?;
     let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
     let record = super::cut::write_record(out, names.join(", "), &[t, rows, cols], o, &places)?;
     Ok(super::cut::Cut {

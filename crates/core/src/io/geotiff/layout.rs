@@ -6,29 +6,8 @@ use super::georef::Georef;
 use super::ifd::Order;
 use std::path::PathBuf;
 
-/// Why a GeoTIFF cannot be read.
-#[derive(Debug, thiserror::Error)]
-pub enum TiffError {
-    /// The file cannot be opened or read.
-    #[error("cannot read {path}: {cause}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        cause: std::io::Error,
-    },
-    /// A tag, or the data it points to, is missing, of a kind this reader does not take, or
-    /// inconsistent.
-    #[error("{path}: {field}: {reason}")]
-    Field {
-        /// The file.
-        path: PathBuf,
-        /// The TIFF tag (or `header`, or the block) at fault.
-        field: String,
-        /// What is wrong.
-        reason: String,
-    },
-}
+/// Why a GeoTIFF cannot be read (the field: a TIFF tag, `header`, or a block).
+pub type TiffError = crate::io::scenes::SceneError;
 
 /// The number type of a pixel's real and imaginary parts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -23,29 +23,9 @@ use rayon::prelude::*;
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 
-/// Why a SICD file cannot be read.
-#[derive(Debug, thiserror::Error)]
-pub enum SicdError {
-    /// The file cannot be opened or read.
-    #[error("cannot read {path}: {cause}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        cause: std::io::Error,
-    },
-    /// A NITF field or a SICD XML element is missing, of a kind this reader does not take, or
-    /// inconsistent.
-    #[error("{path}: {field}: {reason}")]
-    Field {
-        /// The file.
-        path: PathBuf,
-        /// The NITF field (`NROWS`, `PVTYPE`, ...) or XML element (`ImageData/PixelType`).
-        field: String,
-        /// What is wrong.
-        reason: String,
-    },
-}
+/// Why a SICD file cannot be read (the field: a NITF field such as `NROWS`, or a SICD XML
+/// element such as `ImageData/PixelType`).
+pub type SicdError = crate::io::scenes::SceneError;
 
 /// One image segment's rows: the first image row it holds, how many, and where its pixels
 /// start in the file.

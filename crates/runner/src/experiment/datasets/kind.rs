@@ -117,12 +117,9 @@ pub enum DataError {
     /// A UAVSAR scene cannot be read.
     #[error(transparent)]
     Uavsar(#[from] crate::io::uavsar::UavsarError),
-    /// A GeoTIFF scene cannot be read.
+    /// A GeoTIFF or SICD scene cannot be read.
     #[error(transparent)]
-    Tiff(#[from] crate::io::geotiff::TiffError),
-    /// A SICD scene cannot be read.
-    #[error(transparent)]
-    Sicd(#[from] crate::io::sicd::SicdError),
+    Scene(#[from] crate::io::scenes::SceneError),
 }
 
 /// Simulated k-space data an analysis job writes (`kspace/<job>.npy`, with the frequencies in
