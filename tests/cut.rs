@@ -308,3 +308,30 @@ fn cut_map_options_are_checked_when_parsed() {
         );
     }
 }
+
+/// `--dataset` belongs to HDF5 inputs: given with an `.npy` it is refused, nothing written.
+#[test]
+fn cut_refuses_a_dataset_for_inputs_that_have_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("scene.npy");
+    ndarray_npy::write_npy(&input, &Array2::<Complex32>::zeros((16, 16))).unwrap();
+    let out = dir.path().join("o.npy");
+    let o = bin(&[
+        "cut",
+        "--input",
+        input.to_str().unwrap(),
+        "--patch",
+        "8",
+        "--dataset",
+        "/data/VV",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("--dataset names the scene's dataset in HDF5 inputs"),
+        "{}",
+        text(&o)
+    );
+    assert!(!out.exists());
+}

@@ -123,6 +123,14 @@ pub fn cut(a: CutArgs) -> Result<()> {
         polygon: a.map_polygon.map(|p| p.0),
     };
     let scenes = (&options, &map);
+    let hdf5 = matches!(kinds[..], ["h5"] | ["hdf5"] | ["he5"]);
+    if a.dataset.is_some() && !hdf5 {
+        anyhow::bail!(
+            "--dataset names the scene's dataset in HDF5 inputs (.h5, .hdf5, .he5); the \
+             inputs here are .{}",
+            kinds.join(", .")
+        );
+    }
     let done = match kinds[..] {
         ["npy"] if input.len() == 1 => {
             if map != MapRegion::default() {
