@@ -5,11 +5,14 @@
 //! value, and their collection metadata reaches the manifest (and the calibration to sigma-0
 //! with their own scale polynomial, where asked); a truncated file, a pixel type
 //! where the XML and the NITF image segment differ, a file that is not NITF and a window
-//! outside the images are refused at validation, naming the file and the field.
+//! outside the images are refused at validation, naming the file and the field. Ground points
+//! project to the pixels sarpy's projection gives, and a window given in longitude and
+//! latitude reads the pixels sarpy puts it on (`tests/sicd/make_projection_fixtures.py`).
 
 mod common;
 use common::scenes::{assert_same_tables, assert_valid, dataset_files, refused, run};
 
+use isar_clutter::io::sicd::Sicd;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -152,6 +155,82 @@ fn bad_sicd_files_are_refused_naming_the_file_and_the_field() {
     );
     assert!(
         e.contains("datasets[0].window") && e.contains("columns 20..36") && e.contains("40 x 30"),
+        "{e}"
+    );
+}
+
+/// The projection fixtures' folder in `dir` (`tests/sicd/make_projection_fixtures.py`);
+/// `None` (skip) without sarpy in `.venv`.
+fn projection_fixtures(dir: &Path) -> Option<PathBuf> {
+    common::python_fixtures(
+        "tests/sicd/make_projection_fixtures.py",
+        &["numpy", "sarpy"],
+        &dir.join("fixtures"),
+    )
+}
+
+/// SICD's ground-to-image projection (`io::projection`) against sarpy's `ground_to_image_geo`
+/// on images of the four projection models (INCA, PFA, RGAZCOMP, a ground plane) that sarpy
+/// wrote: 60 points on and around each image at two heights land on the pixel places sarpy
+/// gives within 1e-6 pixel (both iterate to a millionth of a metre on the ground; a pixel is
+/// 0.4-0.5 m).
+#[test]
+fn sicd_ground_points_project_to_sarpys_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = projection_fixtures(dir.path()) else {
+        return;
+    };
+    let points: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fx.join("proj_points.json")).unwrap())
+            .unwrap();
+    for kind in ["inca", "pfa", "rgazcomp", "plane"] {
+        let sicd = Sicd::open(&fx.join(format!("proj_{kind}.nitf"))).unwrap();
+        let projection = sicd.metadata.projection.as_ref().unwrap();
+        let p = &points[kind];
+        let (llh, pixel) = (p["llh"].as_array().unwrap(), p["pixel"].as_array().unwrap());
+        assert_eq!(llh.len(), 60, "{kind}");
+        for (l, want) in llh.iter().zip(pixel) {
+            let f = |v: &serde_json::Value, i: usize| v[i].as_f64().unwrap();
+            let ([r, c], left) = projection.geodetic_to_image(f(l, 0), f(l, 1), f(l, 2));
+            assert!(
+                (r - f(want, 0)).abs() < 1e-6 && (c - f(want, 1)).abs() < 1e-6 && left < 1e-6,
+                "{kind} {l}: ({r}, {c}) where sarpy has {want} (left {left} m)"
+            );
+        }
+    }
+}
+
+/// A window given as a box of longitude and latitude over a stack of two coregistered SICD
+/// images is the pixels sarpy's projection puts the box on (its edges mapped at 17 points,
+/// rounded outwards, in the fixture script), analysed value for value as sarpy reads them.
+/// An image whose XML lacks what the projection needs is refused naming the element.
+#[test]
+fn a_map_box_on_sicd_images_reads_the_pixels_sarpy_projects_it_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = projection_fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let b: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fx.join("map_box.json")).unwrap()).unwrap();
+    let (x, y) = (&b["box"][0], &b["box"][1]);
+    let fields = format!(
+        "kind: sicd, path: [fixtures/proj_inca.nitf, fixtures/proj_inca_b.nitf], window: {{x: {x}, y: {y}}}"
+    );
+    assert_same_tables(
+        &run(d, "map", &fields),
+        &run(d, "map_npy", "kind: npy, path: fixtures/map_window.npy"),
+    );
+    // The first fixtures' images have no aperture track.
+    let _ = fixtures(&d.join("plain")).unwrap();
+    let e = refused(
+        d,
+        "no_track",
+        "kind: sicd, path: plain/fixtures/scene_00.nitf, window: {x: [10.9, 11.1], y: [47.9, 48.1]}",
+    );
+    assert!(
+        e.contains("datasets[0].window")
+            && e.contains("scene_00.nitf: its SICD XML lacks ImageFormation/ImageFormAlgo"),
         "{e}"
     );
 }

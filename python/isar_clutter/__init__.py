@@ -67,7 +67,9 @@ def load(
       as GDAL fits them: longitude and latitude for Sentinel-1). complex64.
     - SICD images (``.nitf``, ``.ntf``: NITF 2.1 with SICD XML, Umbra's and Capella's
       single-look complex deliveries; ``RE32F_IM32F``, ``RE16I_IM16I``, ``AMP8I_PHS8I``);
-      every image is one sample, read in ``window`` as above. complex64; ``calibration``
+      every image is one sample, read in ``window`` as above, or in the pixels covering
+      ``map_box`` ``((lon0, lon1), (lat0, lat1))`` (degrees) through SICD's own image
+      projection at the scene centre's height. complex64; ``calibration``
       (``"sigma0"``, ``"beta0"``, ``"gamma0"``, ``"rcs"``) multiplies each pixel by the root
       of the file's ``Radiometric`` scale polynomial there, so that ``|x|**2`` is that
       quantity.
@@ -94,12 +96,15 @@ def load(
         raise ValueError("calibration reads SICD's scale factors: give .nitf/.ntf files")
     if kinds == {".slc"}:
         return load_uavsar(paths, _paths(annotation), window)
-    if map_box is not None and not (kinds and kinds <= {".tif", ".tiff"}):
-        raise ValueError("map_box: map coordinates are read from GeoTIFF scenes (.tif, .tiff)")
+    if map_box is not None and not (kinds and kinds <= {".tif", ".tiff", ".nitf", ".ntf"}):
+        raise ValueError(
+            "map_box: map coordinates are read from GeoTIFF scenes (.tif, .tiff) and SICD "
+            "images (.nitf, .ntf)"
+        )
     if kinds and kinds <= {".tif", ".tiff"} and annotation is None:
         return load_geotiff(paths, window, map_box)
     if kinds and kinds <= {".nitf", ".ntf"} and annotation is None:
-        return load_sicd(paths, window, calibration)
+        return load_sicd(paths, window, calibration, map_box)
     raise ValueError(
         "load reads UAVSAR .slc files (with an annotation), GeoTIFF .tif/.tiff, SICD "
         f".nitf/.ntf and HDF5 .h5/.hdf5/.he5 files; "

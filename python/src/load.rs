@@ -54,18 +54,25 @@ pub fn load_geotiff<'py>(
     window: Option<(usize, usize, usize, usize)>,
     map_box: Option<([f64; 2], [f64; 2])>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    let place =
-        match (window, map_box) {
-            (Some(_), Some(_)) => return Err(PyValueError::new_err(
-                "window: give the window in pixels (window=) or in map coordinates (map_box=), \
-                 not both",
-            )),
-            (None, Some((x, y))) => Some(Place::Map { x, y }),
-            (w, None) => pixels(w),
-        };
+    let place = place(window, map_box)?;
     load_scenes::<GeoTiff>(py, &paths, place, None, "GeoTIFF", |e| {
         matches!(e, TiffError::Io { .. })
     })
+}
+
+/// The window in pixels, or the box in map coordinates (not both).
+fn place(
+    window: Option<(usize, usize, usize, usize)>,
+    map_box: Option<([f64; 2], [f64; 2])>,
+) -> PyResult<Option<Place>> {
+    match (window, map_box) {
+        (Some(_), Some(_)) => Err(PyValueError::new_err(
+            "window: give the window in pixels (window=) or in map coordinates (map_box=), not \
+             both",
+        )),
+        (None, Some((x, y))) => Ok(Some(Place::Map { x, y })),
+        (w, None) => Ok(pixels(w)),
+    }
 }
 
 /// A window `(row, col, rows, cols)` in pixels.
@@ -73,23 +80,27 @@ fn pixels(window: Option<(usize, usize, usize, usize)>) -> Option<Place> {
     window.map(|(row, col, rows, cols)| Place::Pixels(Window::at(row, col, rows, cols)))
 }
 
-/// load_sicd(paths, window=None, calibration=None)
+/// load_sicd(paths, window=None, calibration=None, map_box=None)
 /// --
 ///
 /// The same window `(row, col, rows, cols)` of every SICD image in `paths` (default: the whole
-/// image), as a complex64 `[N, H, W]` array, calibrated to `calibration` (`sigma0`, `beta0`,
+/// image), or the pixels covering `map_box` `((lon0, lon1), (lat0, lat1))` through SICD's image
+/// projection (at the scene centre's height), as a complex64 `[N, H, W]` array, calibrated to
+/// `calibration` (`sigma0`, `beta0`,
 /// `gamma0`, `rcs`) with each file's `Radiometric` polynomial where given. A bad file is a
 /// `ValueError` naming the field, the image, the file and the NITF field or XML element; an
 /// unreadable one an `OSError`.
 #[pyfunction]
-#[pyo3(signature = (paths, window = None, calibration = None))]
+#[pyo3(signature = (paths, window = None, calibration = None, map_box = None))]
 pub fn load_sicd<'py>(
     py: Python<'py>,
     paths: Vec<PathBuf>,
     window: Option<(usize, usize, usize, usize)>,
     calibration: Option<String>,
+    map_box: Option<([f64; 2], [f64; 2])>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    load_scenes::<Sicd>(py, &paths, pixels(window), calibration, "SICD", |e| {
+    let place = place(window, map_box)?;
+    load_scenes::<Sicd>(py, &paths, place, calibration, "SICD", |e| {
         matches!(e, SicdError::Io { .. })
     })
 }

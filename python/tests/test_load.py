@@ -138,6 +138,20 @@ def test_sicd_images_are_read_as_sarpy_reads_them(tmp_path):
         ic.load([fx / f"scene_0{k}.nitf" for k in range(3)])
 
 
+def test_a_sicd_map_box_reads_the_pixels_sarpy_projects_it_to(tmp_path):
+    pytest.importorskip("sarpy")
+    path = Path(__file__).resolve().parents[2] / "tests" / "sicd" / "make_projection_fixtures.py"
+    spec = importlib.util.spec_from_file_location("sicd_projection_fixtures", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(tmp_path)
+    paths = [tmp_path / "proj_inca.nitf", tmp_path / "proj_inca_b.nitf"]
+    got = ic.load(paths, map_box=module.MAP_BOX)
+    np.testing.assert_array_equal(got, np.load(tmp_path / "map_window.npy"))
+    with pytest.raises(ValueError, match="its SICD XML lacks ImageFormation/ImageFormAlgo"):
+        ic.load([sicd_fixtures(tmp_path / "plain") / "scene_00.nitf"], map_box=module.MAP_BOX)
+
+
 def test_the_sicd_example_fits_a_model_and_fills_a_dataloader(tmp_path):
     pytest.importorskip("torch")
     fx = sicd_fixtures(tmp_path)

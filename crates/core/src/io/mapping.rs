@@ -4,9 +4,11 @@
 //! turned into pixels as GDAL's GCP transformer does by default (`GDALCreateGCPTransformer`
 //! with order 0): a least-squares polynomial from map coordinates to pixel coordinates, of
 //! order 2 from 6 points on, order 1 from 3; the fit's largest residual at the points is
-//! reported with the window.
+//! reported with the window. A SICD image's pixels are placed by SICD's own projection
+//! ([`super::projection`]) at the scene centre's height.
 
 use super::cut::Window;
+use super::projection::Projection;
 
 /// One ground control point: the pixel position `(row, col)` (of the pixel grid's corners:
 /// pixel `(r, c)` covers `[r, r + 1) x [c, c + 1)`) and its map coordinates `(x, y)`.
@@ -30,6 +32,14 @@ pub enum Georeference {
     Affine([f64; 6]),
     /// Ground control points.
     Gcps(Vec<Gcp>),
+    /// SICD's image projection, map coordinates being longitude (`x`) and latitude (`y`) in
+    /// degrees on the WGS-84 ellipsoid at `height` (m above it; the scene centre's).
+    Sicd {
+        /// The image's projection.
+        projection: Box<Projection>,
+        /// Height of the mapped points above the ellipsoid (m).
+        height: f64,
+    },
 }
 
 /// The pixel window that covers a map box, and how exactly the georeferencing placed it.
@@ -140,6 +150,15 @@ fn transform(georef: &Georeference) -> Result<(ToPixel, Option<Fit>), String> {
             let f = move |xx: f64, yy: f64| {
                 let (u, v) = (xx - x0, yy - y0);
                 ((a * v - d * u) / det, (e * u - b * v) / det)
+            };
+            (Box::new(f), None)
+        }
+        Georeference::Sicd { projection, height } => {
+            let (p, h) = (projection.clone(), *height);
+            // SICD places pixel centres at whole numbers; this module, their corners.
+            let f = move |lon: f64, lat: f64| {
+                let ([r, c], _) = p.geodetic_to_image(lat, lon, h);
+                (r + 0.5, c + 0.5)
             };
             (Box::new(f), None)
         }

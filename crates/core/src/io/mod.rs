@@ -4,7 +4,8 @@
 //! direct I/O (`stream`); clutter stacks cut from scenes (`cut`); UAVSAR single-look complex scenes and
 //! their annotations (`uavsar`); complex stacks in HDF5 files (`h5stack`); output folders the tool owns
 //! (`outdir`: claim, lock, completeness; `journal`: what the tool wrote there); map coordinates
-//! to pixels (`mapping`: affine transforms and ground control points).
+//! to pixels (`mapping`: affine transforms and ground control points; `projection`: SICD's
+//! ground-to-image projection).
 
 pub mod atomic;
 pub mod cut;
@@ -18,6 +19,7 @@ pub mod netcdf;
 pub mod npy;
 pub mod outdir;
 pub mod polygon;
+pub mod projection;
 pub mod scenes;
 pub mod sicd;
 pub mod stream;

@@ -82,10 +82,16 @@ pub trait Scene: Sized {
     fn read_window(&self, window: &Window, out: &mut [Complex32]) -> Result<(), Self::Error>;
     /// What a run's manifest records of the file (its format's metadata).
     fn describe(&self) -> serde_json::Value;
-    /// How its pixels lie in the file's map coordinates (an affine transform, or ground
-    /// control points), where the format gives it.
-    fn georeference(&self) -> Option<Georeference> {
-        None
+    /// How its pixels lie in the file's map coordinates (an affine transform, ground control
+    /// points, SICD's projection), where the format gives it.
+    ///
+    /// # Errors
+    /// Why the file gives none, naming it.
+    fn georeference(&self) -> Result<Georeference, String> {
+        Err(format!(
+            "{} gives no georeferencing (no map transform, no ground control points)",
+            self.path().display()
+        ))
     }
     /// Rows of the file's storage blocks (HDF5 chunks, GeoTIFF tiles or strips): a window is
     /// read in whole blocks, which compressed ones inflate, so reads as tall as a block waste
@@ -184,9 +190,12 @@ impl<S: Scene> Scenes<S> {
             Some(Place::Pixels(w)) => w,
             Some(Place::Map { x, y }) => {
                 let pixels = |i: usize| -> Result<MapWindow, StackError> {
-                    let georef = scenes[i].georeference().ok_or_else(|| {
-                        let p = path(i);
-                        err("window", None, format!("{p} gives no georeferencing (no map transform, no ground control points): give the window in pixels (row, col, size)"))
+                    let georef = scenes[i].georeference().map_err(|m| {
+                        err(
+                            "window",
+                            None,
+                            format!("{m}: give the window in pixels (row, col, size)"),
+                        )
                     })?;
                     map_window(&georef, x, y)
                         .map_err(|m| err("window", None, format!("{}: {m}", path(i))))
@@ -362,13 +371,9 @@ impl<S: Scene> Scenes<S> {
     pub fn map_polygon(&self, vertices: &[[f64; 2]]) -> Result<Vec<[f64; 2]>, String> {
         let mut first: Option<Vec<[f64; 2]>> = None;
         for s in &self.scenes {
-            let g = s.georeference().ok_or_else(|| {
-                format!(
-                    "{} gives no georeferencing (no map transform, no ground control points): \
-                     give the polygon in pixels",
-                    s.path().display()
-                )
-            })?;
+            let g = s
+                .georeference()
+                .map_err(|m| format!("{m}: give the polygon in pixels"))?;
             let (pixels, _) =
                 map_points(&g, vertices).map_err(|m| format!("{}: {m}", s.path().display()))?;
             match &first {

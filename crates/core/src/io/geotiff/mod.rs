@@ -271,11 +271,11 @@ impl Scene for GeoTiff {
     /// The affine transform of the tags, or else their ground control points (two tie points
     /// or more), moved by half a pixel where the raster's points are pixel centres (GeoKey
     /// 1025, `RasterPixelIsPoint`), as GDAL reads them.
-    fn georeference(&self) -> Option<Georeference> {
+    fn georeference(&self) -> Result<Georeference, String> {
         let point = self.georef.geokeys.get(&1025) == Some(&georef::KeyValue::Ints(vec![2]));
         let half = if point { 0.5 } else { 0.0 };
         if let Some([x0, a, b, y0, d, e]) = self.georef.affine {
-            return Some(Georeference::Affine([
+            return Ok(Georeference::Affine([
                 x0 - half * (a + b),
                 a,
                 b,
@@ -284,19 +284,23 @@ impl Scene for GeoTiff {
                 e,
             ]));
         }
-        (self.georef.tiepoints.len() >= 2).then(|| {
-            Georeference::Gcps(
-                self.georef
-                    .tiepoints
-                    .iter()
-                    .map(|t| Gcp {
-                        col: t[0] + half,
-                        row: t[1] + half,
-                        x: t[3],
-                        y: t[4],
-                    })
-                    .collect(),
-            )
-        })
+        if self.georef.tiepoints.len() < 2 {
+            return Err(format!(
+                "{} gives no georeferencing (no map transform, no ground control points)",
+                self.path.display()
+            ));
+        }
+        Ok(Georeference::Gcps(
+            self.georef
+                .tiepoints
+                .iter()
+                .map(|t| Gcp {
+                    col: t[0] + half,
+                    row: t[1] + half,
+                    x: t[3],
+                    y: t[4],
+                })
+                .collect(),
+        ))
     }
 }

@@ -17,6 +17,7 @@ use super::cut::Window;
 use super::geotiff::ifd::Order;
 use super::geotiff::read::convert;
 use super::geotiff::Num;
+use super::mapping::Georeference;
 use super::scenes::{OpenScene, Scene, Scenes};
 use num_complex::Complex32;
 use rayon::prelude::*;
@@ -293,6 +294,23 @@ impl Scene for Sicd {
         }
         self.calibration = Some((quantity.to_string(), poly.clone()));
         Ok(())
+    }
+
+    /// SICD's image projection (longitude, latitude at the scene centre's height), where
+    /// the XML holds what it needs.
+    fn georeference(&self) -> Result<Georeference, String> {
+        let p = self.metadata.projection.as_ref();
+        let projection = Box::new(
+            p.map_err(|m| format!("{}: {m}", self.path.display()))?
+                .clone(),
+        );
+        let height = self.metadata.scp_llh.map(|l| l[2]).ok_or_else(|| {
+            format!(
+                "{}: its SICD XML lacks GeoData/SCP/LLH/HAE, the height a map box is placed at",
+                self.path.display()
+            )
+        })?;
+        Ok(Georeference::Sicd { projection, height })
     }
 
     fn describe(&self) -> serde_json::Value {

@@ -2,8 +2,10 @@
 //! needs, and what a clutter study records beside its data (collector and mode, collection
 //! time, polarisation, the image grid's plane, type, sample spacings and resolutions, the
 //! scene centre point, and the radiometric scale factors that calibrate amplitudes to
-//! sigma-0 or beta-0). Elements are found by their local names, whatever the namespace
-//! prefix of the SICD version.
+//! sigma-0 or beta-0), and what projects ground points into the image (the scene centre, the
+//! grid's vectors, the aperture's track and centre-of-aperture times, the image formation's
+//! R/Rdot model: [`crate::io::projection`]). Elements are found by their local names, whatever
+//! the namespace prefix of the SICD version.
 
 use num_complex::Complex32;
 use serde::Serialize;
@@ -81,7 +83,7 @@ pub struct Direction {
 }
 
 /// The metadata a run's manifest records of a SICD.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Metadata {
     /// The SICD version's namespace (`urn:SICD:1.3.0`).
     pub namespace: Option<String>,
@@ -115,10 +117,13 @@ pub struct Metadata {
     /// What calibrates a pixel (not recorded: its polynomials' constants are above).
     #[serde(skip)]
     pub calibration: Geometry,
+    /// What projects ground points into the image, or which element of the XML it lacks.
+    #[serde(skip)]
+    pub projection: Result<Projection, String>,
 }
 
-/// A 2-D polynomial: `(exponent1, exponent2, coefficient)` terms.
-pub type Poly2 = Vec<(i32, i32, f64)>;
+pub use crate::io::projection::Poly2;
+use crate::io::projection::{ellipsoid_normal, poly2, Formation, Projection, Vec3};
 
 /// What turns a pixel's place into the image coordinates of SICD's polynomials: the scene
 /// centre pixel and the first row and column of the image in the full image (`ImageData`),
@@ -147,11 +152,7 @@ impl Geometry {
         };
         let x = (self.first[0] + row as f64 - scp[0]) * ss[0];
         let y = (self.first[1] + col as f64 - scp[1]) * ss[1];
-        let v: f64 = poly
-            .iter()
-            .map(|&(i, j, c)| c * x.powi(i) * y.powi(j))
-            .sum();
-        v.sqrt() as f32
+        poly2(poly, x, y).sqrt() as f32
     }
 }
 
@@ -176,6 +177,115 @@ fn text(node: roxmltree::Node, path: &str) -> Option<String> {
 /// The number at `path` below `node`.
 fn number(node: roxmltree::Node, path: &str) -> Option<f64> {
     text(node, path).and_then(|t| t.parse().ok())
+}
+
+/// The terms of the 2-D polynomial (`Poly2DType`) `node`.
+fn terms2(node: roxmltree::Node) -> Result<Poly2, String> {
+    let mut terms: Poly2 = vec![];
+    for c in node.children().filter(|c| c.is_element()) {
+        let e = |k: &str| c.attribute(k).and_then(|v| v.parse::<i32>().ok());
+        let v = c.text().and_then(|t| t.trim().parse::<f64>().ok());
+        match (e("exponent1"), e("exponent2"), v) {
+            (Some(i), Some(j), Some(v)) if i >= 0 && j >= 0 => terms.push((i, j, v)),
+            _ => return Err("has a term without exponents or a number".into()),
+        }
+    }
+    Ok(terms)
+}
+
+/// The coefficients of the 1-D polynomial (`Poly1DType`) `node`, by exponent.
+fn terms1(node: roxmltree::Node) -> Result<Vec<f64>, String> {
+    let mut c = vec![];
+    for t in node.children().filter(|c| c.is_element()) {
+        let e = t
+            .attribute("exponent1")
+            .and_then(|v| v.parse::<usize>().ok());
+        let v = t.text().and_then(|t| t.trim().parse::<f64>().ok());
+        let (Some(e), Some(v)) = (e, v) else {
+            return Err("has a term without an exponent or a number".into());
+        };
+        if c.len() <= e {
+            c.resize(e + 1, 0.0);
+        }
+        c[e] += v;
+    }
+    Ok(c)
+}
+
+/// What projects ground points into the image (SICD's image projection model,
+/// [`crate::io::projection`]), or the element it lacks.
+fn projection(root: roxmltree::Node) -> Result<Projection, String> {
+    let missing = |path: &str| format!("its SICD XML lacks {path}, which the projection needs");
+    let num = |path: &str| number(root, path).ok_or_else(|| missing(path));
+    let xyz = |path: &str| -> Result<Vec3, String> {
+        Ok([
+            num(&format!("{path}/X"))?,
+            num(&format!("{path}/Y"))?,
+            num(&format!("{path}/Z"))?,
+        ])
+    };
+    let node = |path: &str| at(root, path).ok_or_else(|| missing(path));
+    let p1 = |path: &str| terms1(node(path)?).map_err(|m| format!("its SICD XML's {path} {m}"));
+    let p2 = |path: &str| terms2(node(path)?).map_err(|m| format!("its SICD XML's {path} {m}"));
+    let scp = xyz("GeoData/SCP/ECF")?;
+    let algo = text(root, "ImageFormation/ImageFormAlgo");
+    let grid = text(root, "Grid/Type").ok_or_else(|| missing("Grid/Type"))?;
+    let formation = match (grid.as_str(), algo.as_deref()) {
+        ("RGAZIM", Some("PFA")) => Formation::Pfa {
+            polar_angle: p1("PFA/PolarAngPoly")?,
+            ksf: p1("PFA/SpatialFreqSFPoly")?,
+        },
+        ("RGAZIM", Some("RGAZCOMP")) => Formation::RgAzComp {
+            az_sf: num("RgAzComp/AzSF")?,
+        },
+        ("RGZERO", _) => Formation::Inca {
+            r_ca_scp: num("RMA/INCA/R_CA_SCP")?,
+            time_ca: p1("RMA/INCA/TimeCAPoly")?,
+            drate_sf: p2("RMA/INCA/DRateSFPoly")?,
+        },
+        ("XRGYCR" | "XCTYAT" | "PLANE", _) => Formation::Plane,
+        ("RGAZIM", None) => return Err(missing("ImageFormation/ImageFormAlgo")),
+        (g, a) => {
+            return Err(format!(
+                "its Grid/Type {g} with ImageFormation/ImageFormAlgo {a:?} has no projection \
+                 model (RGAZIM with PFA or RGAZCOMP, RGZERO, XRGYCR, XCTYAT, PLANE)"
+            ))
+        }
+    };
+    let look = match text(root, "SCPCOA/SideOfTrack").as_deref() {
+        Some("L") => 1.0,
+        Some("R") => -1.0,
+        _ => return Err(missing("SCPCOA/SideOfTrack (L or R)")),
+    };
+    Ok(Projection {
+        scp,
+        scp_pixel: [
+            num("ImageData/SCPPixel/Row")?,
+            num("ImageData/SCPPixel/Col")?,
+        ],
+        first: [
+            number(root, "ImageData/FirstRow").unwrap_or(0.0),
+            number(root, "ImageData/FirstCol").unwrap_or(0.0),
+        ],
+        ss: [num("Grid/Row/SS")?, num("Grid/Col/SS")?],
+        u_row: xyz("Grid/Row/UVectECF")?,
+        u_col: xyz("Grid/Col/UVectECF")?,
+        time_coa: p2("Grid/TimeCOAPoly")?,
+        arp: [
+            p1("Position/ARPPoly/X")?,
+            p1("Position/ARPPoly/Y")?,
+            p1("Position/ARPPoly/Z")?,
+        ],
+        arp_scp: xyz("SCPCOA/ARPPos")?,
+        varp_scp: xyz("SCPCOA/ARPVel")?,
+        look,
+        ground_normal: if matches!(formation, Formation::Pfa { .. }) {
+            xyz("PFA/FPN")?
+        } else {
+            ellipsoid_normal(scp)
+        },
+        formation,
+    })
 }
 
 /// Reads the SICD XML `xml`: `(rows, columns, pixel type, metadata)`.
@@ -234,20 +344,7 @@ pub fn read(xml: &str) -> Result<(usize, usize, Pixel, Metadata), (&'static str,
         let Some(node) = at(root, &format!("Radiometric/{poly}")) else {
             continue;
         };
-        let mut terms: Poly2 = vec![];
-        for c in node.children().filter(|c| c.is_element()) {
-            let e = |k: &str| c.attribute(k).and_then(|v| v.parse::<i32>().ok());
-            let v = c.text().and_then(|t| t.trim().parse::<f64>().ok());
-            match (e("exponent1"), e("exponent2"), v) {
-                (Some(i), Some(j), Some(v)) if i >= 0 && j >= 0 => terms.push((i, j, v)),
-                _ => {
-                    return Err((
-                        "Radiometric",
-                        format!("Radiometric/{poly} has a term without exponents or a number"),
-                    ))
-                }
-            }
-        }
+        let terms = terms2(node).map_err(|m| ("Radiometric", format!("Radiometric/{poly} {m}")))?;
         if let Some(&(_, _, c)) = terms.iter().find(|t| (t.0, t.1) == (0, 0)) {
             radiometric.insert(poly.to_string(), c);
         }
@@ -274,6 +371,7 @@ pub fn read(xml: &str) -> Result<(usize, usize, Pixel, Metadata), (&'static str,
             _ => None,
         },
         radiometric,
+        projection: projection(root),
         calibration: Geometry {
             scp_pixel: pair("ImageData/SCPPixel/Row", "ImageData/SCPPixel/Col"),
             first: pair("ImageData/FirstRow", "ImageData/FirstCol").unwrap_or([0.0, 0.0]),
