@@ -270,6 +270,45 @@ fn a_single_hdf5_scene_is_cut_as_isar_clutter_cut_cuts_h5pys_pixels() {
         std::fs::read(&ub_cut).unwrap(),
         std::fs::read(fx.join("frame_cut.npy")).unwrap()
     );
+    // The window and the avoided box as map boxes in the frame's UTM metres (its coordinate
+    // vectors: columns 5 m apart from x = 500000, rows 10 m apart down from y = 4200000), each
+    // box's edges inside the pixels `CUT_FIELDS` names, give the same cut.
+    let map_fields = format!(
+        "{fields}, window: {{x: [500006, 500144], y: [4199621, 4199979]}}, cut: {{patch: 8, \
+         stride: [8, 6], avoid: [{{row: 10, col: 10, size: [4, 4]}}]}}"
+    );
+    common::scenes::assert_same_tables(&common::scenes::run(d, "scene_map", &map_fields), &npy);
+    let map_cut = fx.join("map_cut.npy");
+    common::scenes::cut_cli_in(
+        &[fx.join("stack.h5")],
+        &map_cut,
+        &["--map-box", "500006,500144,4199621,4199979"],
+        &["--dataset", "/frame/VV"],
+    );
+    assert_eq!(
+        std::fs::read(&map_cut).unwrap(),
+        std::fs::read(fx.join("frame_cut.npy")).unwrap()
+    );
+    // A scene with no coordinate vectors beside it has no map: refused, saying what is looked for.
+    let o = bin(&[
+        "cut",
+        "--input",
+        fx.join("userblock.h5").to_str().unwrap(),
+        "--dataset",
+        "frame",
+        "--patch",
+        "8",
+        "--map-box",
+        "0,1,0,1",
+        "--out",
+        fx.join("no_map.npy").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("userblock.h5: frame has no coordinate vectors beside it in /"),
+        "{}",
+        text(&o)
+    );
     for (extra, words) in [
         (vec!["--dataset", "pairs"], "is a stack"),
         (vec![], "--dataset: give the scene's dataset"),

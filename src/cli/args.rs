@@ -400,7 +400,8 @@ pub struct CutArgs {
     /// Where patches may lie as a box of map coordinates, X0,X1,Y0,Y1 (GeoTIFF scenes: the
     /// files' map transform or ground control points, longitude and latitude for
     /// Sentinel-1; SICD images: longitude and latitude through SICD's projection at the scene
-    /// centre's height), instead of --window.
+    /// centre's height; HDF5 scenes: the coordinate vectors beside them, e.g. OPERA's
+    /// x_coordinates/y_coordinates), instead of --window.
     #[arg(long, value_name = "X0,X1,Y0,Y1", conflicts_with = "window", value_parser = map_box)]
     pub map_box: Option<([f64; 2], [f64; 2])>,
     /// The region of --polygon by its vertices in map coordinates: x0,y0;x1,y1;x2,y2;...

@@ -69,14 +69,20 @@ pub const CUT_FIELDS: &str = "window: {row: 2, col: 1, size: [36, 28]}, cut: {pa
 /// `isar-clutter cut` of `inputs` into `out` with the options of [`CUT_FIELDS`] (and
 /// `extra`); what it said on stderr.
 pub fn cut_cli(inputs: &[PathBuf], out: &Path, extra: &[&str]) -> String {
+    cut_cli_in(inputs, out, &["--window", "2:38,1:29"], extra)
+}
+
+/// [`cut_cli`] with the window given by `place` (`--window ...` or `--map-box ...`).
+pub fn cut_cli_in(inputs: &[PathBuf], out: &Path, place: &[&str], extra: &[&str]) -> String {
     let mut args: Vec<String> = vec!["cut".into()];
     for i in inputs {
         args.extend(["--input".into(), i.display().to_string()]);
     }
-    let options = ["--patch", "8", "--stride", "8x6", "--window", "2:38,1:29"];
+    let options = ["--patch", "8", "--stride", "8x6"];
     args.extend(
         options
             .iter()
+            .chain(place)
             .chain(&["--avoid", "10:14,10:14"])
             .map(|a| a.to_string()),
     );

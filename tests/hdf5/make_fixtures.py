@@ -13,7 +13,9 @@ stack times 1000 rounded; `/ints_be` the same big-endian and contiguous) with `i
 and `/real32` (the real parts alone, float32) with `real32.npy`; and what the
 refusals need: `/text` (strings), `/scene` (a single [16, 12] scene), `/im_short` (float64 of
 another shape), and `/frame/VV`, a single complex64 [40, 30] scene chunked 8 x 8 and gzip
-compressed (an OPERA CSLC frame's form). `stack.npy` is the stack as h5py reads
+compressed (an OPERA CSLC frame's form), with its column and row centres in UTM metres
+beside it (`/frame/x_coordinates`, 5 m apart from 500002.5; `/frame/y_coordinates`, -10 m apart
+from 4199995). `stack.npy` is the stack as h5py reads
 `/science/slc/HH` back, `frame.npy` the scene as h5py reads `/frame/VV` back; `truncated.h5`
 the first half of `stack.h5`'s bytes; `userblock.h5` the stack (contiguous, chunked gzip'd
 and shuffled, chunked plain) and the frame (chunked) behind a 512-byte user block.
@@ -68,6 +70,9 @@ def main(out: Path) -> None:
         frame = rng.standard_normal((40, 30)) + 1j * rng.standard_normal((40, 30))
         f.create_dataset("frame/VV", data=frame.astype(np.complex64), chunks=(8, 8),
                          compression="gzip")
+        # Its column and row centres in UTM metres, as OPERA's CSLC stores them beside it.
+        f["frame/x_coordinates"] = 500_000.0 + 5.0 * (np.arange(30) + 0.5)
+        f["frame/y_coordinates"] = 4_200_000.0 - 10.0 * (np.arange(40) + 0.5)
     # A file with a 512-byte user block before its HDF5 data (h5py's userblock_size): libhdf5's
     # chunk addresses count from its end, a contiguous dataset's offset from the file's start.
     with h5py.File(out / "userblock.h5", "w", userblock_size=512) as f:

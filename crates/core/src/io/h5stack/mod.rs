@@ -8,13 +8,15 @@
 //! an `.npy` file is; any other is read in blocks of whole chunks (chunked and compressed
 //! datasets included), so memory holds the stack and one block, never the file; a build
 //! without it refuses such a stack, saying so. A single scene `[H, W]` ([`H5Scene`]) is read a
-//! window at a time instead, to be cut into patches.
+//! window at a time instead, to be cut into patches, and placed on the map by the coordinate
+//! vectors beside it (`coords.rs`).
 
 use crate::io::npy::Stack;
 use std::path::Path;
 
 #[cfg(feature = "mat73")]
 mod chunks;
+pub mod coords;
 #[cfg(feature = "mat73")]
 mod read;
 mod types;
@@ -139,6 +141,22 @@ impl crate::io::scenes::Scene for H5Scene {
 
     fn block_rows(&self) -> usize {
         self.0.chunk_rows
+    }
+
+    /// The affine transform of the coordinate vectors beside the scene in its group
+    /// ([`coords`]).
+    fn georeference(&self) -> Result<crate::io::mapping::Georeference, String> {
+        #[cfg(feature = "mat73")]
+        {
+            read::scene_georeference(&self.0)
+        }
+        #[cfg(not(feature = "mat73"))]
+        {
+            Err(format!(
+                "{}: this build reads no HDF5",
+                self.0.path.display()
+            ))
+        }
     }
 
     fn describe(&self) -> serde_json::Value {

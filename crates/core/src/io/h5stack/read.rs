@@ -62,6 +62,36 @@ fn h5(e: hdf5_metno::Error) -> String {
     e.to_string()
 }
 
+/// The affine georeference of a single scene from the coordinate vectors beside it
+/// ([`super::coords`]).
+pub(super) fn scene_georeference(st: &H5Stack) -> Result<crate::io::mapping::Georeference, String> {
+    let at = |what: String| format!("{}: {what}", st.path.display());
+    let file = hdf5_metno::File::open(&st.path).map_err(|e| at(h5(e)))?;
+    let group = match st.dataset.trim_end_matches('/').rfind('/') {
+        Some(0) | None => "/",
+        Some(i) => &st.dataset[..i],
+    };
+    let g = file.group(group).map_err(|e| at(h5(e)))?;
+    for (xn, yn) in super::coords::NAMES {
+        let (Ok(x), Ok(y)) = (g.dataset(xn), g.dataset(yn)) else {
+            continue;
+        };
+        let read = |d: hdf5_metno::Dataset, n: &str| {
+            d.read_raw::<f64>()
+                .map_err(|e| at(format!("{group}/{n}: {}", h5(e))))
+        };
+        let (x, y) = (read(x, xn)?, read(y, yn)?);
+        let a = super::coords::affine(&x, &y, (st.dims[1], st.dims[2]))
+            .map_err(|m| at(format!("{}: {m}", st.dataset)))?;
+        return Ok(crate::io::mapping::Georeference::Affine(a));
+    }
+    Err(at(format!(
+        "{} has no coordinate vectors beside it in {group} (x_coordinates/y_coordinates, \
+         xCoordinates/yCoordinates or x/y: its column and row centres)",
+        st.dataset
+    )))
+}
+
 /// See [`H5Stack::open`].
 pub(super) fn open(
     path: &Path,
