@@ -77,7 +77,9 @@ def load(
       frames), read with h5py (``pip install h5py``): the dataset at ``dataset`` (its path
       in the file), complex compounds, float pairs, or real numbers with the imaginary
       parts in the dataset ``imag``; a stack ``[N, H, W]`` (``layout="hwn"``: ``[H, W, N]``)
-      or a single scene ``[H, W]`` read in ``window`` (giving ``[1, rows, cols]``).
+      or a single scene ``[H, W]`` read in ``window`` (giving ``[1, rows, cols]``), or in
+      ``map_box`` through the coordinate vectors beside it (OPERA's ``x_coordinates`` and
+      ``y_coordinates``, NISAR's ``xCoordinates`` and ``yCoordinates``).
       complex64 where the stored numbers fit a float32, else complex128.
 
     A bad file raises ``ValueError`` naming the field (``slc[i]``, ``annotation``, ``path[i]``,
@@ -89,7 +91,7 @@ def load(
     if kinds and kinds <= HDF5_SUFFIXES:
         if len(paths) != 1 or annotation is not None or calibration is not None:
             raise ValueError("HDF5: give one file, its dataset= (and imag=, layout=, window=)")
-        return load_hdf5(paths[0], dataset, imag, layout, window)
+        return load_hdf5(paths[0], dataset, imag, layout, window, map_box)
     if dataset is not None or imag is not None:
         raise ValueError("dataset= and imag= name datasets of an HDF5 file (.h5, .hdf5, .he5)")
     if calibration is not None and not (kinds and kinds <= {".nitf", ".ntf"}):
@@ -98,8 +100,8 @@ def load(
         return load_uavsar(paths, _paths(annotation), window)
     if map_box is not None and not (kinds and kinds <= {".tif", ".tiff", ".nitf", ".ntf"}):
         raise ValueError(
-            "map_box: map coordinates are read from GeoTIFF scenes (.tif, .tiff) and SICD "
-            "images (.nitf, .ntf)"
+            "map_box: map coordinates are read from GeoTIFF scenes (.tif, .tiff), SICD "
+            "images (.nitf, .ntf) and HDF5 scenes (.h5, .hdf5, .he5)"
         )
     if kinds and kinds <= {".tif", ".tiff"} and annotation is None:
         return load_geotiff(paths, window, map_box)

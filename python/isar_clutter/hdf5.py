@@ -37,8 +37,15 @@ def load_hdf5(
     imag: Optional[str] = None,
     layout: str = "nhw",
     window: Optional[Tuple[int, int, int, int]] = None,
+    map_box: Optional[Tuple[Tuple[float, float], Tuple[float, float]]] = None,
 ) -> np.ndarray:
     """The stack ``dataset`` of the HDF5 file ``path`` as ``[N, H, W]`` (see the module).
+
+    A single scene's window may instead be ``map_box`` ``((x0, x1), (y0, y1))`` in the map
+    coordinates of the vectors of its column and row centres beside it in its group
+    (``x_coordinates``/``y_coordinates``, OPERA's; ``xCoordinates``/``yCoordinates``,
+    NISAR's; ``x``/``y``): the pixels that cover the box, as the command line's ``hdf5`` kind
+    places a map ``window``.
 
     complex64 where the stored numbers fit a float32 (floats of 4 bytes, integers of 2),
     complex128 otherwise. A single scene ``[H, W]`` gives ``[1, h, w]``, its ``window``
@@ -97,6 +104,10 @@ def load_hdf5(
             t if form == "complex" else np.complex128
         )
         if len(dims) == 2:
+            if map_box is not None:
+                if window is not None:
+                    raise ValueError("window: give window= or map_box=, not both")
+                window = _map_window(f, path, dataset, dims, map_box)
             r0, c0, h, w = window if window is not None else (0, 0, dims[0], dims[1])
             if min(r0, c0) < 0 or h < 1 or w < 1 or r0 + h > dims[0] or c0 + w > dims[1]:
                 raise ValueError(
@@ -117,6 +128,38 @@ def load_hdf5(
         if layout == "hwn":
             values = np.ascontiguousarray(np.moveaxis(values, 2, 0))
         return values
+
+
+COORDINATE_NAMES = [("x_coordinates", "y_coordinates"), ("xCoordinates", "yCoordinates"),
+                    ("x", "y")]
+
+
+def _map_window(f, path: str, dataset: str, dims, map_box):
+    """``(row, col, rows, cols)`` covering ``map_box`` through the coordinate vectors beside
+    the scene ``dataset`` (their centres; corners half a spacing before), rounded outwards."""
+    group = f[dataset].parent
+    for xn, yn in COORDINATE_NAMES:
+        if xn in group and yn in group:
+            x, y = group[xn][...].astype(np.float64), group[yn][...].astype(np.float64)
+            break
+    else:
+        raise ValueError(
+            f"window: {path}: {dataset} has no coordinate vectors beside it in {group.name} "
+            "(x_coordinates/y_coordinates, xCoordinates/yCoordinates or x/y)"
+        )
+    if len(x) != dims[1] or len(y) != dims[0] or len(x) < 2 or len(y) < 2:
+        raise ValueError(f"window: {path}: the coordinate vectors are not the scene's size")
+    dx, dy = (x[-1] - x[0]) / (len(x) - 1), (y[-1] - y[0]) / (len(y) - 1)
+    (bx0, bx1), (by0, by1) = map_box
+    cols = [(v - (x[0] - dx / 2)) / dx for v in (bx0, bx1)]
+    rows = [(v - (y[0] - dy / 2)) / dy for v in (by0, by1)]
+
+    def snap(v):
+        return round(v) if abs(v - round(v)) < 1e-6 else v
+
+    r0, r1 = int(np.floor(snap(min(rows)))), int(np.ceil(snap(max(rows))))
+    c0, c1 = int(np.floor(snap(min(cols)))), int(np.ceil(snap(max(cols))))
+    return (r0, c0, r1 - r0, c1 - c0)
 
 
 def _dataset(f, path: str, name: str, field: str):

@@ -182,6 +182,9 @@ def test_hdf5_stacks_and_scenes_are_read_as_written(tmp_path):
         ints["re"], ints["im"] = np.round(x.real * 1000), np.round(x.imag * 1000)
         h["ints"] = ints
         h["frame"] = x[0]
+        h["geo/VV"] = x[1]
+        h["geo/x_coordinates"] = 500_000.0 + 5.0 * (np.arange(12) + 0.5)
+        h["geo/y_coordinates"] = 4_200_000.0 - 10.0 * (np.arange(16) + 0.5)
         h["text"] = np.array([b"abc"] * 6).reshape(1, 2, 3)
     for name, kw in [("science/HH", {}), ("/pairs", {}), ("matlab", {})]:
         got = ic.load(f, dataset=name, **kw)
@@ -195,6 +198,11 @@ def test_hdf5_stacks_and_scenes_are_read_as_written(tmp_path):
     assert np.array_equal(ints, np.round(x.real * 1000) + 1j * np.round(x.imag * 1000))
     scene = ic.load(f, dataset="frame", window=(2, 3, 5, 4))
     assert scene.shape == (1, 5, 4) and np.array_equal(scene[0], x[0, 2:7, 3:7])
+    # Columns 3..7 (x 500015..500035) and rows 2..7 (y 4199980..4199930), box edges inside.
+    geo = ic.load(f, dataset="geo/VV", map_box=((500016.0, 500034.0), (4199931.0, 4199979.0)))
+    assert np.array_equal(geo[0], x[1, 2:7, 3:7])
+    with pytest.raises(ValueError, match="frame has no coordinate vectors beside it in /"):
+        ic.load(f, dataset="frame", map_box=((0.0, 1.0), (0.0, 1.0)))
     for kw, words in [
         ({"dataset": "nope"}, ["dataset:", "no dataset 'nope'", "science"]),
         ({"dataset": "text"}, ["dataset:", "not numbers"]),
