@@ -218,6 +218,31 @@ fn every_covered_table_gives_the_numbers_the_document_records() {
     let read = |p: &Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
     };
+    // The summary's ten largest differences say why, each table among them under one reason.
+    let text = std::fs::read_to_string(&doc).unwrap();
+    let block = text
+        .split("The ten largest relative differences:")
+        .nth(1)
+        .and_then(|b| b.split("\n## ").next())
+        .expect("the summary lists the largest differences");
+    let rows: Vec<&str> = block
+        .lines()
+        .filter(|l| l.starts_with("| "))
+        .skip(1)
+        .collect();
+    assert_eq!(rows.len(), 10, "{block}");
+    let whys: Vec<&str> = block
+        .lines()
+        .filter(|l| l.starts_with("Why (Tables "))
+        .collect();
+    for row in rows {
+        let n = row.split('|').nth(1).unwrap().trim();
+        let listed = |w: &&&str| {
+            let tables = w["Why (Tables ".len()..].split("):").next().unwrap();
+            tables.split(", ").any(|t| t == n)
+        };
+        assert_eq!(whys.iter().filter(listed).count(), 1, "Table {n}: {block}");
+    }
     let fresh = read(&doc.with_extension("json"));
     let recorded = read(Path::new("docs/reproduction.json"));
     let tables = |v: &serde_json::Value| -> Vec<serde_json::Value> {

@@ -192,7 +192,8 @@ fn cell_counts(s: &mut String, evaluated: &[Evaluated]) -> BTreeMap<Verdict, usi
     counts
 }
 
-/// The ten largest relative differences of the cells that do not match.
+/// The ten largest relative differences of the cells that do not match, then why, once for
+/// each reason among them (the tables' own notes).
 fn largest(s: &mut String, dissertation: &Dissertation, evaluated: &[Evaluated]) {
     let mut all: Vec<(f64, u32, String, String, f64, f64)> = Vec::new();
     for e in evaluated {
@@ -224,6 +225,21 @@ fn largest(s: &mut String, dissertation: &Dissertation, evaluated: &[Evaluated])
         let _ = writeln!(s, "| {n} | {row} | {col} | {} | {} |", num(*p), num(*m));
     }
     let _ = writeln!(s);
+    let mut reasons: Vec<(Vec<u32>, &str)> = Vec::new();
+    for &(_, n, ..) in all.iter().take(10) {
+        let Some(e) = evaluated.iter().find(|e| e.number == n) else {
+            continue;
+        };
+        match reasons.iter_mut().find(|(_, r)| *r == e.differs_because) {
+            Some((tables, _)) if tables.contains(&n) => {}
+            Some((tables, _)) => tables.push(n),
+            None => reasons.push((vec![n], e.differs_because)),
+        }
+    }
+    for (tables, why) in reasons.iter().filter(|(_, r)| !r.is_empty()) {
+        let names: Vec<String> = tables.iter().map(u32::to_string).collect();
+        let _ = writeln!(s, "Why (Tables {}): {why}.\n", names.join(", "));
+    }
 }
 
 /// The block of table `t`: its setting, then each cell beside the tool's, or why it is not
