@@ -121,7 +121,7 @@ impl Summary {
         if self.n > 1 {
             format!("{} ± {}", num(self.mean), num(self.sd))
         } else {
-            num(self.mean)
+            short_num(self.mean)
         }
     }
 
@@ -135,6 +135,31 @@ impl Summary {
             0.0
         };
         Summary { mean, sd, n }
+    }
+}
+
+/// A number that may be a value as printed: its shortest exact form where that has at most six
+/// significant digits (`1.6979`, `0.0044`, `3.53e-6`: a printed value shown as printed), else
+/// [`num`]'s four (a computed value).
+pub fn short_num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let s = if (1e-3..1e5).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    };
+    let mantissa = s.split('e').next().unwrap_or("");
+    let digits = mantissa
+        .chars()
+        .filter(char::is_ascii_digit)
+        .collect::<String>();
+    if digits.trim_start_matches('0').len() <= 6 {
+        s
+    } else {
+        num(v)
     }
 }
 
@@ -211,6 +236,19 @@ pub fn verdict(reference: f64, tool: f64, tolerance: f64) -> Verdict {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Table 16's printed 1.6979 and 0.0044 and Table 8's 3.53E-6 stay as printed; a computed
+    /// mean gets four digits.
+    #[test]
+    fn printed_values_are_shown_as_printed() {
+        assert_eq!(short_num(1.6979), "1.6979");
+        assert_eq!(short_num(1.1305), "1.1305");
+        assert_eq!(short_num(0.0044), "0.0044");
+        assert_eq!(short_num(-21.53), "-21.53");
+        assert_eq!(short_num(3.53e-6), "3.53e-6");
+        assert_eq!(short_num((0.3215 + 1.1305 + 1.6979) / 3.0), "1.050");
+        assert_eq!(short_num(1.592_345_678), "1.592");
+    }
 
     #[test]
     fn decimals_as_printed() {

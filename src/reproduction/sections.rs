@@ -3,7 +3,7 @@
 //! choice and the other reading, and the stand-in plants' calibration from the committed fit
 //! record.
 
-use super::compare::num;
+use super::compare::{num, short_num};
 use std::fmt::Write as _;
 
 /// Where the dissertation's text leaves a construction open: (section, what it says, what the
@@ -149,8 +149,8 @@ pub(super) fn calibration(s: &mut String) {
             f.plant,
             num(f.gain),
             num(f.motion),
-            num(f.target[0]),
-            num(f.target[1]),
+            short_num(f.target[0]),
+            short_num(f.target[1]),
             num(f.achieved[0]),
             num(f.achieved[1])
         );
