@@ -289,6 +289,47 @@ fn a_single_hdf5_scene_is_cut_as_isar_clutter_cut_cuts_h5pys_pixels() {
         std::fs::read(&map_cut).unwrap(),
         std::fs::read(fx.join("frame_cut.npy")).unwrap()
     );
+    // An ICEYE SLC (int16 `s_i`, `s_q`) calibrated to beta0 by its `calibration_factor`: the
+    // cut of numpy's calibrated scene, value for value; sigma0 and a file without the factor
+    // refused at `calibration`.
+    let iceye = format!(
+        "kind: hdf5, path: fixtures/iceye.h5, dataset: s_i, imag: s_q, calibration: beta0, {}",
+        common::scenes::CUT_FIELDS
+    );
+    common::scenes::cut_cli(
+        &[fx.join("iceye_beta0.npy")],
+        &fx.join("iceye_cut.npy"),
+        &[],
+    );
+    let calibrated = common::scenes::run(d, "iceye", &iceye);
+    common::scenes::assert_same_tables(
+        &calibrated,
+        &common::scenes::run(d, "iceye_npy", "kind: npy, path: fixtures/iceye_cut.npy"),
+    );
+    let iceye_files = common::scenes::dataset_files(&calibrated);
+    assert_eq!(
+        iceye_files["files"][0]["calibrated_to"], "beta0",
+        "{iceye_files}"
+    );
+    for (fields, words) in [
+        (
+            iceye.replace("beta0", "sigma0"),
+            "gives beta0 only (asked for sigma0)",
+        ),
+        (
+            format!(
+                "{fields}, calibration: beta0, {}",
+                common::scenes::CUT_FIELDS
+            ),
+            "stack.h5: its HDF5 holds no /calibration_factor",
+        ),
+    ] {
+        let e = common::scenes::refused(d, "bad_cal", &fields);
+        assert!(
+            e.contains("datasets[0].calibration") && e.contains(words),
+            "{e}"
+        );
+    }
     // A scene with no coordinate vectors beside it has no map: refused, saying what is looked for.
     let o = bin(&[
         "cut",

@@ -214,7 +214,7 @@ fn h5_scenes(
                     ),
                 ));
             }
-            Ok(H5Scene(stack))
+            Ok(H5Scene::new(stack))
         })
         .collect::<Result<Vec<_>, _>>()?;
     Scenes::new(scenes, place)

@@ -17,7 +17,9 @@ compressed (an OPERA CSLC frame's form), with its column and row centres in UTM 
 beside it (`/frame/x_coordinates`, 5 m apart from 500002.5; `/frame/y_coordinates`, -10 m apart
 from 4199995). `stack.npy` is the stack as h5py reads
 `/science/slc/HH` back, `frame.npy` the scene as h5py reads `/frame/VV` back; `truncated.h5`
-the first half of `stack.h5`'s bytes; `userblock.h5` the stack (contiguous, chunked gzip'd
+the first half of `stack.h5`'s bytes; `iceye.h5` an ICEYE SLC's form (`s_i`, `s_q`, int16,
+and `calibration_factor`) with `iceye_beta0.npy` its scene calibrated to beta0 by numpy;
+`userblock.h5` the stack (contiguous, chunked gzip'd
 and shuffled, chunked plain) and the frame (chunked) behind a 512-byte user block.
 
 Usage: python make_fixtures.py OUT_DIR
@@ -80,6 +82,17 @@ def main(out: Path) -> None:
         f.create_dataset("chunked", data=x, chunks=(3, 5, 7), compression="gzip", shuffle=True)
         f.create_dataset("plain_chunks", data=x, chunks=(3, 5, 7))
         f.create_dataset("frame", data=frame.astype(np.complex64), chunks=(8, 8))
+    # An ICEYE SLC's form (as sarpy's ICEYE reader reads it): int16 real and imaginary parts
+    # `s_i`, `s_q` of one scene and the scalar `calibration_factor` (beta0 = factor |value|^2);
+    # `iceye_beta0.npy` the scene calibrated by numpy in float32 (the factor's root rounded to a
+    # float32, times each part).
+    ints_scene = rng.integers(-2000, 2000, (2, 40, 30)).astype(np.int16)
+    factor = 3.7e-7
+    with h5py.File(out / "iceye.h5", "w") as f:
+        f["s_i"], f["s_q"] = ints_scene[0], ints_scene[1]
+        f["calibration_factor"] = factor
+    scene = (ints_scene[0] + 1j * ints_scene[1]).astype(np.complex64)
+    np.save(out / "iceye_beta0.npy", scene * np.float32(np.sqrt(factor)))
     with h5py.File(out / "stack.h5", "r") as f:
         np.save(out / "stack.npy", f["science/slc/HH"][...])
         np.save(out / "frame.npy", f["frame/VV"][...])

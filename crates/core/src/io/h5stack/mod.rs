@@ -118,17 +118,32 @@ impl H5Stack {
 /// [`crate::io::scenes::Scene`]: read a window (one hyperslab) at a time, so that a scene of
 /// any size is cut into patches in bands.
 #[derive(Debug, Clone, PartialEq)]
-pub struct H5Scene(pub H5Stack);
+pub struct H5Scene {
+    /// The scene's dataset, checked.
+    pub stack: H5Stack,
+    /// The quantity reads are calibrated to and the amplitude factor (`None`: as stored).
+    pub calibration: Option<(String, f32)>,
+}
+
+impl H5Scene {
+    /// The scene `stack`, as stored.
+    pub fn new(stack: H5Stack) -> H5Scene {
+        H5Scene {
+            stack,
+            calibration: None,
+        }
+    }
+}
 
 impl crate::io::scenes::Scene for H5Scene {
     type Error = String;
 
     fn path(&self) -> &Path {
-        &self.0.path
+        &self.stack.path
     }
 
     fn dims(&self) -> (usize, usize) {
-        (self.0.dims[1], self.0.dims[2])
+        (self.stack.dims[1], self.stack.dims[2])
     }
 
     fn read_window(
@@ -136,11 +151,38 @@ impl crate::io::scenes::Scene for H5Scene {
         window: &crate::io::cut::Window,
         out: &mut [num_complex::Complex32],
     ) -> Result<(), String> {
-        self.0.read_window(window, out)
+        self.stack.read_window(window, out)?;
+        if let Some((_, k)) = &self.calibration {
+            out.iter_mut().for_each(|v| *v *= *k);
+        }
+        Ok(())
+    }
+
+    /// `beta0` from the file's `calibration_factor` (ICEYE's SLC products: `beta0 =
+    /// calibration_factor |value|^2`, as sarpy's ICEYE reader reads it): every value times the
+    /// factor's square root.
+    fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
+        let path = self.stack.path.display();
+        if quantity != "beta0" {
+            return Err(format!(
+                "{path}: an HDF5 scene is calibrated by ICEYE's calibration_factor, which gives \
+                 beta0 only (asked for {quantity})"
+            ));
+        }
+        #[cfg(feature = "mat73")]
+        {
+            let factor = read::calibration_factor(&self.stack)?;
+            self.calibration = Some((quantity.to_string(), factor.sqrt() as f32));
+            Ok(())
+        }
+        #[cfg(not(feature = "mat73"))]
+        {
+            Err(format!("{path}: this build reads no HDF5"))
+        }
     }
 
     fn block_rows(&self) -> usize {
-        self.0.chunk_rows
+        self.stack.chunk_rows
     }
 
     /// The affine transform of the coordinate vectors beside the scene in its group
@@ -148,25 +190,26 @@ impl crate::io::scenes::Scene for H5Scene {
     fn georeference(&self) -> Result<crate::io::mapping::Georeference, String> {
         #[cfg(feature = "mat73")]
         {
-            read::scene_georeference(&self.0)
+            read::scene_georeference(&self.stack)
         }
         #[cfg(not(feature = "mat73"))]
         {
             Err(format!(
                 "{}: this build reads no HDF5",
-                self.0.path.display()
+                self.stack.path.display()
             ))
         }
     }
 
     fn describe(&self) -> serde_json::Value {
         serde_json::json!({
-            "path": self.0.path.display().to_string(),
+            "path": self.stack.path.display().to_string(),
             "format": "HDF5",
-            "dataset": self.0.dataset,
-            "imag": self.0.imag,
-            "rows": self.0.dims[1],
-            "cols": self.0.dims[2],
+            "dataset": self.stack.dataset,
+            "imag": self.stack.imag,
+            "rows": self.stack.dims[1],
+            "cols": self.stack.dims[2],
+            "calibrated_to": self.calibration.as_ref().map(|c| c.0.clone()),
         })
     }
 }

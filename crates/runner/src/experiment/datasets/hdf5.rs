@@ -4,7 +4,8 @@
 //! `layout: hwn`; checked at validation (the dataset, its element type and shape), read a
 //! sample at a time by the core's `io::h5stack` (a build with the `mat73` feature, which links
 //! libhdf5). A single scene `[H, W]` (a NISAR RSLC or OPERA CSLC frame) is cut into patches
-//! (`cut`, inside `window`), each patch a sample, read a band of patch rows at a time.
+//! (`cut`, inside `window`), each patch a sample, read a band of patch rows at a time, and may
+//! be calibrated to beta-0 with ICEYE's `calibration_factor` (`calibration: beta0`).
 
 use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Layout, Materialised};
@@ -38,6 +39,10 @@ pub struct Spec {
     /// For a single scene `[H, W]`: how it is cut into patches, each patch a sample.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cut: Option<CutSpec>,
+    /// For a single scene: calibrate its values to `beta0` with the file's
+    /// `calibration_factor` (ICEYE's SLC products).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<String>,
 }
 
 /// A validated `hdf5` dataset.
@@ -51,7 +56,15 @@ pub struct Hdf5Dataset {
 
 impl DatasetKind for Hdf5Dataset {
     const NAME: &'static str = "hdf5";
-    const FIELDS: &'static [&'static str] = &["path", "dataset", "imag", "layout", "window", "cut"];
+    const FIELDS: &'static [&'static str] = &[
+        "path",
+        "dataset",
+        "imag",
+        "layout",
+        "window",
+        "cut",
+        "calibration",
+    ];
     const SAMPLES_FIELD: &'static str = "dataset";
     type Spec = Spec;
 
@@ -81,8 +94,14 @@ impl DatasetKind for Hdf5Dataset {
                     Some(w) => Some(w.place().map_err(|m| ctx.err(format!("{at}.window"), m))?),
                     None => None,
                 };
-                let scenes = Scenes::new(vec![H5Scene(stack.clone())], window)
+                let mut scenes = Scenes::new(vec![H5Scene::new(stack.clone())], window)
                     .map_err(|e| ctx.err(format!("{at}.{}", e.field), e.message))?;
+                if let Some(q) = &spec.calibration {
+                    use crate::io::scenes::Scene;
+                    scenes.scenes[0]
+                        .calibrate(q)
+                        .map_err(|m| ctx.err(format!("{at}.calibration"), m))?;
+                }
                 Some(CutScenes::new(
                     scenes,
                     Some(cut),
@@ -101,8 +120,16 @@ impl DatasetKind for Hdf5Dataset {
                     ),
                 ))
             }
-            (_, false) if spec.cut.is_some() || spec.window.is_some() => {
-                let key = if spec.cut.is_some() { "cut" } else { "window" };
+            (_, false)
+                if spec.cut.is_some() || spec.window.is_some() || spec.calibration.is_some() =>
+            {
+                let key = if spec.cut.is_some() {
+                    "cut"
+                } else if spec.window.is_some() {
+                    "window"
+                } else {
+                    "calibration"
+                };
                 return Err(ctx.err(
                     format!("{at}.{key}"),
                     format!("`{key}` applies to a single scene [H, W]; {dataset:?} is a stack"),
