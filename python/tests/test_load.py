@@ -108,14 +108,19 @@ def test_geotiff_scenes_are_read_as_rasterio_reads_them(tmp_path):
         ic.load(paths)
 
 
-def sicd_fixtures(tmp_path):
-    """The SICD images of tests/sicd/make_fixtures.py (written by sarpy) in ``tmp_path``."""
+def sicd_script(name):
+    """The fixture script ``tests/sicd/<name>.py`` (it writes SICD files with sarpy) as a module."""
     pytest.importorskip("sarpy")
-    path = Path(__file__).resolve().parents[2] / "tests" / "sicd" / "make_fixtures.py"
-    spec = importlib.util.spec_from_file_location("sicd_fixtures", path)
+    path = Path(__file__).resolve().parents[2] / "tests" / "sicd" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    module.main(tmp_path)
+    return module
+
+
+def sicd_fixtures(tmp_path):
+    """The SICD images of tests/sicd/make_fixtures.py (written by sarpy) in ``tmp_path``."""
+    sicd_script("make_fixtures").main(tmp_path)
     return tmp_path
 
 
@@ -139,11 +144,7 @@ def test_sicd_images_are_read_as_sarpy_reads_them(tmp_path):
 
 
 def test_a_sicd_map_box_reads_the_pixels_sarpy_projects_it_to(tmp_path):
-    pytest.importorskip("sarpy")
-    path = Path(__file__).resolve().parents[2] / "tests" / "sicd" / "make_projection_fixtures.py"
-    spec = importlib.util.spec_from_file_location("sicd_projection_fixtures", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = sicd_script("make_projection_fixtures")
     module.main(tmp_path)
     paths = [tmp_path / "proj_inca.nitf", tmp_path / "proj_inca_b.nitf"]
     got = ic.load(paths, map_box=module.MAP_BOX)
