@@ -217,10 +217,12 @@ fn a_map_box_on_sicd_images_reads_the_pixels_sarpy_projects_it_to() {
     let fields = format!(
         "kind: sicd, path: [fixtures/proj_inca.nitf, fixtures/proj_inca_b.nitf], window: {{x: {x}, y: {y}}}"
     );
+    let map = run(d, "map", &fields);
     assert_same_tables(
-        &run(d, "map", &fields),
+        &map,
         &run(d, "map_npy", "kind: npy, path: fixtures/map_window.npy"),
     );
+    assert_eq!(dataset_files(&map)["files"][0]["projection"], json!("INCA"));
     // The first fixtures' images have no aperture track.
     let _ = fixtures(&d.join("plain")).unwrap();
     let e = refused(

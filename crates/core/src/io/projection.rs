@@ -55,6 +55,18 @@ pub enum Formation {
     Plane,
 }
 
+impl Formation {
+    /// Its name in SICD's terms (`PFA`, `RGAZCOMP`, `INCA`, `PLANE`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Formation::Pfa { .. } => "PFA",
+            Formation::RgAzComp { .. } => "RGAZCOMP",
+            Formation::Inca { .. } => "INCA",
+            Formation::Plane => "PLANE",
+        }
+    }
+}
+
 /// What projects ground points into one SICD image.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Projection {

@@ -323,6 +323,10 @@ impl Scene for Sicd {
             "pixel": self.pixel.name(),
             "segments": self.segments.len(),
             "sicd": self.metadata,
+            "projection": match &self.metadata.projection {
+                Ok(p) => serde_json::json!(p.formation.name()),
+                Err(why) => serde_json::json!({ "none": why }),
+            },
         })
     }
 }
