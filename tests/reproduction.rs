@@ -16,6 +16,7 @@ fn header() -> render::Header {
         cnn_repeats: None,
         builds: vec![],
         missing: vec![],
+        job_time: vec![],
     }
 }
 
@@ -68,6 +69,20 @@ fn tables_3_and_4_match_the_dissertation() {
     );
     assert!(
         text.contains("| 1 | Correlation | 0.6481 | 0.6481 |"),
+        "{text}"
+    );
+    // The folders' compute time by spec, from the jobs' own times in the manifests.
+    let time = runs::job_time(&runs);
+    assert_eq!(time.len(), 2, "{time:?}");
+    // Table 3's exact construction runs once, Table 4's random statistic twice.
+    for (t, runs) in time.iter().zip([1, 2]) {
+        assert_eq!(t.runs, runs, "{t:?}");
+        assert!(t.jobs > 0 && t.seconds > 0.0, "{t:?}");
+    }
+    assert!(
+        text.contains("- Compute time of the folders (each job's own elapsed time")
+            && text.contains("table4_exponential ")
+            && text.contains("(2 run(s), "),
         "{text}"
     );
     // The repeats have their own seeds, recorded in their folders' names.

@@ -113,6 +113,7 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         cnn_repeats,
         builds: vec![],
         missing: vec![],
+        job_time: vec![],
     };
     let (counts, missing) = rep::write(&coverage, &runs, &doc, &header)?;
     for m in &missing {

@@ -163,6 +163,7 @@ pub fn write(
     let header = render::Header {
         builds: builds(runs),
         missing: missing.iter().map(Missing::show).collect(),
+        job_time: runs::job_time(runs),
         ..header.clone()
     };
     let floors = floors::kl_floors(&mut tables, &|spec| folders(runs, spec))?;

@@ -36,6 +36,10 @@ pub struct Header {
     /// why (filled by [`super::write`]): the cells and claims that need them are not
     /// decidable.
     pub missing: Vec<String>,
+    /// Per spec: its run folders, their jobs, and the jobs' own elapsed seconds summed and
+    /// divided by each run's worker threads (filled by [`super::write`] from the manifests,
+    /// [`super::runs::job_time`]).
+    pub job_time: Vec<super::runs::JobTime>,
 }
 
 /// The machine this process runs on: CPU model, cores and memory (Linux; else the
@@ -140,6 +144,7 @@ fn top(s: &mut String, header: &Header) {
         ),
         None => writeln!(s, "- Wall time of the runs: not recorded in the folders"),
     };
+    job_time(s, &header.job_time);
     let cnn = match header.cnn_repeats {
         Some(c) if c != header.repeats => {
             format!(" ({c} for the specs that train networks, `--cnn-repeats {c}`)")
@@ -190,6 +195,32 @@ fn cell_counts(s: &mut String, evaluated: &[Evaluated]) -> BTreeMap<Verdict, usi
     }
     let _ = writeln!(s);
     counts
+}
+
+/// The compute time of the folders by spec, largest first: what a `make reproduce` from a clean
+/// checkout takes on the machine that computed them, however many invocations filled them.
+fn job_time(s: &mut String, time: &[super::runs::JobTime]) {
+    if time.is_empty() {
+        return;
+    }
+    let total: f64 = time.iter().map(|t| t.seconds).sum();
+    let mut by: Vec<&super::runs::JobTime> = time.iter().collect();
+    by.sort_by(|a, b| b.seconds.total_cmp(&a.seconds));
+    let parts: Vec<String> = by
+        .iter()
+        .map(|t| {
+            format!(
+                "{} {:.0} s ({} run(s), {} job(s))",
+                t.spec, t.seconds, t.runs, t.jobs
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "- Compute time of the folders (each job's own elapsed time, summed and divided by its \
+         run's worker threads; resumed runs counted whole): {total:.0} s; by spec: {}",
+        parts.join(", ")
+    );
 }
 
 /// The ten largest relative differences of the cells that do not match, then why, once for

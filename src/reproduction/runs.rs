@@ -303,6 +303,48 @@ pub fn builds(runs: &[SpecRuns]) -> Vec<(String, usize)> {
     count.into_iter().collect()
 }
 
+/// One spec's compute time in its run folders ([`job_time`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobTime {
+    /// The spec's name.
+    pub spec: String,
+    /// Its run folders read.
+    pub runs: usize,
+    /// Their jobs.
+    pub jobs: usize,
+    /// The jobs' elapsed seconds, each run's sum divided by its worker threads.
+    pub seconds: f64,
+}
+
+/// The compute time of every spec's run folders in `runs`, from their manifests: each job's
+/// own elapsed time (a resumed job's from when it ran), summed over a run and divided by the
+/// run's worker threads (its jobs share them), summed over the runs. A folder whose manifest
+/// cannot be read is left out.
+pub fn job_time(runs: &[SpecRuns]) -> Vec<JobTime> {
+    let mut out = Vec::new();
+    for r in runs {
+        let mut t = JobTime {
+            spec: r.spec.to_string(),
+            runs: 0,
+            jobs: 0,
+            seconds: 0.0,
+        };
+        for (_, dir) in &r.runs {
+            let Ok(m) = crate::io::manifest::Manifest::read(dir) else {
+                continue;
+            };
+            let threads = m.threads.unwrap_or(1).max(1) as f64;
+            t.runs += 1;
+            t.jobs += m.jobs.len();
+            t.seconds += m.jobs.iter().filter_map(|j| j.elapsed_s).sum::<f64>() / threads;
+        }
+        if t.runs > 0 {
+            out.push(t);
+        }
+    }
+    out
+}
+
 /// The wall time [`record_wall`] recorded in `out`, if any.
 pub fn recorded_wall(out: &Path) -> Option<f64> {
     let text = std::fs::read(out.join("reproduce-run.json")).ok()?;
