@@ -149,6 +149,10 @@ pub struct CalibratePlantsArgs {
     /// or `all`; the other part of the record is kept.
     #[arg(long, default_value = "all", value_parser = ["variance", "similarity", "all"])]
     pub part: String,
+    /// Plants D and E: also fit the KL divergence tables of their measurements (Tables 13-15),
+    /// per pixel and per 8x8 area, beside Tables 29-36.
+    #[arg(long)]
+    pub kl: bool,
     /// The record to write.
     #[arg(long, default_value = "reproduction/plant_calibration.json")]
     pub out: PathBuf,

@@ -45,6 +45,7 @@ pub fn calibrate_plants(a: CalibratePlantsArgs) -> Result<ExitCode> {
         seed,
         seeds,
         part,
+        kl,
         out,
     } = a;
     let part = match part.as_str() {
@@ -52,7 +53,7 @@ pub fn calibrate_plants(a: CalibratePlantsArgs) -> Result<ExitCode> {
         "similarity" => Part::Similarity,
         _ => Part::All,
     };
-    calibrate_plants(samples, (seed, seeds), part, &out)?;
+    calibrate_plants(samples, (seed, seeds), part, kl, &out)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -37,7 +37,10 @@ pub enum Part {
 /// evaluation the mean over the simulations of `seeds` seeds, `calibration::fit_seeds`: the
 /// values of Table 16 for plants A-C, every similarity cell for D and E; the other part's
 /// fits are kept from the record at `out`, if any), writes the record to `out` atomically and
-/// prints each plant's result.
+/// prints each plant's result. With `kl`, plants D and E are also fitted to the KL divergence
+/// tables of their measurements (Tables 13-15, per pixel and per 8x8 area), which the heavy
+/// tails of a strong wind response move away from the printed values (docs/definitions.md
+/// section 10).
 ///
 /// # Errors
 /// If a table is missing from the reference, a simulation or a run fails, or `out` cannot be
@@ -46,6 +49,7 @@ pub fn calibrate_plants(
     samples: usize,
     (seed, seeds): (u64, usize),
     part: Part,
+    kl: bool,
     out: &Path,
 ) -> Result<()> {
     anyhow::ensure!(
@@ -68,17 +72,20 @@ pub fn calibrate_plants(
         (Part::Variance, Some(r)) => r.similarity.clone(),
         _ => ["D", "E"]
             .iter()
-            .map(|p| fit_similarity(p, &fit_seeds(seed, seeds)))
+            .map(|p| fit_similarity(p, &fit_seeds(seed, seeds), kl))
             .collect::<Result<_>>()?,
     };
     let record = FitRecord {
-        source: "dissertation Table 16 (mean pixel variance, plants A-C, no and light wind) and \
-                 Tables 29-36 (similarity of the generated data to plants D and E, light and \
-                 medium wind); simulations as the spec's default vegetation_isar dataset (64 x \
-                 64, default measurement grid)"
-            .into(),
+        source: format!(
+            "dissertation Table 16 (mean pixel variance, plants A-C, no and light wind) and \
+             Tables 29-36{} (similarity of the generated data to plants D and E, light and \
+             medium wind); simulations as the spec's default vegetation_isar dataset (64 x 64, \
+             default measurement grid)",
+            if kl { " and 13-15" } else { "" }
+        ),
         command: format!(
-            "isar-clutter calibrate-plants --samples {samples} --seed {seed} --seeds {seeds}"
+            "isar-clutter calibrate-plants --samples {samples} --seed {seed} --seeds {seeds}{}",
+            if kl { " --kl" } else { "" }
         ),
         seed,
         seeds: match (part, &old) {
@@ -140,13 +147,18 @@ struct Target {
     printed: f64,
 }
 
-/// The tables fitted for `plant` (its light- and medium-wind appendix tables).
-fn fitted_tables(plant: &str) -> [u32; 4] {
-    if plant == "D" {
-        [29, 30, 31, 32]
+/// The tables fitted for `plant` (its light- and medium-wind appendix tables; with `kl`, also
+/// the KL divergence tables 13-15).
+fn fitted_tables(plant: &str, kl: bool) -> Vec<u32> {
+    let mut t = if plant == "D" {
+        vec![29, 30, 31, 32]
     } else {
-        [33, 34, 35, 36]
+        vec![33, 34, 35, 36]
+    };
+    if kl {
+        t.extend([13, 14, 15]);
     }
+    t
 }
 
 /// The correlation matrix distance tables (a distance printed near 1 is compared by its
@@ -154,10 +166,13 @@ fn fitted_tables(plant: &str) -> [u32; 4] {
 const CMD_TABLES: [u32; 5] = [12, 29, 31, 33, 35];
 
 /// The printed cells of `plant`'s tables: those fitted, then Tables 11-12's rows of the plant.
-fn targets(plant: &str) -> Result<Vec<Target>> {
+fn targets(plant: &str, kl: bool) -> Result<Vec<Target>> {
     let d = reference::Dissertation::load()?;
     let prefix = format!("plant_{plant}_");
-    let wanted: Vec<u32> = fitted_tables(plant).into_iter().chain([11, 12]).collect();
+    let wanted: Vec<u32> = fitted_tables(plant, kl)
+        .into_iter()
+        .chain([11, 12])
+        .collect();
     let mut out = Vec::new();
     for recipe in extract::recipes() {
         if !wanted.contains(&recipe.number) {
@@ -194,10 +209,15 @@ fn residual(table: u32, tool: f64, printed: f64) -> f64 {
     }
 }
 
+/// The KL divergences of `experiments/similarity_plants.yaml` (the reproduction's estimator), as
+/// more entries of a flow-style metrics list.
+const KL_METRICS: &str = ", kl_pixel: {symmetric: true, mean_over_bins: true}, kl_area: \
+                          {symmetric: true, mean_over_bins: true}";
+
 /// The spec of one evaluation: `plant` in light and medium wind with the wind response ([`MotionScales::for_plant`]) times
 /// `motion` and `noise_db` of receiver noise, otherwise `experiments/similarity_plants.yaml`'s
-/// construction with [`GENERATED`] samples per method.
-fn spec_text(plant: &str, motion: f64, noise_db: f64, seed: u64) -> Result<String> {
+/// construction with [`GENERATED`] samples per method (and its KL divergences with `kl`).
+fn spec_text(plant: &str, motion: f64, noise_db: f64, seed: u64, kl: bool) -> Result<String> {
     let p = PlantParams::uncalibrated(plant).context("no such plant preset")?;
     let p = MotionScales::for_plant(plant).apply(p, motion);
     let overrides = format!(
@@ -214,9 +234,10 @@ fn spec_text(plant: &str, motion: f64, noise_db: f64, seed: u64) -> Result<Strin
     Ok(format!(
         "name: plant_fit_{plant}\nseed: {seed}\ndatasets:\n{}{}analysis:\n  levels: 3\n\
          synthesis:\n  methods: [full_covariance, method1, method2]\n  samples: {GENERATED}\n  \
-         half_width: 8\nmetrics: [multiscale_rmse, cmd]\n",
+         half_width: 8\nmetrics: [multiscale_rmse, cmd{}]\n",
         ds("light"),
-        ds("medium")
+        ds("medium"),
+        if kl { KL_METRICS } else { "" }
     ))
 }
 
@@ -230,10 +251,11 @@ fn residuals(
     targets: &[Target],
     work: &Path,
 ) -> Result<Vec<f64>> {
+    let kl = targets.iter().any(|t| (13..=15).contains(&t.table));
     let mut sums = vec![0.0; targets.len()];
     for &seed in seeds {
         let file = work.join("spec.yaml");
-        std::fs::write(&file, spec_text(plant, motion, noise_db, seed)?)?;
+        std::fs::write(&file, spec_text(plant, motion, noise_db, seed, kl)?)?;
         let dir = work.join("run");
         if dir.exists() {
             std::fs::remove_dir_all(&dir)?;
@@ -256,9 +278,9 @@ fn residuals(
         .collect())
 }
 
-/// Mean square of the residuals of the fitted tables' cells.
-fn objective(targets: &[Target], r: &[f64], plant: &str) -> f64 {
-    let fitted = fitted_tables(plant);
+/// Mean square of the residuals of the fitted tables' cells (with `kl`, Tables 13-15's too).
+fn objective(targets: &[Target], r: &[f64], plant: &str, kl: bool) -> f64 {
+    let fitted = fitted_tables(plant, kl);
     let sq: Vec<f64> = targets
         .iter()
         .zip(r)
@@ -275,10 +297,10 @@ fn objective(targets: &[Target], r: &[f64], plant: &str) -> f64 {
 /// # Errors
 /// If the reference lacks a table or the run fails.
 pub fn objective_at(plant: &str, motion: f64, noise_db: f64, seeds: &[u64]) -> Result<f64> {
-    let targets = targets(plant)?;
+    let targets = targets(plant, false)?;
     let work = tempfile::tempdir()?;
     let r = residuals(plant, (motion, noise_db), seeds, &targets, work.path())?;
-    Ok(objective(&targets, &r, plant))
+    Ok(objective(&targets, &r, plant, false))
 }
 
 /// `(ln motion, noise_db / 10)` within the searched box: motion 1/8..1024, noise -60..0 dB.
@@ -288,8 +310,8 @@ fn inside(x: &[f64]) -> bool {
 
 /// Fits `(motion, noise_db)` of `plant` (D or E) to its similarity tables, each cell the mean
 /// over the runs from `seeds`.
-fn fit_similarity(plant: &str, seeds: &[u64]) -> Result<SimilarityFit> {
-    let targets = targets(plant)?;
+fn fit_similarity(plant: &str, seeds: &[u64], kl: bool) -> Result<SimilarityFit> {
+    let targets = targets(plant, kl)?;
     let work = tempfile::tempdir()?;
     let at = |x: &[f64]| (x[0].exp(), 10.0 * x[1]);
     let start = [0.0, -4.0];
@@ -302,6 +324,7 @@ fn fit_similarity(plant: &str, seeds: &[u64]) -> Result<SimilarityFit> {
             &targets,
             &residuals(plant, at(x), seeds, &targets, work.path())?,
             plant,
+            kl,
         );
         eprintln!(
             "plant {plant}: motion {:.3}, noise {:.2} dB: objective {v:.4}",
@@ -340,7 +363,7 @@ fn fit_similarity(plant: &str, seeds: &[u64]) -> Result<SimilarityFit> {
         plant: plant.into(),
         motion,
         noise_db,
-        objective: [objective(&targets, &before, plant), best.value],
+        objective: [objective(&targets, &before, plant, kl), best.value],
         tables,
         evaluations: best.evaluations + 2,
         generated_samples: GENERATED,
@@ -362,12 +385,22 @@ mod tests {
 
     #[test]
     fn every_cell_of_the_plant_tables_has_a_target() {
-        let d = targets("D").unwrap();
+        let d = targets("D", false).unwrap();
         // Tables 29/31: 3 cells, 30/32: 27, 11: 2 rows of 6, 12: 2 rows of 2.
         assert_eq!(d.len(), 3 + 27 + 3 + 27 + 12 + 4);
         assert!(d.iter().all(|t| t.printed > 0.0));
-        assert_eq!(targets("E").unwrap().len(), d.len());
-        let spec = spec_text("E", 2.0, -20.0, 7).unwrap();
+        assert_eq!(targets("E", false).unwrap().len(), d.len());
+        let spec = spec_text("E", 2.0, -20.0, 7, false).unwrap();
         assert!(spec.contains("plant_E_medium") && spec.contains("noise_db: -20"));
+        // With the KL tables: Tables 13-15, 2 rows (light, medium) of 4 cells each.
+        let k = targets("D", true).unwrap();
+        assert_eq!(k.len(), d.len() + 3 * 2 * 4);
+        assert_eq!(
+            k.iter().filter(|t| (13..=15).contains(&t.table)).count(),
+            24
+        );
+        assert!(spec_text("D", 2.0, -20.0, 7, true)
+            .unwrap()
+            .contains("kl_area: {symmetric: true, mean_over_bins: true}"));
     }
 }
