@@ -150,6 +150,14 @@ def _map_window(f, path: str, dataset: str, dims, map_box):
     if len(x) != dims[1] or len(y) != dims[0] or len(x) < 2 or len(y) < 2:
         raise ValueError(f"window: {path}: the coordinate vectors are not the scene's size")
     dx, dy = (x[-1] - x[0]) / (len(x) - 1), (y[-1] - y[0]) / (len(y) - 1)
+    # An affine grid, as the command line's io/h5stack/coords.rs requires (1e-6 of a spacing).
+    for v, d, name in ((x, dx, "x"), (y, dy, "y")):
+        even = v[0] + d * np.arange(len(v))
+        if d == 0 or not np.isfinite(d) or np.any(~(np.abs(v - even) <= 1e-6 * abs(d))):
+            raise ValueError(
+                f"window: {path}: {dataset}'s {name} coordinates are not evenly spaced "
+                "(an affine grid is needed)"
+            )
     (bx0, bx1), (by0, by1) = map_box
     cols = [(v - (x[0] - dx / 2)) / dx for v in (bx0, bx1)]
     rows = [(v - (y[0] - dy / 2)) / dy for v in (by0, by1)]

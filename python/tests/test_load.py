@@ -204,6 +204,10 @@ def test_hdf5_stacks_and_scenes_are_read_as_written(tmp_path):
     assert np.array_equal(geo[0], x[1, 2:7, 3:7])
     with pytest.raises(ValueError, match="frame has no coordinate vectors beside it in /"):
         ic.load(f, dataset="frame", map_box=((0.0, 1.0), (0.0, 1.0)))
+    with h5py.File(f, "a") as h:
+        h["geo/x_coordinates"][5] += 0.5
+    with pytest.raises(ValueError, match="x coordinates are not evenly spaced"):
+        ic.load(f, dataset="geo/VV", map_box=((500016.0, 500034.0), (4199931.0, 4199979.0)))
     for kw, words in [
         ({"dataset": "nope"}, ["dataset:", "no dataset 'nope'", "science"]),
         ({"dataset": "text"}, ["dataset:", "not numbers"]),

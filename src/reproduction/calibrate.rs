@@ -68,6 +68,8 @@ pub fn calibrate_plants(
         (Part::Similarity, Some(r)) => r.fits.clone(),
         _ => variance_fits(samples, &fit_seeds(seed, seeds))?,
     };
+    // `--kl` concerns the similarity fits: the record says it only where they are made here.
+    let kl = kl && !matches!((part, &old), (Part::Variance, Some(_)));
     let similarity = match (part, &old) {
         (Part::Variance, Some(r)) => r.similarity.clone(),
         _ => ["D", "E"]

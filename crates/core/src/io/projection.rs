@@ -133,6 +133,22 @@ fn unit(a: Vec3) -> Vec3 {
     scale(1.0 / norm(a), a)
 }
 
+/// SICD's image coordinates `(xrow, ycol)` (m from the scene centre along the grid's row and
+/// column) of the stored image's pixel place `(row, col)`: `xrow = (FirstRow + row -
+/// SCPPixel.Row) Row.SS`, `ycol` likewise (SICD Vol. 1), with `first`, `scp_pixel` and `ss` the
+/// row and column pairs of `ImageData/FirstRow`, `FirstCol`, `ImageData/SCPPixel` and the grid's
+/// sample spacings.
+pub fn image_coordinates(
+    (first, scp_pixel, ss): ([f64; 2], [f64; 2], [f64; 2]),
+    row: f64,
+    col: f64,
+) -> (f64, f64) {
+    (
+        (first[0] + row - scp_pixel[0]) * ss[0],
+        (first[1] + col - scp_pixel[1]) * ss[1],
+    )
+}
+
 /// `sum c[i] t^i`.
 pub fn poly1(c: &[f64], t: f64) -> f64 {
     c.iter().rev().fold(0.0, |acc, &k| acc * t + k)
@@ -276,8 +292,7 @@ impl Projection {
     /// `gref` with unit normal `uz` (the image-to-ground projection; NaNs where the pixel's
     /// contour does not meet that plane).
     pub fn image_to_plane(&self, row: f64, col: f64, gref: Vec3, uz: Vec3) -> Vec3 {
-        let xrow = (row + self.first[0] - self.scp_pixel[0]) * self.ss[0];
-        let ycol = (col + self.first[1] - self.scp_pixel[1]) * self.ss[1];
+        let (xrow, ycol) = image_coordinates((self.first, self.scp_pixel, self.ss), row, col);
         Self::on_plane(&self.contour(xrow, ycol), gref, uz)
     }
 

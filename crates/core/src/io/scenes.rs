@@ -88,10 +88,7 @@ pub trait Scene: Sized {
     /// # Errors
     /// Why the file gives none, naming it.
     fn georeference(&self) -> Result<Georeference, String> {
-        Err(format!(
-            "{} gives no georeferencing (no map transform, no ground control points)",
-            self.path().display()
-        ))
+        Err(no_georeference(self.path()))
     }
     /// Rows of the file's storage blocks (HDF5 chunks, GeoTIFF tiles or strips): a window is
     /// read in whole blocks, which compressed ones inflate, so reads as tall as a block waste
@@ -110,6 +107,14 @@ pub trait Scene: Sized {
             self.path().display()
         ))
     }
+}
+
+/// Why `path` places no map box: it gives no georeferencing ([`Scene::georeference`]).
+pub fn no_georeference(path: &Path) -> String {
+    format!(
+        "{} gives no georeferencing (no map transform, no ground control points)",
+        path.display()
+    )
 }
 
 /// Where the window lies: in pixels, or a box in the files' map coordinates.

@@ -285,10 +285,7 @@ impl Scene for GeoTiff {
             ]));
         }
         if self.georef.tiepoints.len() < 2 {
-            return Err(format!(
-                "{} gives no georeferencing (no map transform, no ground control points)",
-                self.path.display()
-            ));
+            return Err(crate::io::scenes::no_georeference(&self.path));
         }
         Ok(Georeference::Gcps(
             self.georef

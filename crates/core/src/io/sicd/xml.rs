@@ -123,7 +123,9 @@ pub struct Metadata {
 }
 
 pub use crate::io::projection::Poly2;
-use crate::io::projection::{ellipsoid_normal, poly2, Formation, Projection, Vec3};
+use crate::io::projection::{
+    ellipsoid_normal, image_coordinates, poly2, Formation, Projection, Vec3,
+};
 
 /// What turns a pixel's place into the image coordinates of SICD's polynomials: the scene
 /// centre pixel and the first row and column of the image in the full image (`ImageData`),
@@ -150,8 +152,7 @@ impl Geometry {
         let (Some(scp), Some(ss)) = (self.scp_pixel, self.ss) else {
             return f32::NAN;
         };
-        let x = (self.first[0] + row as f64 - scp[0]) * ss[0];
-        let y = (self.first[1] + col as f64 - scp[1]) * ss[1];
+        let (x, y) = image_coordinates((self.first, scp, ss), row as f64, col as f64);
         poly2(poly, x, y).sqrt() as f32
     }
 }
