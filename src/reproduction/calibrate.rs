@@ -294,15 +294,21 @@ fn objective(targets: &[Target], r: &[f64], plant: &str, kl: bool) -> f64 {
 
 /// The fit's objective for `plant` (D or E) with `(motion, noise_db)`, simulated from `seeds`
 /// (the means of their runs) as the fit simulates: what the record's `objective[1]` states for
-/// the fitted factors.
+/// the fitted factors; `kl` as the fit had it (`--kl`: Tables 13-15 are targets too).
 ///
 /// # Errors
 /// If the reference lacks a table or the run fails.
-pub fn objective_at(plant: &str, motion: f64, noise_db: f64, seeds: &[u64]) -> Result<f64> {
-    let targets = targets(plant, false)?;
+pub fn objective_at(
+    plant: &str,
+    motion: f64,
+    noise_db: f64,
+    seeds: &[u64],
+    kl: bool,
+) -> Result<f64> {
+    let targets = targets(plant, kl)?;
     let work = tempfile::tempdir()?;
     let r = residuals(plant, (motion, noise_db), seeds, &targets, work.path())?;
-    Ok(objective(&targets, &r, plant, false))
+    Ok(objective(&targets, &r, plant, kl))
 }
 
 /// `(ln motion, noise_db / 10)` within the searched box: motion 1/8..1024, noise -60..0 dB.

