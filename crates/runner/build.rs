@@ -18,6 +18,9 @@ fn main() {
         "../../crates",
         "../../Cargo.toml",
         "../../Cargo.lock",
+        // compiled in (the plants' calibration record, the reproduction's references): a
+        // change there changes results, so it must mark the build dirty too
+        "../../reproduction",
         "../../.git/HEAD",
         "../../.git/index",
         "../../.git/refs",
