@@ -213,8 +213,8 @@ pub fn gain_statements() -> Vec<Statement> {
                 trained on 250 of 500 originals, minus the same for Methods 1 and 2 (fitted on \
                 100, 2500 generated training samples), averaged over the two methods \
                 (experiments/cnn_location_gain.yaml, constant target); a network already at \
-                that accuracy at the specs' lowest SCR (-8 dB) reads as -8 dB, so its gain \
-                is then a lower bound",
+                that accuracy at the spec's lowest SCR (the first of its `scr_db`, -20 dB) \
+                reads as that SCR, so its gain is then a lower bound",
             LOCATION,
         ),
         number(
