@@ -69,6 +69,95 @@ fn a_cut_uavsar_stack_is_the_stack_cut_cuts_from_numpys_pixels() {
     );
 }
 
+/// A box of longitude and latitude through the flight line's `.llh` grid (numpy's rotated grid
+/// of 2x8 looks): the stack of the blocks whose points numpy finds in the box, and the same
+/// pixels cut by `isar-clutter cut --map-box`; an annotation without the `.llh` product, and a
+/// `.llh` file of the wrong length, refused naming the file and the field.
+#[test]
+fn a_map_box_on_uavsar_scenes_reads_the_blocks_of_the_llh_points_in_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let b: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fx.join("map_box.json")).unwrap()).unwrap();
+    let (x, y) = (&b["box"][0], &b["box"][1]);
+    let fields = format!(
+        "kind: uavsar, slc: [{}], window: {{x: {x}, y: {y}}}",
+        scenes().join(", ")
+    );
+    let map = run(d, "map", &fields);
+    assert_same_tables(
+        &map,
+        &run(d, "map_npy", "kind: npy, path: fixtures/map_window.npy"),
+    );
+    // The `.llh` file decides the pixels: an input of the jobs (hashed into their store keys).
+    let plan = isar_clutter::run::plan::load(&d.join("map.yaml")).unwrap();
+    let inputs = plan.jobs[0].dataset.input_files();
+    assert!(
+        inputs
+            .iter()
+            .any(|p| p.ends_with("testsite_L090HH_01_BC_s1_2x8.llh")),
+        "{inputs:?}"
+    );
+    // The command line: whole-window patches of the box, as numpy's window.
+    let w: Vec<usize> = (0..4)
+        .map(|k| b["window"][k].as_u64().unwrap() as usize)
+        .collect();
+    let (h, wd) = (w[1] - w[0], w[3] - w[2]);
+    let inputs: Vec<std::path::PathBuf> = scenes().iter().map(|s| d.join(s)).collect();
+    // `=`: the box starts with a minus sign.
+    let boxed = format!(
+        "--map-box={},{},{},{}",
+        x[0].as_f64().unwrap(),
+        x[1].as_f64().unwrap(),
+        y[0].as_f64().unwrap(),
+        y[1].as_f64().unwrap()
+    );
+    let patch = format!("{h}x{wd}");
+    let mut args: Vec<String> = vec!["cut".into()];
+    for i in &inputs {
+        args.extend(["--input".into(), i.display().to_string()]);
+    }
+    args.extend(["--patch", &patch, "--stride", &patch, &boxed, "--out"].map(String::from));
+    args.push(fx.join("map_cut.npy").display().to_string());
+    let o = common::bin(&args);
+    assert!(o.status.success(), "{}", common::text(&o));
+    let npy = |f: &str| {
+        ndarray_npy::read_npy::<_, ndarray::Array3<num_complex::Complex32>>(fx.join(f)).unwrap()
+    };
+    assert_eq!(npy("map_cut.npy"), npy("map_window.npy"));
+    // Without the `.llh` product in the annotation.
+    let ann = fx.join("testsite_00_L090HH_01_BC.ann");
+    let text = std::fs::read_to_string(&ann).unwrap();
+    let bare: String = text
+        .lines()
+        .filter(|l| !l.starts_with("llh_"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&ann, bare).unwrap();
+    let e = scenes::refused(d, "no_llh", &fields);
+    assert!(
+        e.contains("datasets[0].window")
+            && e.contains("testsite_00_L090HH_01_BC.ann")
+            && e.contains("no `llh_1_<R>x<A>` field"),
+        "{e}"
+    );
+    std::fs::write(&ann, text).unwrap();
+    // A truncated `.llh` file.
+    let llh = fx.join("testsite_L090HH_01_BC_s1_2x8.llh");
+    let bytes = std::fs::read(&llh).unwrap();
+    std::fs::write(&llh, &bytes[..bytes.len() - 12]).unwrap();
+    let e = scenes::refused(d, "short_llh", &fields);
+    assert!(
+        e.contains("datasets[0].window")
+            && e.contains("testsite_L090HH_01_BC_s1_2x8.llh holds 888 bytes")
+            && e.contains("5 x 15 points"),
+        "{e}"
+    );
+}
+
 #[test]
 fn bad_uavsar_files_are_refused_naming_the_file_and_the_field() {
     let dir = tempfile::tempdir().unwrap();

@@ -58,7 +58,9 @@ def load(
     - UAVSAR single-look complex scenes (``.slc``, little-endian complex64) with their
       annotation (``annotation``: one for all, one per scene, or none: each scene's own,
       ``<name>.ann`` beside ``<name>_s<k>_1x1.slc``); every scene is one sample, read in
-      ``window`` ``(row, col, rows, cols)`` (default: the whole scene). complex64.
+      ``window`` ``(row, col, rows, cols)`` (default: the whole scene), or in the pixels
+      covering ``map_box`` ``((lon0, lon1), (lat0, lat1))`` through the flight line's ``.llh``
+      grid (a latitude and longitude every block of looks). complex64.
     - Complex GeoTIFF scenes (``.tif``, ``.tiff``: Sentinel-1 SLC measurement files, Capella
       SLCs; complex int16 / int32 / float32 / float64, or two int16 / float32 samples a pixel;
       strips or tiles, uncompressed or deflate); every scene is one sample, read in
@@ -97,7 +99,7 @@ def load(
     if calibration is not None and not (kinds and kinds <= {".nitf", ".ntf"}):
         raise ValueError("calibration reads SICD's scale factors: give .nitf/.ntf files")
     if kinds == {".slc"}:
-        return load_uavsar(paths, _paths(annotation), window)
+        return load_uavsar(paths, _paths(annotation), window, map_box)
     if map_box is not None and not (kinds and kinds <= {".tif", ".tiff", ".nitf", ".ntf"}):
         raise ValueError(
             "map_box: map coordinates are read from GeoTIFF scenes (.tif, .tiff), SICD "

@@ -35,8 +35,10 @@ def load_uavsar(
     slcs: Sequence[Union[str, PathLike]],
     annotations: Sequence[Union[str, PathLike]],
     window: Optional[Tuple[int, int, int, int]] = None,
+    map_box: Optional[Tuple[Tuple[float, float], Tuple[float, float]]] = None,
 ) -> np.ndarray:
-    """The window ``(row, col, rows, cols)`` of every UAVSAR scene as complex64 [N, H, W]."""
+    """The window ``(row, col, rows, cols)`` (or the pixels covering ``map_box``) of every
+    UAVSAR scene as complex64 [N, H, W]."""
 
 def load_geotiff(
     paths: Sequence[Union[str, PathLike]],

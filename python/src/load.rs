@@ -16,23 +16,25 @@ use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
-/// load_uavsar(slcs, annotations, window=None)
+/// load_uavsar(slcs, annotations, window=None, map_box=None)
 /// --
 ///
 /// The same window `(row, col, rows, cols)` of every UAVSAR scene in `slcs` (default: the
-/// whole scene), as a complex64 `[N, H, W]` array, sizes from `annotations` (none: each
-/// scene's own; one: for all; else one per scene). A bad file is a `ValueError` naming the
-/// field, the scene and the file; an unreadable one an `OSError`.
+/// whole scene), or the pixels covering `map_box` `((lon0, lon1), (lat0, lat1))` through the
+/// flight line's `.llh` grid (as the `uavsar` kind's map `window`), as a complex64 `[N, H, W]`
+/// array, sizes from `annotations` (none: each scene's own; one: for all; else one per
+/// scene). A bad file is a `ValueError` naming the field, the scene and the file; an
+/// unreadable one an `OSError`.
 #[pyfunction]
-#[pyo3(signature = (slcs, annotations, window = None))]
+#[pyo3(signature = (slcs, annotations, window = None, map_box = None))]
 pub fn load_uavsar<'py>(
     py: Python<'py>,
     slcs: Vec<PathBuf>,
     annotations: Vec<PathBuf>,
     window: Option<(usize, usize, usize, usize)>,
+    map_box: Option<([f64; 2], [f64; 2])>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
-    let window = window.map(|(row, col, rows, cols)| Window::at(row, col, rows, cols));
-    let stack = open_stack(&slcs, &annotations, window)
+    let stack = open_stack(&slcs, &annotations, place(window, map_box)?)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     // The annotations are checked at opening: what fails later is the reading.
     read_stack(py, &stack, "UAVSAR", |_| true)

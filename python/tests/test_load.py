@@ -46,6 +46,21 @@ def test_a_uavsar_stack_is_read_as_numpy_reads_it(tmp_path):
     assert ic.analyse(w, levels=1)["samples"] == 3
 
 
+def test_a_uavsar_map_box_reads_the_blocks_of_the_llh_points_in_it(tmp_path):
+    """tests/uavsar/make_fixtures.py's scenes and ``.llh`` grid: ``map_box`` gives the window
+    numpy cut there from the blocks whose points lie in the box."""
+    path = Path(__file__).resolve().parents[2] / "tests" / "uavsar" / "make_fixtures.py"
+    spec = importlib.util.spec_from_file_location("uavsar_fixtures", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(tmp_path)
+    paths = sorted(tmp_path.glob("*_s1_1x1.slc"))
+    x = ic.load(paths, map_box=module.BOX)
+    np.testing.assert_array_equal(x, np.load(tmp_path / "map_window.npy"))
+    with pytest.raises(ValueError, match=r"window: .*holds none of the 5 x 15 grid points"):
+        ic.load(paths, map_box=((10.0, 10.1), (50.0, 50.1)))
+
+
 def test_bad_uavsar_files_are_refused_naming_the_field_and_the_file(tmp_path):
     paths, _ = scenes(tmp_path)
     data = paths[2].read_bytes()

@@ -405,7 +405,9 @@ pub struct CutArgs {
     /// files' map transform or ground control points, longitude and latitude for
     /// Sentinel-1; SICD images: longitude and latitude through SICD's projection at the scene
     /// centre's height; HDF5 scenes: the coordinate vectors beside them, e.g. OPERA's
-    /// x_coordinates/y_coordinates), instead of --window.
+    /// x_coordinates/y_coordinates; UAVSAR scenes: longitude and latitude through the flight
+    /// line's .llh grid, a point a block of looks; a box starting with a minus sign is written
+    /// --map-box=X0,...), instead of --window.
     #[arg(long, value_name = "X0,X1,Y0,Y1", conflicts_with = "window", value_parser = map_box)]
     pub map_box: Option<([f64; 2], [f64; 2])>,
     /// The region of --polygon by its vertices in map coordinates: x0,y0;x1,y1;x2,y2;...

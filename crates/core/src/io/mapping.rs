@@ -5,7 +5,10 @@
 //! with order 0): a least-squares polynomial from map coordinates to pixel coordinates, of
 //! order 2 from 6 points on, order 1 from 3; the fit's largest residual at the points is
 //! reported with the window. A SICD image's pixels are placed by SICD's own projection
-//! ([`super::projection`]) at the scene centre's height.
+//! ([`super::projection`]) at the scene centre's height. A grid of map points sampling the
+//! image in blocks of pixels (UAVSAR's `.llh` files: a latitude and longitude every 8 rows and
+//! 2 columns) places a box exactly at the grid's resolution: the window covers the blocks
+//! whose points lie in the box.
 
 use super::cut::Window;
 use super::projection::Projection;
@@ -40,6 +43,113 @@ pub enum Georeference {
         /// Height of the mapped points above the ellipsoid (m).
         height: f64,
     },
+    /// A map point for every block of pixels.
+    Grid(Box<PointGrid>),
+}
+
+/// Map points sampling an image in blocks: point `(i, j)` (row-major, `rows x cols` of them)
+/// stands for the pixels `[i b_r, (i + 1) b_r) x [j b_c, (j + 1) b_c)` (`block = [b_r, b_c]`),
+/// clipped to the image's `dims`. A point that is not finite stands for nothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointGrid {
+    /// Points down.
+    pub rows: usize,
+    /// Points across.
+    pub cols: usize,
+    /// Pixels a point stands for, `[rows, columns]`.
+    pub block: [usize; 2],
+    /// The image's `(rows, columns)`.
+    pub dims: (usize, usize),
+    /// Map x of each point (longitude).
+    pub x: Vec<f32>,
+    /// Map y of each point (latitude).
+    pub y: Vec<f32>,
+}
+
+impl PointGrid {
+    /// The pixel window of the blocks whose points lie in the box `x` x `y` (edges included).
+    ///
+    /// # Errors
+    /// If no point lies in the box, naming the grid's extent.
+    pub fn window(&self, x: [f64; 2], y: [f64; 2]) -> Result<Window, String> {
+        let (mut rows, mut cols) = ([usize::MAX, 0], [usize::MAX, 0]);
+        let mut extent = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for (k, (&px, &py)) in self.x.iter().zip(&self.y).enumerate() {
+            let (px, py) = (f64::from(px), f64::from(py));
+            if !(px.is_finite() && py.is_finite()) {
+                continue;
+            }
+            extent = [
+                extent[0].min(px),
+                extent[1].max(px),
+                extent[2].min(py),
+                extent[3].max(py),
+            ];
+            if (x[0]..=x[1]).contains(&px) && (y[0]..=y[1]).contains(&py) {
+                let (i, j) = (k / self.cols, k % self.cols);
+                rows = [rows[0].min(i), rows[1].max(i)];
+                cols = [cols[0].min(j), cols[1].max(j)];
+            }
+        }
+        if rows[0] == usize::MAX {
+            return Err(format!(
+                "the box x {x:?}, y {y:?} holds none of the {} x {} grid points (x {:?}, y {:?})",
+                self.rows,
+                self.cols,
+                [extent[0], extent[1]],
+                [extent[2], extent[3]]
+            ));
+        }
+        let [br, bc] = self.block;
+        Ok(Window {
+            r0: rows[0] * br,
+            r1: ((rows[1] + 1) * br).min(self.dims.0),
+            c0: cols[0] * bc,
+            c1: ((cols[1] + 1) * bc).min(self.dims.1),
+        })
+    }
+
+    /// The pixel position of map point `(x, y)`: the centre of the block of the nearest grid
+    /// point (distances in `x` scaled by `cos y`, as for longitude and latitude), `None` outside
+    /// the grid points' extent.
+    pub fn pixel(&self, x: f64, y: f64) -> Option<(f64, f64)> {
+        let scale = y.to_radians().cos().abs().max(1e-9);
+        let mut best: Option<(f64, usize)> = None;
+        let mut extent = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for (k, (&px, &py)) in self.x.iter().zip(&self.y).enumerate() {
+            let (px, py) = (f64::from(px), f64::from(py));
+            if !(px.is_finite() && py.is_finite()) {
+                continue;
+            }
+            extent = [
+                extent[0].min(px),
+                extent[1].max(px),
+                extent[2].min(py),
+                extent[3].max(py),
+            ];
+            let d = ((px - x) * scale).powi(2) + (py - y).powi(2);
+            if best.is_none_or(|(b, _)| d < b) {
+                best = Some((d, k));
+            }
+        }
+        let inside = (extent[0]..=extent[1]).contains(&x) && (extent[2]..=extent[3]).contains(&y);
+        let (_, k) = best.filter(|_| inside)?;
+        let [br, bc] = self.block;
+        let (i, j) = (k / self.cols, k % self.cols);
+        let r = ((i as f64 + 0.5) * br as f64).min(self.dims.0 as f64);
+        let c = ((j as f64 + 0.5) * bc as f64).min(self.dims.1 as f64);
+        Some((r, c))
+    }
 }
 
 /// The pixel window that covers a map box, and how exactly the georeferencing placed it.
@@ -71,6 +181,10 @@ const EDGE_POINTS: usize = 17;
 /// If the transform is singular, too few or degenerate ground control points, or the box
 /// lies above or left of the image.
 pub fn map_window(georef: &Georeference, x: [f64; 2], y: [f64; 2]) -> Result<MapWindow, String> {
+    if let Georeference::Grid(g) = georef {
+        let window = g.window(x, y)?;
+        return Ok(MapWindow { window, fit: None });
+    }
     let (to_pixel, fit) = transform(georef)?;
     let steps = if fit.is_some() { EDGE_POINTS - 1 } else { 1 };
     let (mut rows, mut cols) = (
@@ -127,6 +241,18 @@ pub fn map_points(
     georef: &Georeference,
     points: &[[f64; 2]],
 ) -> Result<(Vec<[f64; 2]>, Option<Fit>), String> {
+    if let Georeference::Grid(g) = georef {
+        let pixels = points
+            .iter()
+            .map(|&[x, y]| {
+                let (r, c) = g.pixel(x, y).ok_or_else(|| {
+                    format!("the point ({x}, {y}) lies outside the grid points' extent")
+                })?;
+                Ok([r, c])
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        return Ok((pixels, None));
+    }
     let (to_pixel, fit) = transform(georef)?;
     let pixels = points
         .iter()
@@ -166,6 +292,11 @@ fn transform(georef: &Georeference) -> Result<(ToPixel, Option<Fit>), String> {
             let p = GcpFit::new(points)?;
             let fit = Some((p.order, p.max_residual(points)));
             (Box::new(move |xx, yy| p.pixel(xx, yy)), fit)
+        }
+        Georeference::Grid(g) => {
+            let g = g.clone();
+            let f = move |xx: f64, yy: f64| g.pixel(xx, yy).unwrap_or((f64::NAN, f64::NAN));
+            (Box::new(f), None)
         }
     })
 }
@@ -328,6 +459,56 @@ mod tests {
                 .unwrap_err()
                 .contains("outside the image")
         );
+    }
+
+    /// A grid of points (4 x 5, blocks of 8 x 2 pixels of a 30 x 9 image) places a box on the
+    /// blocks whose points lie in it, the last block clipped to the image; a point maps to its
+    /// nearest grid point's block centre; a box with no point and a point outside are refused.
+    #[test]
+    fn a_point_grid_gives_the_blocks_of_the_points_in_the_box() {
+        let (rows, cols) = (4, 5);
+        let (mut x, mut y) = (vec![], vec![]);
+        for i in 0..rows {
+            for j in 0..cols {
+                // Rotated: x grows across and a little down, y falls down.
+                x.push((10.0 + 0.01 * j as f64 + 0.002 * i as f64) as f32);
+                y.push((50.0 - 0.01 * i as f64) as f32);
+            }
+        }
+        let g = Georeference::Grid(Box::new(PointGrid {
+            rows,
+            cols,
+            block: [8, 2],
+            dims: (30, 9),
+            x,
+            y,
+        }));
+        // Points (1, 1), (1, 2), (2, 1), (2, 2): x 10.012-10.024, y 49.98-49.99.
+        assert_eq!(
+            window(&g, [10.011, 10.0245], [49.975, 49.995]),
+            Window {
+                r0: 8,
+                r1: 24,
+                c0: 2,
+                c1: 6
+            }
+        );
+        // The last row and column of blocks, clipped: rows 24..30, columns 8..9.
+        assert_eq!(
+            window(&g, [10.045, 10.05], [49.965, 49.975]),
+            Window {
+                r0: 24,
+                r1: 30,
+                c0: 8,
+                c1: 9
+            }
+        );
+        assert!(map_window(&g, [11.0, 12.0], [49.0, 50.0])
+            .unwrap_err()
+            .contains("holds none of the 4 x 5 grid points"));
+        let (px, _) = map_points(&g, &[[10.0121, 49.9799]]).unwrap();
+        assert_eq!(px, vec![[20.0, 3.0]]);
+        assert!(map_points(&g, &[[9.0, 49.98]]).is_err());
     }
 
     /// Ground control points of an affine grid give its window (order 1 from 4 points, order 2

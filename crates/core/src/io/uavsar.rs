@@ -3,7 +3,10 @@
 //! along track, the columns across) and their sizes in the flight line's annotation file
 //! (`.ann`: `key (unit) = value ; comment` lines, `;` starting a comment line). A window of a
 //! scene is read a row at a time, so a stack of windows from scenes of any size holds only the
-//! windows in memory.
+//! windows in memory. A scene's geographic places come from the flight line's `.llh` file
+//! (little-endian float32 latitude, longitude, height for every block of range x azimuth looks,
+//! `llh_<k>_<R>x<A>`: e.g. every 8 rows and 2 columns for `2x8`), which a map box reads
+//! ([`llh_grid`]).
 
 use super::cut::Window;
 use num_complex::Complex32;
@@ -137,6 +140,129 @@ impl Annotation {
     }
 }
 
+/// The latitude/longitude grid of segment `segment`'s SLC `slc` (of `dims` pixels) from its
+/// annotation `ann`: the `.llh` product `llh_<k>_<R>x<A>` (`R` range looks along the columns,
+/// `A` azimuth looks along the rows), its size from `llh_<k>_<R>x<A>.set_rows` / `.set_cols`
+/// (or `... Rows` / `... Columns`), its file named by the field `llh_<k>_<R>x<A>` beside the
+/// annotation, else `<name>_s<k>_<R>x<A>.llh` beside the SLC.
+///
+/// # Errors
+/// Naming the annotation's field or the file: no `.llh` product in the annotation, a size that
+/// does not cover the SLC in blocks of its looks, a file of another length.
+pub fn llh_grid(
+    ann: &Annotation,
+    slc: &Path,
+    segment: usize,
+    dims: (usize, usize),
+) -> Result<super::mapping::PointGrid, String> {
+    let (key, looks, file) = llh_product(ann, slc, segment)?;
+    let size = |dot: &str, word: &str| {
+        ann.size(&format!("{key}.{dot}"))
+            .or_else(|_| ann.size(&format!("{key} {word}")))
+            .map_err(|_| {
+                format!(
+                    "{}: field `{key}.{dot}` (or `{key} {word}`) is missing or not a size",
+                    ann.path.display()
+                )
+            })
+    };
+    let (rows, cols) = (size("set_rows", "Rows")?, size("set_cols", "Columns")?);
+    for (n, look, full, what) in [
+        (rows, looks[0], dims.0, "rows"),
+        (cols, looks[1], dims.1, "columns"),
+    ] {
+        if look == 0 || !(n == full / look || n == full.div_ceil(look)) {
+            return Err(format!(
+                "{}: `{key}` has {n} {what}, which do not cover the SLC's {full} in blocks of \
+                 {look} (another segment's or product's annotation?)",
+                ann.path.display()
+            ));
+        }
+    }
+    let bytes = std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
+    if bytes.len() != rows * cols * 12 {
+        return Err(format!(
+            "{} holds {} bytes; `{key}` gives {rows} x {cols} points of three float32 values, \
+             {} bytes",
+            file.display(),
+            bytes.len(),
+            rows * cols * 12
+        ));
+    }
+    let value = |k: usize| f32::from_le_bytes([bytes[k], bytes[k + 1], bytes[k + 2], bytes[k + 3]]);
+    let (y, x) = (0..rows * cols)
+        .map(|p| (value(12 * p), value(12 * p + 4)))
+        .unzip();
+    Ok(super::mapping::PointGrid {
+        rows,
+        cols,
+        block: looks,
+        dims,
+        x,
+        y,
+    })
+}
+
+/// The `.llh` product of segment `segment` in annotation `ann`: its key `llh_<k>_<R>x<A>`, the
+/// pixels a point stands for `[A, R]` (rows, columns), and its file (the field's value beside
+/// the annotation, else `<name>_s<k>_<R>x<A>.llh` beside `slc`).
+///
+/// # Errors
+/// If the annotation names no such product.
+fn llh_product(
+    ann: &Annotation,
+    slc: &Path,
+    segment: usize,
+) -> Result<(String, [usize; 2], PathBuf), String> {
+    let prefix = format!("llh_{segment}_");
+    let tag = ann
+        .fields
+        .iter()
+        .filter_map(|(k, _)| {
+            k.to_ascii_lowercase()
+                .strip_prefix(&prefix)
+                .map(str::to_string)
+        })
+        .map(|rest| {
+            rest.split(['.', ' '])
+                .next()
+                .unwrap_or_default()
+                .to_string()
+        })
+        .find(|t| {
+            t.split_once('x')
+                .is_some_and(|(a, b)| a.parse::<usize>().is_ok() && b.parse::<usize>().is_ok())
+        })
+        .ok_or_else(|| {
+            format!(
+                "{}: no `llh_{segment}_<R>x<A>` field: UAVSAR's latitude/longitude product is \
+                 not annotated, so the scene has no geographic places",
+                ann.path.display()
+            )
+        })?;
+    let (r, a) = tag.split_once('x').unwrap_or_default();
+    let looks: [usize; 2] = [a.parse().unwrap_or(0), r.parse().unwrap_or(0)];
+    let key = format!("llh_{segment}_{tag}");
+    let named = ann
+        .get(&key)
+        .filter(|v| v.to_ascii_lowercase().ends_with(".llh"))
+        .map(|v| ann.path.with_file_name(v));
+    let file = named.unwrap_or_else(|| match slc_base(slc) {
+        Some((name, _)) => slc.with_file_name(format!("{name}_s{segment}_{tag}.llh")),
+        None => slc.with_extension("llh"),
+    });
+    Ok((key, looks, file))
+}
+
+/// The `.llh` file a map box on `scene` reads ([`llh_grid`]).
+///
+/// # Errors
+/// If its annotation cannot be read or names no `.llh` product.
+pub fn llh_file(scene: &UavsarScene) -> Result<PathBuf, String> {
+    let ann = Annotation::read(&scene.annotation).map_err(|e| e.to_string())?;
+    Ok(llh_product(&ann, &scene.slc, segment_of(&scene.slc))?.2)
+}
+
 /// The segment of an SLC file named `..._s<k>_1x1.slc` (UAVSAR's naming), else 1.
 pub fn segment_of(slc: &Path) -> usize {
     slc_base(slc).map_or(1, |(_, k)| k)
@@ -251,6 +377,13 @@ impl super::scenes::Scene for UavsarScene {
         read_window(&self.slc, self.dims.1, window, out)
     }
 
+    /// The flight line's latitude/longitude grid ([`llh_grid`]), longitude as map `x`.
+    fn georeference(&self) -> Result<super::mapping::Georeference, String> {
+        let ann = Annotation::read(&self.annotation).map_err(|e| e.to_string())?;
+        let grid = llh_grid(&ann, &self.slc, segment_of(&self.slc), self.dims)?;
+        Ok(super::mapping::Georeference::Grid(Box::new(grid)))
+    }
+
     fn describe(&self) -> serde_json::Value {
         serde_json::json!({
             "path": self.slc.display().to_string(),
@@ -295,7 +428,7 @@ pub use super::scenes::StackError;
 pub fn open_stack(
     slcs: &[PathBuf],
     annotations: &[PathBuf],
-    window: Option<Window>,
+    window: Option<super::scenes::Place>,
 ) -> Result<SceneStack, StackError> {
     let err = |field, index, message: String| StackError {
         field,
@@ -326,11 +459,9 @@ pub fn open_stack(
         });
     }
     // The scenes' field is `slc` here.
-    super::scenes::Scenes::new(scenes, window.map(super::scenes::Place::Pixels)).map_err(|e| {
-        StackError {
-            field: if e.field == "path" { "slc" } else { e.field },
-            ..e
-        }
+    super::scenes::Scenes::new(scenes, window).map_err(|e| StackError {
+        field: if e.field == "path" { "slc" } else { e.field },
+        ..e
     })
 }
 

@@ -8,10 +8,9 @@
 
 use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Materialised};
-use super::scenes::{CutScenes, CutSpec, Paths, WindowSpec};
+use super::scenes::{CutScenes, CutSpec, Paths, SceneWindow};
 use crate::experiment::context::{Ctx, SpecError};
-use crate::io::cut::Window;
-use crate::io::uavsar::{open_stack, UavsarScene};
+use crate::io::uavsar::{llh_file, open_stack, UavsarScene};
 use ndarray::Array3;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -30,9 +29,10 @@ pub struct Spec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub annotation: Option<Paths>,
     /// The window read from every scene (default: the whole scene, every scene then of one
-    /// size).
+    /// size): in pixels, or a box of longitude and latitude through the flight line's `.llh`
+    /// grid.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub window: Option<WindowSpec>,
+    pub window: Option<SceneWindow>,
     /// Cut the window into patches, each patch of each scene a sample (as for `geotiff`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cut: Option<CutSpec>,
@@ -43,6 +43,9 @@ pub struct Spec {
 pub struct UavsarDataset {
     /// The scenes, checked against their annotations, and their cut.
     pub data: CutScenes<UavsarScene>,
+    /// The `.llh` files a map window or a map polygon was placed through (inputs too: their
+    /// content decides the pixels).
+    pub llh: Vec<PathBuf>,
 }
 
 impl DatasetKind for UavsarDataset {
@@ -68,7 +71,9 @@ impl DatasetKind for UavsarDataset {
             |p: &Paths| -> Vec<PathBuf> { p.list().iter().map(|p| ctx.resolve(p)).collect() };
         let window = spec
             .window
-            .map(|w| Window::at(w.row, w.col, w.size[0], w.size[1]));
+            .map(|w| w.place())
+            .transpose()
+            .map_err(|m| ctx.err(format!("{at}.window"), m))?;
         let annotations = spec.annotation.as_ref().map(resolved).unwrap_or_default();
         let stack = open_stack(&resolved(slc), &annotations, window).map_err(|e| {
             // An index into a field written as one path names the field.
@@ -83,8 +88,19 @@ impl DatasetKind for UavsarDataset {
             };
             ctx.err(path, e.message)
         })?;
+        let mapped = spec.window.is_some_and(|w| w.x.is_some())
+            || spec.cut.as_ref().is_some_and(|c| c.polygon_map.is_some());
+        let mut llh = vec![];
+        if mapped {
+            for scene in &stack.scenes {
+                let f = llh_file(scene).map_err(|m| ctx.err(format!("{at}.window"), m))?;
+                if !llh.contains(&f) {
+                    llh.push(f);
+                }
+            }
+        }
         let data = CutScenes::new(stack, spec.cut.as_ref(), ctx, &format!("{at}.cut"))?;
-        Ok(UavsarDataset { data })
+        Ok(UavsarDataset { data, llh })
     }
 
     fn shape(&self) -> (usize, usize, usize) {
@@ -94,7 +110,11 @@ impl DatasetKind for UavsarDataset {
     fn input_files(&self) -> Vec<PathBuf> {
         let s = &self.data.stack.scenes;
         let annotations = s.iter().map(|s| s.annotation.clone());
-        s.iter().map(|s| s.slc.clone()).chain(annotations).collect()
+        s.iter()
+            .map(|s| s.slc.clone())
+            .chain(annotations)
+            .chain(self.llh.iter().cloned())
+            .collect()
     }
 
     fn worth_sharing(&self) -> bool {
