@@ -186,6 +186,19 @@ fn run_writes_the_documented_tables() {
     assert_eq!(manifest["master_seed"], 42);
     assert_eq!(manifest["jobs"].as_array().unwrap().len(), 6);
     assert_eq!(manifest["spec_hash_sha256"].as_str().unwrap().len(), 64);
+    // The plants' record compiled in, as `sha256sum` hashes the committed file.
+    let sum = std::process::Command::new("sha256sum")
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/reproduction/plant_calibration.json"
+        ))
+        .output()
+        .unwrap();
+    let sum = String::from_utf8(sum.stdout).unwrap();
+    assert_eq!(
+        manifest["plant_calibration_sha256"],
+        sum.split_whitespace().next().unwrap()
+    );
     assert!(out
         .join("maps/held.alpha_h=2.levels=2/level2_correlation_H.npy")
         .exists());

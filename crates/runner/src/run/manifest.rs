@@ -74,6 +74,9 @@ impl Manifest {
             sample_format: Some(crate::synthesis::SAMPLE_FORMAT),
             threads: Some(threads),
             calibration_seed: plan.spec.calibration.as_ref().map(|_| plan.calibration_seed()),
+            plant_calibration_sha256: Some(crate::seeds::sha256_hex(
+                crate::physics::vegetation::calibration::RECORD.as_bytes(),
+            )),
             ..Default::default()
         };
         let text = serde_json::to_string_pretty(&head)?;

@@ -99,6 +99,11 @@ pub struct Manifest {
     /// The calibration's seed, for a run with a calibration section.
     #[serde(default)]
     pub calibration_seed: Option<u64>,
+    /// SHA-256 of the stand-in plants' calibration record compiled into the tool
+    /// (`reproduction/plant_calibration.json`): the `vegetation_isar` presets' factors come
+    /// from it, so two runs of one commit and spec differ where it does.
+    #[serde(default)]
+    pub plant_calibration_sha256: Option<String>,
     /// Every job, in plan order (streamed by the runner after the head).
     #[serde(default, skip_serializing)]
     pub jobs: Vec<Job>,
