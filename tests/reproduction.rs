@@ -15,6 +15,7 @@ fn header() -> render::Header {
         repeats: 2,
         cnn_repeats: None,
         builds: vec![],
+        plant_records: vec![],
         missing: vec![],
         job_time: vec![],
     }
@@ -69,6 +70,17 @@ fn tables_3_and_4_match_the_dissertation() {
     );
     assert!(
         text.contains("| 1 | Correlation | 0.6481 | 0.6481 |"),
+        "{text}"
+    );
+    // The plants' record of every folder (3 runs), as `sha256sum` hashes the committed file.
+    let sum = std::process::Command::new("sha256sum")
+        .arg("reproduction/plant_calibration.json")
+        .output()
+        .unwrap();
+    let sum = String::from_utf8(sum.stdout).unwrap()[..12].to_string();
+    assert_eq!(runs::plant_records(&runs), vec![(sum.clone(), 3)]);
+    assert!(
+        text.contains(&format!("{sum} (3 run(s)); this build's: {sum}")),
         "{text}"
     );
     // The folders' compute time by spec, from the jobs' own times in the manifests.

@@ -113,6 +113,7 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         repeats,
         cnn_repeats,
         builds: vec![],
+        plant_records: vec![],
         missing: vec![],
         job_time: vec![],
     };

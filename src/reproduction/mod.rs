@@ -162,6 +162,7 @@ pub fn write(
     }
     let header = render::Header {
         builds: builds(runs),
+        plant_records: runs::plant_records(runs),
         missing: missing.iter().map(Missing::show).collect(),
         job_time: runs::job_time(runs),
         ..header.clone()

@@ -32,6 +32,10 @@ pub struct Header {
     /// the run folders' manifests, `computed_by`; filled by [`super::write`]): the job store
     /// reuses a result whatever the tool's version, so these can differ from `tool`.
     pub builds: Vec<(String, usize)>,
+    /// The plants' calibration records the run folders were computed with (first 12 hex
+    /// digits of the manifests' SHA-256, or `not recorded`), with their run counts (filled by
+    /// [`super::write`]): the stand-in plants' presets come from the record compiled in.
+    pub plant_records: Vec<(String, usize)>,
     /// The run folders the document would read that are missing or incomplete, each with
     /// why (filled by [`super::write`]): the cells and claims that need them are not
     /// decidable.
@@ -127,6 +131,22 @@ fn top(s: &mut String, header: &Header) {
             .map(|(b, n)| format!("{b} ({n} job(s))"))
             .collect();
         let _ = writeln!(s, "- Results computed by: {}", builds.join(", "));
+    }
+    if !header.plant_records.is_empty() {
+        let compiled =
+            crate::seeds::sha256_hex(crate::physics::vegetation::calibration::RECORD.as_bytes());
+        let records: Vec<String> = header
+            .plant_records
+            .iter()
+            .map(|(r, n)| format!("{r} ({n} run(s))"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "- Plants' calibration record of the folders (SHA-256 of \
+             reproduction/plant_calibration.json, recorded since 2026-11-29): {}; this build's: {}",
+            records.join(", "),
+            &compiled[..12]
+        );
     }
     if !header.missing.is_empty() {
         let _ = writeln!(

@@ -303,6 +303,24 @@ pub fn builds(runs: &[SpecRuns]) -> Vec<(String, usize)> {
     count.into_iter().collect()
 }
 
+/// The plants' calibration records the run folders in `runs` were computed with (the
+/// manifests' `plant_calibration_sha256`, its first 12 hex digits; `not recorded` for a
+/// manifest of a tool before it), with their run counts.
+pub fn plant_records(runs: &[SpecRuns]) -> Vec<(String, usize)> {
+    let mut count: BTreeMap<String, usize> = BTreeMap::new();
+    for (_, dir) in runs.iter().flat_map(|r| &r.runs) {
+        let Ok(m) = crate::io::manifest::Manifest::read(dir) else {
+            continue;
+        };
+        let r = m
+            .plant_calibration_sha256
+            .as_deref()
+            .map_or("not recorded", |h| &h[..h.len().min(12)]);
+        *count.entry(r.to_string()).or_default() += 1;
+    }
+    count.into_iter().collect()
+}
+
 /// One spec's compute time in its run folders ([`job_time`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobTime {
