@@ -128,6 +128,26 @@ fn a_map_box_on_uavsar_scenes_reads_the_blocks_of_the_llh_points_in_it() {
         ndarray_npy::read_npy::<_, ndarray::Array3<num_complex::Complex32>>(fx.join(f)).unwrap()
     };
     assert_eq!(npy("map_cut.npy"), npy("map_window.npy"));
+    // Annotations that do not name the file: the one `..._s1_2x8.llh` beside the scenes.
+    let anns: Vec<PathBuf> = (0..3)
+        .map(|k| fx.join(format!("testsite_0{k}_L090HH_01_BC.ann")))
+        .collect();
+    let texts: Vec<String> = anns
+        .iter()
+        .map(|a| std::fs::read_to_string(a).unwrap())
+        .collect();
+    for (a, t) in anns.iter().zip(&texts) {
+        let unnamed: String = t
+            .lines()
+            .filter(|l| !l.starts_with("llh_1_2x8 "))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        std::fs::write(a, unnamed).unwrap();
+    }
+    assert_same_tables(&run(d, "map_unnamed", &fields), &map);
+    for (a, t) in anns.iter().zip(&texts) {
+        std::fs::write(a, t).unwrap();
+    }
     // Without the `.llh` product in the annotation.
     let ann = fx.join("testsite_00_L090HH_01_BC.ann");
     let text = std::fs::read_to_string(&ann).unwrap();

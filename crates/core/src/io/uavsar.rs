@@ -144,7 +144,8 @@ impl Annotation {
 /// annotation `ann`: the `.llh` product `llh_<k>_<R>x<A>` (`R` range looks along the columns,
 /// `A` azimuth looks along the rows), its size from `llh_<k>_<R>x<A>.set_rows` / `.set_cols`
 /// (or `... Rows` / `... Columns`), its file named by the field `llh_<k>_<R>x<A>` beside the
-/// annotation, else `<name>_s<k>_<R>x<A>.llh` beside the SLC.
+/// annotation, else `<name>_s<k>_<R>x<A>.llh` beside the SLC, else the one file beside it
+/// ending in `_s<k>_<R>x<A>.llh` ([`llh_product`]).
 ///
 /// # Errors
 /// Naming the annotation's field or the file: no `.llh` product in the annotation, a size that
@@ -205,7 +206,8 @@ pub fn llh_grid(
 
 /// The `.llh` product of segment `segment` in annotation `ann`: its key `llh_<k>_<R>x<A>`, the
 /// pixels a point stands for `[A, R]` (rows, columns), and its file (the field's value beside
-/// the annotation, else `<name>_s<k>_<R>x<A>.llh` beside `slc`).
+/// the annotation, else `<name>_s<k>_<R>x<A>.llh` beside `slc`, else the one file beside it
+/// ending in `_s<k>_<R>x<A>.llh`: UAVSAR names a stack's without the acquisition's fields).
 ///
 /// # Errors
 /// If the annotation names no such product.
@@ -251,7 +253,46 @@ fn llh_product(
         Some((name, _)) => slc.with_file_name(format!("{name}_s{segment}_{tag}.llh")),
         None => slc.with_extension("llh"),
     });
-    Ok((key, looks, file))
+    if file.is_file() {
+        return Ok((key, looks, file));
+    }
+    // UAVSAR names a stack's `.llh` without the acquisition's fields
+    // (`{site}_{line}_{stack}_{BC}_s<k>_<R>x<A>.llh`): the one file of that ending beside the SLC.
+    let ending = format!("_s{segment}_{tag}.llh");
+    let dir = slc
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| {
+                    p.file_name()
+                        .and_then(|n| n.to_str())
+                        .is_some_and(|n| n.to_ascii_lowercase().ends_with(&ending))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    found.sort();
+    match found.len() {
+        1 => Ok((key, looks, found.remove(0))),
+        0 => Err(format!(
+            "no `.llh` file for {}: tried {} and files ending in {ending} beside it",
+            slc.display(),
+            file.display()
+        )),
+        _ => Err(format!(
+            "{} files end in {ending} beside {} ({}): name the one in the annotation's `{key}`",
+            found.len(),
+            slc.display(),
+            found
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
 }
 
 /// The `.llh` file a map box on `scene` reads ([`llh_grid`]).
