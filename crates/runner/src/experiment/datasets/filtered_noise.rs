@@ -245,10 +245,6 @@ impl DatasetKind for FilteredNoise {
         Some(true)
     }
 
-    fn kspace_grid(&self) -> Option<(usize, usize)> {
-        None
-    }
-
     fn known_filter(&self) -> Option<usize> {
         self.filter.is_uniform().then_some(self.half_width)
     }

@@ -40,17 +40,27 @@ pub trait DatasetKind: Sized + Clone + fmt::Debug + PartialEq + Send + Sync {
     /// The files it reads (their content hashes go into its jobs' store keys).
     fn input_files(&self) -> Vec<PathBuf>;
     /// Whether the jobs of one group share one materialised copy (simulated or decoded data);
-    /// not a mapped `.npy` (free) nor synthetic noise (cheap next to its jobs).
-    fn worth_sharing(&self) -> bool;
+    /// not a mapped `.npy` (free) nor synthetic noise (cheap next to its jobs). Default: yes.
+    fn worth_sharing(&self) -> bool {
+        true
+    }
     /// Whether a noise floor can draw it again: `Some(true)` cheaply (the default floor),
-    /// `Some(false)` at its own cost (only when `draws` is asked for), `None` never.
-    fn redrawable(&self) -> Option<bool>;
+    /// `Some(false)` at its own cost (only when `draws` is asked for), `None` never (the
+    /// default: data read from files).
+    fn redrawable(&self) -> Option<bool> {
+        None
+    }
     /// The k-space grid `(frequencies, azimuths)` of data imaged from k-space, whose analysis
     /// jobs write the mean k-space image (`kspace/<job>.mean.npy`, drawn by the report).
-    fn kspace_grid(&self) -> Option<(usize, usize)>;
+    /// Default: none.
+    fn kspace_grid(&self) -> Option<(usize, usize)> {
+        None
+    }
     /// The half-width of a known uniform filter whose exact lag correlations the analysis
-    /// writes (`filter_correlation.parquet`); `None` for data without one.
-    fn known_filter(&self) -> Option<usize>;
+    /// writes (`filter_correlation.parquet`); `None` for data without one (the default).
+    fn known_filter(&self) -> Option<usize> {
+        None
+    }
     /// Records the sizes of its spec (at YAML path `at`) that its materialisation reads.
     fn sizes(&self, at: &str, s: &mut Sizes);
     /// Bytes and work of its materialisation.

@@ -144,23 +144,11 @@ impl DatasetKind for KspaceDataset {
         vec![self.path.clone()]
     }
 
-    fn worth_sharing(&self) -> bool {
-        true
-    }
-
-    fn redrawable(&self) -> Option<bool> {
-        None
-    }
-
     fn kspace_grid(&self) -> Option<(usize, usize)> {
         Some((
             self.measurement.freqs.len(),
             self.measurement.azimuths.len(),
         ))
-    }
-
-    fn known_filter(&self) -> Option<usize> {
-        None
     }
 
     fn sizes(&self, at: &str, s: &mut Sizes) {

@@ -122,22 +122,6 @@ impl DatasetKind for NetcdfDataset {
         vec![self.path.clone()]
     }
 
-    fn worth_sharing(&self) -> bool {
-        true
-    }
-
-    fn redrawable(&self) -> Option<bool> {
-        None
-    }
-
-    fn kspace_grid(&self) -> Option<(usize, usize)> {
-        None
-    }
-
-    fn known_filter(&self) -> Option<usize> {
-        None
-    }
-
     fn sizes(&self, at: &str, s: &mut Sizes) {
         file_sizes(at, self.shape, s);
     }

@@ -88,18 +88,6 @@ impl DatasetKind for NpyDataset {
         false
     }
 
-    fn redrawable(&self) -> Option<bool> {
-        None
-    }
-
-    fn kspace_grid(&self) -> Option<(usize, usize)> {
-        None
-    }
-
-    fn known_filter(&self) -> Option<usize> {
-        None
-    }
-
     fn sizes(&self, at: &str, s: &mut Sizes) {
         file_sizes(at, self.shape(), s);
     }

@@ -319,22 +319,6 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
         self.data.stack.paths()
     }
 
-    fn worth_sharing(&self) -> bool {
-        true
-    }
-
-    fn redrawable(&self) -> Option<bool> {
-        None
-    }
-
-    fn kspace_grid(&self) -> Option<(usize, usize)> {
-        None
-    }
-
-    fn known_filter(&self) -> Option<usize> {
-        None
-    }
-
     fn sizes(&self, at: &str, s: &mut Sizes) {
         file_sizes(at, self.shape(), s);
     }

@@ -266,20 +266,12 @@ impl DatasetKind for VegetationDataset {
         vec![]
     }
 
-    fn worth_sharing(&self) -> bool {
-        true
-    }
-
     fn redrawable(&self) -> Option<bool> {
         Some(false)
     }
 
     fn kspace_grid(&self) -> Option<(usize, usize)> {
         Some((self.measurement.frequencies, self.measurement.azimuths))
-    }
-
-    fn known_filter(&self) -> Option<usize> {
-        None
     }
 
     fn sizes(&self, at: &str, s: &mut Sizes) {
