@@ -67,29 +67,31 @@ pub struct PointGrid {
 }
 
 impl PointGrid {
+    /// Every finite point, `(index, x, y)` (row-major index).
+    fn points(&self) -> impl Iterator<Item = (usize, f64, f64)> + '_ {
+        self.x
+            .iter()
+            .zip(&self.y)
+            .enumerate()
+            .map(|(k, (&x, &y))| (k, f64::from(x), f64::from(y)))
+            .filter(|(_, x, y)| x.is_finite() && y.is_finite())
+    }
+
+    /// `[[x0, x1], [y0, y1]]` spanned by the finite points.
+    fn extent(&self) -> [[f64; 2]; 2] {
+        let empty = [f64::INFINITY, f64::NEG_INFINITY];
+        self.points().fold([empty, empty], |[ex, ey], (_, x, y)| {
+            [[ex[0].min(x), ex[1].max(x)], [ey[0].min(y), ey[1].max(y)]]
+        })
+    }
+
     /// The pixel window of the blocks whose points lie in the box `x` x `y` (edges included).
     ///
     /// # Errors
     /// If no point lies in the box, naming the grid's extent.
     pub fn window(&self, x: [f64; 2], y: [f64; 2]) -> Result<Window, String> {
         let (mut rows, mut cols) = ([usize::MAX, 0], [usize::MAX, 0]);
-        let mut extent = [
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ];
-        for (k, (&px, &py)) in self.x.iter().zip(&self.y).enumerate() {
-            let (px, py) = (f64::from(px), f64::from(py));
-            if !(px.is_finite() && py.is_finite()) {
-                continue;
-            }
-            extent = [
-                extent[0].min(px),
-                extent[1].max(px),
-                extent[2].min(py),
-                extent[3].max(py),
-            ];
+        for (k, px, py) in self.points() {
             if (x[0]..=x[1]).contains(&px) && (y[0]..=y[1]).contains(&py) {
                 let (i, j) = (k / self.cols, k % self.cols);
                 rows = [rows[0].min(i), rows[1].max(i)];
@@ -97,12 +99,10 @@ impl PointGrid {
             }
         }
         if rows[0] == usize::MAX {
+            let [ex, ey] = self.extent();
             return Err(format!(
-                "the box x {x:?}, y {y:?} holds none of the {} x {} grid points (x {:?}, y {:?})",
-                self.rows,
-                self.cols,
-                [extent[0], extent[1]],
-                [extent[2], extent[3]]
+                "the box x {x:?}, y {y:?} holds none of the {} x {} grid points (x {ex:?}, y {ey:?})",
+                self.rows, self.cols,
             ));
         }
         let [br, bc] = self.block;
@@ -118,32 +118,15 @@ impl PointGrid {
     /// point (distances in `x` scaled by `cos y`, as for longitude and latitude), `None` outside
     /// the grid points' extent.
     pub fn pixel(&self, x: f64, y: f64) -> Option<(f64, f64)> {
-        let scale = y.to_radians().cos().abs().max(1e-9);
-        let mut best: Option<(f64, usize)> = None;
-        let mut extent = [
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ];
-        for (k, (&px, &py)) in self.x.iter().zip(&self.y).enumerate() {
-            let (px, py) = (f64::from(px), f64::from(py));
-            if !(px.is_finite() && py.is_finite()) {
-                continue;
-            }
-            extent = [
-                extent[0].min(px),
-                extent[1].max(px),
-                extent[2].min(py),
-                extent[3].max(py),
-            ];
-            let d = ((px - x) * scale).powi(2) + (py - y).powi(2);
-            if best.is_none_or(|(b, _)| d < b) {
-                best = Some((d, k));
-            }
+        let [ex, ey] = self.extent();
+        if !((ex[0]..=ex[1]).contains(&x) && (ey[0]..=ey[1]).contains(&y)) {
+            return None;
         }
-        let inside = (extent[0]..=extent[1]).contains(&x) && (extent[2]..=extent[3]).contains(&y);
-        let (_, k) = best.filter(|_| inside)?;
+        let scale = y.to_radians().cos().abs().max(1e-9);
+        let distance = |px: f64, py: f64| ((px - x) * scale).powi(2) + (py - y).powi(2);
+        let (k, _, _) = self
+            .points()
+            .min_by(|a, b| distance(a.1, a.2).total_cmp(&distance(b.1, b.2)))?;
         let [br, bc] = self.block;
         let (i, j) = (k / self.cols, k % self.cols);
         let r = ((i as f64 + 0.5) * br as f64).min(self.dims.0 as f64);
@@ -166,7 +149,7 @@ pub struct MapWindow {
 pub type Fit = (usize, f64);
 
 /// `(row, col)` of a map point.
-type ToPixel = Box<dyn Fn(f64, f64) -> (f64, f64)>;
+type ToPixel<'a> = Box<dyn Fn(f64, f64) -> Option<(f64, f64)> + 'a>;
 
 /// Points mapped along each edge of a box (its corners included): a polynomial map bends the
 /// box's edges, so the corners alone may miss pixels the box covers.
@@ -199,7 +182,8 @@ pub fn map_window(georef: &Georeference, x: [f64; 2], y: [f64; 2]) -> Result<Map
             (x[0], at(t, y)),
             (x[1], at(t, y)),
         ] {
-            let (row, col) = to_pixel(xx, yy);
+            // No pixel: NaN, refused below as no finite pixels.
+            let (row, col) = to_pixel(xx, yy).unwrap_or((f64::NAN, f64::NAN));
             rows = [rows[0].min(row), rows[1].max(row)];
             cols = [cols[0].min(col), cols[1].max(col)];
         }
@@ -241,31 +225,21 @@ pub fn map_points(
     georef: &Georeference,
     points: &[[f64; 2]],
 ) -> Result<(Vec<[f64; 2]>, Option<Fit>), String> {
-    if let Georeference::Grid(g) = georef {
-        let pixels = points
-            .iter()
-            .map(|&[x, y]| {
-                let (r, c) = g.pixel(x, y).ok_or_else(|| {
-                    format!("the point ({x}, {y}) lies outside the grid points' extent")
-                })?;
-                Ok([r, c])
-            })
-            .collect::<Result<Vec<_>, String>>()?;
-        return Ok((pixels, None));
-    }
     let (to_pixel, fit) = transform(georef)?;
     let pixels = points
         .iter()
         .map(|&[x, y]| {
-            let (r, c) = to_pixel(x, y);
-            [r, c]
+            let (r, c) = to_pixel(x, y).ok_or_else(|| {
+                format!("the point ({x}, {y}) lies outside the grid points' extent")
+            })?;
+            Ok([r, c])
         })
-        .collect();
+        .collect::<Result<Vec<_>, String>>()?;
     Ok((pixels, fit))
 }
 
 /// The map from map coordinates to pixel positions, and the GCP fit's order and residual.
-fn transform(georef: &Georeference) -> Result<(ToPixel, Option<Fit>), String> {
+fn transform(georef: &Georeference) -> Result<(ToPixel<'_>, Option<Fit>), String> {
     Ok(match georef {
         Georeference::Affine(affine) => {
             let [x0, a, b, y0, d, e] = *affine;
@@ -275,29 +249,25 @@ fn transform(georef: &Georeference) -> Result<(ToPixel, Option<Fit>), String> {
             }
             let f = move |xx: f64, yy: f64| {
                 let (u, v) = (xx - x0, yy - y0);
-                ((a * v - d * u) / det, (e * u - b * v) / det)
+                Some(((a * v - d * u) / det, (e * u - b * v) / det))
             };
             (Box::new(f), None)
         }
         Georeference::Sicd { projection, height } => {
-            let (p, h) = (projection.clone(), *height);
+            let h = *height;
             // SICD places pixel centres at whole numbers; this module, their corners.
             let f = move |lon: f64, lat: f64| {
-                let ([r, c], _) = p.geodetic_to_image(lat, lon, h);
-                (r + 0.5, c + 0.5)
+                let ([r, c], _) = projection.geodetic_to_image(lat, lon, h);
+                Some((r + 0.5, c + 0.5))
             };
             (Box::new(f), None)
         }
         Georeference::Gcps(points) => {
             let p = GcpFit::new(points)?;
             let fit = Some((p.order, p.max_residual(points)));
-            (Box::new(move |xx, yy| p.pixel(xx, yy)), fit)
+            (Box::new(move |xx, yy| Some(p.pixel(xx, yy))), fit)
         }
-        Georeference::Grid(g) => {
-            let g = g.clone();
-            let f = move |xx: f64, yy: f64| g.pixel(xx, yy).unwrap_or((f64::NAN, f64::NAN));
-            (Box::new(f), None)
-        }
+        Georeference::Grid(g) => (Box::new(|xx, yy| g.pixel(xx, yy)), None),
     })
 }
 
