@@ -315,8 +315,7 @@ fn a_longitude_latitude_box_on_ground_control_points_is_gdals_window() {
         return;
     };
     let d = dir.path();
-    let want: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(fx.join("gcp_box.json")).unwrap()).unwrap();
+    let want: serde_json::Value = common::read_json(&fx.join("gcp_box.json"));
     let files: Vec<String> = (0..3).map(|k| format!("fixtures/gcp_0{k}.tif")).collect();
     let fields = format!(
         "kind: geotiff, path: [{}], window: {{x: {}, y: {}}}",

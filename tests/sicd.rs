@@ -180,9 +180,7 @@ fn sicd_ground_points_project_to_sarpys_pixels() {
     let Some(fx) = projection_fixtures(dir.path()) else {
         return;
     };
-    let points: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(fx.join("proj_points.json")).unwrap())
-            .unwrap();
+    let points: serde_json::Value = common::read_json(&fx.join("proj_points.json"));
     for kind in ["inca", "pfa", "rgazcomp", "plane"] {
         let sicd = Sicd::open(&fx.join(format!("proj_{kind}.nitf"))).unwrap();
         let projection = sicd.metadata.projection.as_ref().unwrap();
@@ -211,8 +209,7 @@ fn a_map_box_on_sicd_images_reads_the_pixels_sarpy_projects_it_to() {
         return;
     };
     let d = dir.path();
-    let b: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(fx.join("map_box.json")).unwrap()).unwrap();
+    let b: serde_json::Value = common::read_json(&fx.join("map_box.json"));
     let (x, y) = (&b["box"][0], &b["box"][1]);
     let fields = format!(
         "kind: sicd, path: [fixtures/proj_inca.nitf, fixtures/proj_inca_b.nitf], window: {{x: {x}, y: {y}}}"

@@ -19,6 +19,18 @@ fn fixtures(dir: &Path) -> Option<PathBuf> {
     )
 }
 
+/// Rewrites the annotation `path` without its lines that start with `prefix`; its text before.
+fn drop_lines(path: &Path, prefix: &str) -> String {
+    let text = std::fs::read_to_string(path).unwrap();
+    let kept: String = text
+        .lines()
+        .filter(|l| !l.starts_with(prefix))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(path, kept).unwrap();
+    text
+}
+
 /// The three scenes' file names.
 fn scenes() -> Vec<String> {
     (0..3)
@@ -80,8 +92,7 @@ fn a_map_box_on_uavsar_scenes_reads_the_blocks_of_the_llh_points_in_it() {
         return;
     };
     let d = dir.path();
-    let b: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(fx.join("map_box.json")).unwrap()).unwrap();
+    let b: serde_json::Value = common::read_json(&fx.join("map_box.json"));
     let (x, y) = (&b["box"][0], &b["box"][1]);
     let fields = format!(
         "kind: uavsar, slc: [{}], window: {{x: {x}, y: {y}}}",
@@ -132,31 +143,14 @@ fn a_map_box_on_uavsar_scenes_reads_the_blocks_of_the_llh_points_in_it() {
     let anns: Vec<PathBuf> = (0..3)
         .map(|k| fx.join(format!("testsite_0{k}_L090HH_01_BC.ann")))
         .collect();
-    let texts: Vec<String> = anns
-        .iter()
-        .map(|a| std::fs::read_to_string(a).unwrap())
-        .collect();
-    for (a, t) in anns.iter().zip(&texts) {
-        let unnamed: String = t
-            .lines()
-            .filter(|l| !l.starts_with("llh_1_2x8 "))
-            .map(|l| format!("{l}\n"))
-            .collect();
-        std::fs::write(a, unnamed).unwrap();
-    }
+    let texts: Vec<String> = anns.iter().map(|a| drop_lines(a, "llh_1_2x8 ")).collect();
     assert_same_tables(&run(d, "map_unnamed", &fields), &map);
     for (a, t) in anns.iter().zip(&texts) {
         std::fs::write(a, t).unwrap();
     }
     // Without the `.llh` product in the annotation.
     let ann = fx.join("testsite_00_L090HH_01_BC.ann");
-    let text = std::fs::read_to_string(&ann).unwrap();
-    let bare: String = text
-        .lines()
-        .filter(|l| !l.starts_with("llh_"))
-        .map(|l| format!("{l}\n"))
-        .collect();
-    std::fs::write(&ann, bare).unwrap();
+    let text = drop_lines(&ann, "llh_");
     let e = scenes::refused(d, "no_llh", &fields);
     assert!(
         e.contains("datasets[0].window")
@@ -202,13 +196,7 @@ fn bad_uavsar_files_are_refused_naming_the_file_and_the_field() {
     std::fs::write(&slc, &bytes).unwrap();
     // An annotation without the scene's columns.
     let ann = fx.join("testsite_02_L090HH_01_BC.ann");
-    let text_ann = std::fs::read_to_string(&ann).unwrap();
-    let cut: String = text_ann
-        .lines()
-        .filter(|l| !l.starts_with("slc_1_1x1 Columns"))
-        .map(|l| format!("{l}\n"))
-        .collect();
-    std::fs::write(&ann, cut).unwrap();
+    let text_ann = drop_lines(&ann, "slc_1_1x1 Columns");
     let e = refused("no_columns", &uavsar_fields(""));
     assert!(
         e.contains("datasets[0].slc[2]")

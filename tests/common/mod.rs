@@ -11,6 +11,12 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+/// The JSON file at `path` (a fixture's or an output's), parsed.
+pub fn read_json(path: &std::path::Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
 /// Agreement expected between two f64 evaluations of the same estimator by different
 /// summation orders on stacks of at most a few hundred samples.
 pub const REORDER_TOL: f64 = 1e-9;
