@@ -80,23 +80,23 @@ impl Evidence {
     }
 }
 
-/// The tables the stand-in plants were fitted to (docs/definitions.md section 10), read from
-/// the compiled-in record: Table 16 (plants A-C) and every table whose residual the plants D-E
-/// fit records (Tables 29-36, the repeats 11-12, and with `calibrate-plants --kl` the KL
-/// Tables 13-15), so a record fitted to more tables moves their cells out of the independent
-/// count.
-pub fn calibrated_tables() -> Vec<u32> {
+/// The tables the plants D-E fit of the compiled-in record took as targets (Tables 29-36, the
+/// repeats 11-12, and with `calibrate-plants --kl` the KL Tables 13-15).
+pub fn similarity_fit_tables() -> std::collections::BTreeSet<u32> {
     let r = crate::physics::vegetation::calibration::record();
-    let mut t: Vec<u32> = std::iter::once(16)
-        .chain(
-            r.similarity
-                .iter()
-                .flat_map(|f| f.tables.iter().map(|t| t.table)),
-        )
-        .collect();
-    t.sort_unstable();
-    t.dedup();
-    t
+    r.similarity
+        .iter()
+        .flat_map(|f| f.tables.iter().map(|t| t.table))
+        .collect()
+}
+
+/// The tables the stand-in plants were fitted to (docs/definitions.md section 10), read from
+/// the compiled-in record: Table 16 (plants A-C) and [`similarity_fit_tables`], so a record
+/// fitted to more tables moves their cells out of the independent count.
+pub fn calibrated_tables() -> Vec<u32> {
+    let mut t = similarity_fit_tables();
+    t.insert(16);
+    t.into_iter().collect()
 }
 
 /// Tables whose cells repeat other tables' cells, with those tables: counted once, where the
@@ -112,19 +112,14 @@ pub const REPEATS: [(u32, &str); 2] = [
 /// For a table the plants D-E fit took as a target (per the compiled-in record), the sentence
 /// the document prints beside it; `None` for the others.
 pub fn fitted_note(number: u32) -> Option<String> {
-    let r = crate::physics::vegetation::calibration::record();
-    let tables: std::collections::BTreeSet<u32> = r
-        .similarity
-        .iter()
-        .flat_map(|f| f.tables.iter().map(|t| t.table))
-        .collect();
+    let tables = similarity_fit_tables();
     tables.contains(&number).then(|| {
         let all: Vec<String> = tables.iter().map(u32::to_string).collect();
         format!(
             "Table {number} is among the tables the stand-in plants D and E are fitted to \
              (`{}`: Tables {}), so its cells count as calibration targets, not as independent \
              agreements",
-            r.command,
+            crate::physics::vegetation::calibration::record().command,
             all.join(", ")
         )
     })

@@ -291,10 +291,7 @@ pub fn record_wall(out: &Path, wall_s: f64, repeats: usize) -> Result<()> {
 /// `computed_by`; `not recorded` for a job without it), with their job counts.
 pub fn builds(runs: &[SpecRuns]) -> Vec<(String, usize)> {
     let mut count: BTreeMap<String, usize> = BTreeMap::new();
-    for (_, dir) in runs.iter().flat_map(|r| &r.runs) {
-        let Ok(m) = crate::io::manifest::Manifest::read(dir) else {
-            continue;
-        };
+    for m in manifests(runs) {
         for job in &m.jobs {
             let b = job.computed_by.as_deref().unwrap_or("not recorded");
             *count.entry(b.to_string()).or_default() += 1;
@@ -303,15 +300,19 @@ pub fn builds(runs: &[SpecRuns]) -> Vec<(String, usize)> {
     count.into_iter().collect()
 }
 
+/// The manifest of every run folder in `runs` that has a readable one.
+fn manifests(runs: &[SpecRuns]) -> impl Iterator<Item = crate::io::manifest::Manifest> + '_ {
+    runs.iter()
+        .flat_map(|r| &r.runs)
+        .filter_map(|(_, dir)| crate::io::manifest::Manifest::read(dir).ok())
+}
+
 /// The plants' calibration records the run folders in `runs` were computed with (the
 /// manifests' `plant_calibration_sha256`, its first 12 hex digits; `not recorded` for a
 /// manifest of a tool before it), with their run counts.
 pub fn plant_records(runs: &[SpecRuns]) -> Vec<(String, usize)> {
     let mut count: BTreeMap<String, usize> = BTreeMap::new();
-    for (_, dir) in runs.iter().flat_map(|r| &r.runs) {
-        let Ok(m) = crate::io::manifest::Manifest::read(dir) else {
-            continue;
-        };
+    for m in manifests(runs) {
         let r = m
             .plant_calibration_sha256
             .as_deref()

@@ -155,10 +155,10 @@ pub(super) fn calibration(s: &mut String) {
             num(f.achieved[1])
         );
     }
-    let kl = r
-        .similarity
-        .iter()
-        .any(|f| f.tables.iter().any(|t| (13..=15).contains(&t.table)));
+    let kl = super::compare::similarity_fit_tables()
+        .range(13..=15)
+        .next()
+        .is_some();
     let _ = writeln!(
         s,
         "\nPlants D and E, to Tables 29-36 (correlation matrix distance and multiscale \
