@@ -68,8 +68,9 @@ test: test-deps python
 	cargo test --release --locked $(RUST_PACKAGES) $(CARGO_FEATURES)
 	ISAR_CLUTTER_BIN=$(BIN) $(PYVENV)/bin/python -m pytest -q python/tests
 
-## test-cuda: the CUDA route of training (tests/cuda.rs) in a build with the `cuda` feature: on
-## a machine with an NVIDIA GPU and its driver it trains there; elsewhere it says it skipped
+## test-cuda: training on a GPU (tests/cuda.rs: the cuDNN route against the CPU) in a build with
+## the `cuda` feature: on a machine with an NVIDIA GPU, its driver, NVRTC and cuDNN 9 it trains
+## there; elsewhere each test says it skipped
 test-cuda: hdf5
 	cargo test --release --locked --features "$(addprefix isar-clutter/,$(FEATURES) cuda)" --test cuda -- --nocapture
 

@@ -154,11 +154,16 @@ def main():
     p.add_argument("--json", action="store_true", help="one JSON object per net on stdout")
     p.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
                    help="cuda: the GPU, the batches resident there (default cpu)")
+    p.add_argument("--no-tf32", action="store_true",
+                   help="cuda: float convolutions (torch.backends.cudnn.allow_tf32 = False; "
+                        "PyTorch's default lets cuDNN use TF32 tensor cores)")
     a = p.parse_args()
     if a.threads < 1 or a.batches < 1 or a.batch_size < 1 or a.warmup < 0:
         p.error("--threads, --batches and --batch-size must be >= 1, --warmup >= 0")
 
     torch.set_num_threads(a.threads)
+    if a.no_tf32:
+        torch.backends.cudnn.allow_tf32 = False
     nets = ["table18", "table23"] if a.net == "both" else [a.net]
     for name in nets:
         sps, elapsed, predict = bench(name, a.batch_size, a.warmup, a.batches, a.seed, a.device)
@@ -172,6 +177,7 @@ def main():
                 "predict_samples_per_second": round(predict, 2),
                 "steps": a.batches,
                 "torch_version": torch.__version__,
+                "cudnn_tf32": bool(torch.backends.cudnn.allow_tf32),
             }), flush=True)
         else:
             print(f"{name}: {sps:9.1f} samples/s  ({a.batches} steps of {a.batch_size} in "

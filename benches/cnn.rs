@@ -123,10 +123,15 @@ fn peak_gflops() -> f64 {
 }
 
 /// `CNN_BENCH_DEVICE=cuda` (a bench built with the `cuda` feature, on a machine with an
-/// NVIDIA GPU): the training rate of `cfg` on burn's CUDA backend through
-/// [`isar_clutter::apps::cnn::train::train_on_device`], after one untimed training (kernel
-/// compilation and autotuning); steps only (as the CPU figures) and the whole training's wall
-/// time (with the data's preparation and the copies to the GPU).
+/// NVIDIA GPU): the training rate of `cfg` on the GPU, after one untimed training (kernel
+/// compilation, cuDNN's set-up): the cuDNN route as `run` uses it (a step captured as a CUDA
+/// graph), the same with every step issued call by call, with algorithms chosen by timing,
+/// with TF32 convolutions (and timed algorithms), `N` = 4 and
+/// 16 trainings of other seeds at once on one GPU (threads, a stream each; aggregate samples
+/// per second over the wall time; ten epochs each), prediction on the GPU (staged samples, forward and arg-max,
+/// timed over eight passes of 8 times the set), and burn's CUDA backend; steps only as
+/// `samples_per_second` reports them, and the whole training's wall time.
+#[cfg(feature = "cuda")]
 fn cuda(
     cfg: &NetConfig,
     opts: &TrainingOptions,
@@ -135,28 +140,125 @@ fn cuda(
     flops: f64,
     json: bool,
 ) {
-    use isar_clutter::apps::cnn::train::{train_on_device, Device};
-    let opts = TrainingOptions {
-        device: Device::Cuda,
-        ..*opts
-    };
+    use isar_clutter::apps::cnn::device::train_on_device;
+    use isar_clutter::apps::cnn::gpu::{self, GpuOptions, Predictor};
+    use isar_clutter::apps::cnn::train::Device;
     let empty = Labelled::default();
-    let run = || train_on_device(cfg, &opts, set, &empty, 7).expect("a CUDA training");
+    // Ten epochs for the cuDNN route (a training of two lasts a few tens of milliseconds);
+    // burn's backend keeps the CPU's two.
+    let (opts, burn_opts) = (
+        &TrainingOptions {
+            epochs: 10,
+            ..*opts
+        },
+        opts,
+    );
+    let report = |route: &str, steps: f64, wall: f64| {
+        let gflops = steps * flops / 1e9;
+        if json {
+            println!(
+                "{{\"net\":\"{name}\",\"device\":\"cuda\",\"route\":\"{route}\",\"batch_size\":{},\"samples_per_second\":{steps:.1},\"wall_samples_per_second\":{wall:.1},\"gflops\":{gflops:.1}}}",
+                opts.batch_size
+            );
+        } else {
+            println!("{name} {route}: {steps:.0} samples/s (steps; {gflops:.0} GFLOP/s), {wall:.0} samples/s over the whole training");
+        }
+    };
+    let samples_of =
+        |o: &TrainingOptions| (set.len() / o.batch_size * o.batch_size * o.epochs) as f64;
+    let samples = samples_of(opts);
+    let variants = [
+        ("cudnn+graph", GpuOptions::default()),
+        (
+            "cudnn-eager",
+            GpuOptions {
+                graph: false,
+                ..GpuOptions::default()
+            },
+        ),
+        (
+            "cudnn+graph+find",
+            GpuOptions {
+                find: true,
+                ..GpuOptions::default()
+            },
+        ),
+        (
+            "cudnn+graph+tf32",
+            GpuOptions {
+                tf32: true,
+                ..GpuOptions::default()
+            },
+        ),
+        (
+            "cudnn+graph+tf32+find",
+            GpuOptions {
+                tf32: true,
+                find: true,
+                ..GpuOptions::default()
+            },
+        ),
+    ];
+    let mut trained = None;
+    for (route, g) in variants {
+        let run = |seed| gpu::train(cfg, opts, set, &empty, seed, g).expect("a cuDNN training");
+        run(7);
+        let t = run(7);
+        report(route, t.samples_per_second, samples / t.seconds);
+        trained.get_or_insert(t);
+    }
+    for n in [4usize, 16] {
+        let t = std::time::Instant::now();
+        std::thread::scope(|s| {
+            for k in 0..n {
+                s.spawn(move || {
+                    gpu::train(
+                        cfg,
+                        opts,
+                        set,
+                        &Labelled::default(),
+                        100 + k as u64,
+                        GpuOptions::default(),
+                    )
+                    .expect("a cuDNN training")
+                });
+            }
+        });
+        let rate = n as f64 * samples / t.elapsed().as_secs_f64();
+        report(&format!("cudnn+graph x{n} at once"), rate, rate);
+    }
+    let trained = trained.expect("a training");
+    let p = Predictor::new(&trained, GpuOptions::default()).expect("a predictor");
+    let images: Vec<_> = (0..8).flat_map(|_| set.images.iter().copied()).collect();
+    let staged = p.stage(&images).expect("staged");
+    p.classes(&staged).expect("a prediction");
+    let t = std::time::Instant::now();
+    for _ in 0..8 {
+        std::hint::black_box(p.classes(&staged).expect("a prediction"));
+    }
+    let rate = 8.0 * (images.len() / (cfg.height * cfg.width)) as f64 / t.elapsed().as_secs_f64();
+    if json {
+        println!("{{\"net\":\"{name}\",\"device\":\"cuda\",\"route\":\"cudnn\",\"predict_samples_per_second\":{rate:.1}}}");
+    } else {
+        println!("{name} cudnn prediction: {rate:.0} samples/s");
+    }
+    // burn's CUDA backend, the route before the cuDNN one.
+    std::env::set_var("ISAR_CLUTTER_CUDA_ROUTE", "burn");
+    let burn = TrainingOptions {
+        device: Device::Cuda,
+        ..*burn_opts
+    };
+    let run = || train_on_device(cfg, &burn, set, &empty, 7).expect("a CUDA training");
     run();
     let t = run();
-    let wall = (set.len() * opts.epochs) as f64 / t.seconds;
-    let gflops = t.samples_per_second * flops / 1e9;
-    if json {
-        println!(
-            "{{\"net\":\"{name}\",\"device\":\"cuda\",\"batch_size\":{},\"samples_per_second\":{:.1},\"wall_samples_per_second\":{wall:.1},\"gflops\":{gflops:.1}}}",
-            t.batch_size, t.samples_per_second
-        );
-    } else {
-        println!(
-            "burn cuda {name}: {:.0} samples/s per training (steps only; {gflops:.0} GFLOP/s), {wall:.0} samples/s over the whole training (batch {})",
-            t.samples_per_second, t.batch_size
-        );
-    }
+    report("burn", t.samples_per_second, samples_of(&burn) / t.seconds);
+    std::env::remove_var("ISAR_CLUTTER_CUDA_ROUTE");
+}
+
+/// Without the `cuda` feature there is no GPU route to measure.
+#[cfg(not(feature = "cuda"))]
+fn cuda(_: &NetConfig, _: &TrainingOptions, _: &Labelled, name: &str, _: f64, _: bool) {
+    eprintln!("{name}: CNN_BENCH_DEVICE=cuda needs a bench built with the `cuda` feature");
 }
 
 fn main() {

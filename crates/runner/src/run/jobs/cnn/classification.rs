@@ -8,7 +8,8 @@ use super::common::{
     CLASSIFICATION,
 };
 use crate::apps::cnn::classification::{compose, labelled, split_class, Normalise, Source};
-use crate::apps::cnn::train::{train_on_device, Labelled};
+use crate::apps::cnn::device::train_on_device;
+use crate::apps::cnn::train::Labelled;
 use crate::experiment::datasets::{C128, C64, USUAL_SAMPLES};
 use crate::experiment::Materialised;
 use crate::experiment::{ClassificationPlan, DataRef};

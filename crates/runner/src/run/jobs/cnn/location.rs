@@ -8,8 +8,9 @@ use super::common::{
     LOCATION, LOCATION_SUMMARY,
 };
 use crate::apps::cnn::classification::Source;
+use crate::apps::cnn::device::train_on_device;
 use crate::apps::cnn::location::{self, Split, TargetKind, TestSet};
-use crate::apps::cnn::train::{train_on_device, Trained};
+use crate::apps::cnn::train::Trained;
 use crate::experiment::datasets::{C128, C64};
 use crate::experiment::Materialised;
 use crate::experiment::{DataRef, LocationPlan};
