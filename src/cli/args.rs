@@ -95,6 +95,23 @@ pub struct RunArgs {
     /// numbers (a repeat). Recorded in the folder; `merge`, `status` and `report` use it.
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
+    /// Where the CNN trainings run, in place of every section's `training.device`: `cpu`,
+    /// `cuda` (an NVIDIA GPU, in a binary built with the `cuda` feature; an error without
+    /// one) or `auto` (the GPU where one can be used, else the CPU, saying why). The manifest
+    /// records the device and GPU.
+    #[arg(long, value_name = "cpu|cuda|auto", value_parser = device)]
+    pub device: Option<isar_clutter::apps::cnn::train::Device>,
+}
+
+/// `--device`'s value.
+fn device(s: &str) -> Result<isar_clutter::apps::cnn::train::Device, String> {
+    use isar_clutter::apps::cnn::train::Device;
+    match s {
+        "cpu" => Ok(Device::Cpu),
+        "cuda" => Ok(Device::Cuda),
+        "auto" => Ok(Device::Auto),
+        _ => Err(format!("expected cpu, cuda or auto, got {s:?}")),
+    }
 }
 
 /// The arguments of `isar-clutter reproduce`.

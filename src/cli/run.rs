@@ -27,13 +27,23 @@ pub fn run(a: RunArgs) -> Result<ExitCode> {
         shards,
         shard,
         seed,
+        device,
     } = a;
-    let plan = plan::load_seeded(&spec, seed)?;
+    let mut plan = plan::load_seeded(&spec, seed)?;
+    if let Some(device) = device {
+        plan.set_training_device(device);
+    }
     if dry_run {
         let largest = isar_clutter::run::check::check(&plan, estimate::limit(max_memory))?;
         print_jobs(&plan);
         println!("{largest}");
         return Ok(ExitCode::SUCCESS);
+    }
+    if let Some(line) = plan.resolve_training_device()? {
+        // A fall back to the CPU is said even under --quiet.
+        if !quiet || line.contains("(auto:") {
+            eprintln!("CNN trainings on: {line}");
+        }
     }
     let out = out.unwrap_or_else(|| PathBuf::from("outputs").join(&plan.spec.name));
     check_disk(&plan, &out)?;

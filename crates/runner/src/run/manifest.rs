@@ -77,6 +77,7 @@ impl Manifest {
             plant_calibration_sha256: Some(crate::seeds::sha256_hex(
                 crate::physics::vegetation::calibration::RECORD.as_bytes(),
             )),
+            training_device: plan.training_device.clone(),
             ..Default::default()
         };
         let text = serde_json::to_string_pretty(&head)?;

@@ -4,7 +4,7 @@
 //! a run is ([`value::Run`]: plan, jobs, keys, options), whose methods are the driver's
 //! ([`driver`]), the scheduler's (fans jobs out over a thread pool: a whole run or one shard,
 //! [`scheduler`]) and the merge's steps ([`merge`]: the store into the Parquet tables, streamed
-//! by [`assembly`]); the run's [`options`], the folder's record of its spec ([`record`]), the
+//! by [`assembly`]); the run's [`options`], where its CNN trainings run ([`training_device`]), the folder's record of its spec ([`record`]), the
 //! durable job store every finished job is saved in ([`store`]: resume, shards), the jobs'
 //! states ([`status`]), the manifest, and the Slurm scripts that run a spec's shards as an
 //! array job and merge them ([`slurm`], their `--time` and `--mem` checked by [`slurm_values`]).
@@ -28,4 +28,5 @@ pub mod slurm_values;
 pub mod status;
 pub mod store;
 pub mod tables;
+pub mod training_device;
 pub mod value;

@@ -131,6 +131,8 @@ pub struct Plan {
     /// The master seed given in place of the spec's ([`load_seeded`]); `None`: the spec's.
     /// `spec.seed` holds the seed in effect either way.
     pub seed_override: Option<u64>,
+    /// Where the CNN trainings run, as [`Plan::resolve_training_device`] found it.
+    pub training_device: Option<String>,
 }
 
 /// A parsed sweep axis.
@@ -257,6 +259,7 @@ pub fn load_seeded(file: &Path, seed: Option<u64>) -> Result<Plan, SpecError> {
         model_orders,
         metrics,
         cnn,
+        training_device: None,
     })
 }
 

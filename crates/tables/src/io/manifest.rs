@@ -104,6 +104,11 @@ pub struct Manifest {
     /// from it, so two runs of one commit and spec differ where it does.
     #[serde(default)]
     pub plant_calibration_sha256: Option<String>,
+    /// Where the CNN trainings ran (`cpu`; `cuda: <GPU>, driver CUDA <version>`; `cpu (auto:
+    /// <why no GPU>)`), as `run` resolved `training.device` or `--device`; absent when the run
+    /// did not resolve it (no CNN section, or a run by another command).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub training_device: Option<String>,
     /// Every job, in plan order (streamed by the runner after the head).
     #[serde(default, skip_serializing)]
     pub jobs: Vec<Job>,

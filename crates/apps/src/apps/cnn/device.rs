@@ -24,6 +24,30 @@ pub fn train_on_device(
     match opts.device {
         Device::Cpu => Ok(train(cfg, opts, train_set, validation, seed)),
         Device::Cuda => cuda::train(cfg, opts, train_set, validation, seed),
+        Device::Auto => {
+            let opts = TrainingOptions {
+                device: resolve(Device::Auto)?.0,
+                ..*opts
+            };
+            train_on_device(cfg, &opts, train_set, validation, seed)
+        }
+    }
+}
+
+/// The device `device` stands for here, and a line saying what it is: `cpu`; for `cuda` the
+/// GPU's name and the driver's CUDA version (`cuda: NVIDIA H200, driver CUDA 13.0`); for
+/// `auto` that, or `cpu` with the reason no GPU can be used.
+///
+/// # Errors
+/// `cuda` in a binary without the feature, or without a GPU, its driver, NVRTC or cuDNN.
+pub fn resolve(device: Device) -> anyhow::Result<(Device, String)> {
+    match device {
+        Device::Cpu => Ok((Device::Cpu, "cpu".into())),
+        Device::Cuda => cuda::describe().map(|d| (Device::Cuda, d)),
+        Device::Auto => Ok(match cuda::describe() {
+            Ok(d) => (Device::Cuda, d),
+            Err(e) => (Device::Cpu, format!("cpu (auto: {e:#})")),
+        }),
     }
 }
 
@@ -45,6 +69,31 @@ mod cuda {
         // SAFETY: a handle dlopen returned.
         unsafe { libc::dlclose(handle) };
         Ok(())
+    }
+
+    /// The first GPU's name and the driver's CUDA version.
+    pub(super) fn describe() -> anyhow::Result<String> {
+        driver()?;
+        super::super::gpu::available()?;
+        let name = std::panic::catch_unwind(|| -> anyhow::Result<String> {
+            let ctx = cudarc::driver::CudaContext::new(0)?;
+            let mut version = 0;
+            // SAFETY: the driver writes its version into `version`.
+            unsafe { cudarc::driver::sys::cuDriverGetVersion(&mut version) }.result()?;
+            Ok(format!(
+                "cuda: {}, driver CUDA {}.{}",
+                ctx.name()?,
+                version / 1000,
+                version % 1000 / 10
+            ))
+        })
+        .unwrap_or_else(|p| {
+            Err(anyhow::anyhow!(
+                "the CUDA driver failed: {}",
+                panic_text(&*p)
+            ))
+        })?;
+        Ok(name)
     }
 
     pub(super) fn train(
@@ -94,6 +143,10 @@ mod cuda {
 #[cfg(not(feature = "cuda"))]
 mod cuda {
     use super::*;
+
+    pub(super) fn describe() -> anyhow::Result<String> {
+        anyhow::bail!("this binary was built without CUDA (`make build FEATURES='mat73 cuda'`)")
+    }
 
     pub(super) fn train(
         _: &NetConfig,

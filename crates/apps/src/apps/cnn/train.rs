@@ -48,8 +48,12 @@ pub enum Device {
     /// count).
     #[default]
     Cpu,
-    /// burn's CUDA backend (a binary built with the `cuda` feature and an NVIDIA driver).
+    /// An NVIDIA GPU (a binary built with the `cuda` feature; the cuDNN route for SGDM, burn's
+    /// CUDA backend for Adam).
     Cuda,
+    /// `cuda` where the binary has the feature and a GPU with its driver, NVRTC and cuDNN can
+    /// be used, else `cpu` (the run says which, and why; `crate::apps::cnn::device::resolve`).
+    Auto,
 }
 
 /// When the training set is shuffled (MATLAB's `Shuffle`).
@@ -110,7 +114,7 @@ pub struct TrainingOptions {
     /// validation set each time.
     #[serde(default = "validation_frequency")]
     pub validation_frequency: usize,
-    /// `cpu` (default) or `cuda`.
+    /// `cpu` (default), `cuda` or `auto`.
     #[serde(default)]
     pub device: Device,
     /// `matlab` (default) or `equal_steps`.

@@ -204,6 +204,8 @@ pub(super) fn training(
     let device = match t.device {
         Device::Cpu => 1.0,
         Device::Cuda => 1.0 / 30.0,
+        // Counted as the CPU until the run resolves it (`run` does before it plans).
+        Device::Auto => 1.0,
     };
     (
         sets + activations + (64u64 << 20) as f64,
