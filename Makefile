@@ -40,11 +40,12 @@ run-experiment: build
 ## reproduce: run the specs the dissertation's tables need (REPEATS runs of each random
 ## statistic, CNN_REPEATS of the repeated specs that train networks, resumable) into
 ## outputs/reproduction/ and write docs/reproduction.md (and the numbers it shows,
-## docs/reproduction.json, which make test checks a fresh run against) from them
+## docs/reproduction.json, which make test checks a fresh run against) from them; DEVICE=cuda
+## (or auto) trains the networks on a GPU (give it its own ARGS="--out ... --doc ...")
 REPEATS ?= 5
 CNN_REPEATS ?= 2
 reproduce: build
-	$(BIN) reproduce --repeats $(REPEATS) --cnn-repeats $(CNN_REPEATS) $(ARGS)
+	$(BIN) reproduce --repeats $(REPEATS) --cnn-repeats $(CNN_REPEATS) $(if $(DEVICE),--device $(DEVICE)) $(ARGS)
 
 ## run-all: every shipped experiment into OUT/<name>/ (tables, maps, models; no report), e.g.
 ## before and after a change: make run-all OUT=/tmp/before; ...; make run-all OUT=/tmp/after

@@ -148,3 +148,29 @@ fn a_device_that_is_none_of_the_three_is_refused() {
         text(&o)
     );
 }
+
+#[test]
+fn reproduce_with_cuda_and_no_usable_gpu_stops_before_any_run() {
+    if driver() {
+        eprintln!("skipped: an NVIDIA driver loads here");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("reproduction");
+    let doc = dir.path().join("doc.md");
+    let o = bin(&[
+        "reproduce",
+        "--only",
+        "cnn_location_gain",
+        "--device",
+        "cuda",
+        "--out",
+        out.to_str().unwrap(),
+        "--doc",
+        doc.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--device"), "{}", text(&o));
+    assert!(!out.join("cnn_location_gain").exists(), "{}", text(&o));
+}

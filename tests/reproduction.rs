@@ -32,6 +32,7 @@ fn options(out: PathBuf, specs: PathBuf, repeats: usize) -> runs::Options {
         write_only: false,
         only: Vec::new(),
         quiet: true,
+        device: None,
     }
 }
 

@@ -146,6 +146,11 @@ pub struct ReproduceArgs {
     /// No progress output.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Where the CNN trainings run, as `run --device`: `cpu`, `cuda` or `auto`. The job
+    /// store keeps each device's results apart, but the document reads the folders' last
+    /// runs: give the GPU's runs their own `--out` (and `--doc`).
+    #[arg(long, value_name = "cpu|cuda|auto", value_parser = device)]
+    pub device: Option<isar_clutter::apps::cnn::train::Device>,
 }
 
 /// The arguments of `isar-clutter calibrate-plants`.

@@ -72,6 +72,7 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         write_only,
         only,
         quiet,
+        device,
     } = a;
     use isar_clutter::reproduction::{self as rep, render, runs};
     let opts = runs::Options {
@@ -83,6 +84,7 @@ pub fn reproduce(a: ReproduceArgs) -> Result<ExitCode> {
         write_only,
         only: only.clone(),
         quiet,
+        device,
     };
     let start = std::time::Instant::now();
     let coverage = runs::Coverage::all();

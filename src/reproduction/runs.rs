@@ -31,6 +31,8 @@ pub struct Options {
     pub only: Vec<String>,
     /// No progress output.
     pub quiet: bool,
+    /// Where the CNN trainings run in place of the specs' `training.device` (`--device`).
+    pub device: Option<crate::apps::cnn::train::Device>,
 }
 
 /// What the reproduction covers: the tables' recipes and the computed statements.
@@ -172,7 +174,15 @@ pub fn run_all(opts: &Options, coverage: &Coverage) -> Result<Vec<SpecRuns>> {
             let seed = repeat_seed(base, k);
             let dir = opts.out.join(spec).join(format!("seed-{seed}"));
             if !opts.write_only {
-                let plan = plan::load_seeded(&file, (k > 0).then_some(seed))?;
+                let mut plan = plan::load_seeded(&file, (k > 0).then_some(seed))?;
+                if let Some(device) = opts.device {
+                    plan.set_training_device(device);
+                }
+                if let Some(line) = plan.resolve_training_device()? {
+                    if !opts.quiet || line.contains("(auto:") {
+                        eprintln!("{spec} seed {seed}: CNN trainings on: {line}");
+                    }
+                }
                 let mut ro = RunOptions::new(dir.clone(), opts.threads);
                 ro.quiet = opts.quiet;
                 ro.report_follows = false;

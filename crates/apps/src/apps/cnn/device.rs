@@ -56,24 +56,8 @@ pub fn resolve(device: Device) -> anyhow::Result<(Device, String)> {
 mod cuda {
     use super::*;
 
-    /// Whether `libcuda.so.1` (the NVIDIA driver's library) can be loaded.
-    fn driver() -> anyhow::Result<()> {
-        let name = c"libcuda.so.1";
-        // SAFETY: dlopen with a valid C string; the handle is closed at once.
-        let handle = unsafe { libc::dlopen(name.as_ptr(), libc::RTLD_LAZY) };
-        if handle.is_null() {
-            anyhow::bail!(
-                "training.device is cuda, but no NVIDIA driver could be loaded (libcuda.so.1): run on a machine with a GPU and its driver, or use `device: cpu`"
-            );
-        }
-        // SAFETY: a handle dlopen returned.
-        unsafe { libc::dlclose(handle) };
-        Ok(())
-    }
-
     /// The first GPU's name and the driver's CUDA version.
     pub(super) fn describe() -> anyhow::Result<String> {
-        driver()?;
         super::super::gpu::available()?;
         let name = std::panic::catch_unwind(|| -> anyhow::Result<String> {
             let ctx = cudarc::driver::CudaContext::new(0)?;
@@ -103,7 +87,7 @@ mod cuda {
         validation: &Labelled,
         seed: u64,
     ) -> anyhow::Result<Trained> {
-        driver()?;
+        super::super::gpu::driver()?;
         // The cuDNN route (SGDM; `ISAR_CLUTTER_CUDA_ROUTE=burn` for burn's CUDA backend, kept
         // for Adam and for comparison).
         let burn_route = std::env::var("ISAR_CLUTTER_CUDA_ROUTE").as_deref() == Ok("burn");

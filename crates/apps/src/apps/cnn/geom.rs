@@ -62,6 +62,22 @@ impl BlockGeom {
         }
     }
 
+    /// Height and width of the input with all its padding, above and below, left and right:
+    /// what the `oh x ow` outputs of the convolution read.
+    pub fn padded_hw(&self) -> (usize, usize) {
+        (
+            self.h.max((self.oh - 1) * self.stride + self.k),
+            self.w.max((self.ow - 1) * self.stride + self.k),
+        )
+    }
+
+    /// Whether the padding after differs from the padding before (MATLAB's 'same' puts the
+    /// odd one after), in either direction.
+    pub fn uneven(&self) -> bool {
+        let (hp, wp) = self.padded_hw();
+        hp - self.h != 2 * self.top || wp - self.w != 2 * self.left
+    }
+
     /// Shape of the block's output `[n, f, H, W]`.
     pub fn out_shape(&self) -> [usize; 4] {
         let (h, w) = self.out_hw();

@@ -194,8 +194,8 @@ const WORKSPACE_LIMIT: usize = 256 << 20;
 impl Conv {
     /// The convolution `g` with deterministic algorithms chosen by cuDNN's heuristics (or,
     /// with `find`, by timing them), in strict float arithmetic (`tf32: false`, FMA math) or
-    /// with TF32 tensor cores allowed; the backward algorithms only for a training pass
-    /// (`train`).
+    /// with TF32 tensor cores allowed (float arithmetic for a shape with no deterministic TF32
+    /// algorithm); the backward algorithms only for a training pass (`train`).
     pub fn new(handle: &Handle, g: ConvShape, tf32: bool, train: bool, find: bool) -> Result<Self> {
         let mut desc = std::ptr::null_mut();
         // SAFETY: cuDNN writes a new descriptor into `desc`.
@@ -241,7 +241,25 @@ impl Conv {
             )?;
         }
         // SAFETY: the descriptors are set; `choose`'s arrays hold as many entries as it asks for.
-        unsafe { conv.choose(handle, g, train, find)? };
+        let mut tf32 = tf32;
+        if let Err(e) = unsafe { conv.choose(handle, g, train, find) } {
+            if !tf32 {
+                return Err(e);
+            }
+            // No deterministic TF32 algorithm for this shape: float arithmetic for it.
+            tf32 = false;
+            // SAFETY: as above.
+            unsafe {
+                ck(
+                    sys::cudnnSetConvolutionMathType(
+                        conv.desc,
+                        sys::cudnnMathType_t::CUDNN_FMA_MATH,
+                    ),
+                    "cudnnSetConvolutionMathType",
+                )?;
+                conv.choose(handle, g, train, find)?;
+            }
+        }
         conv.report(g, tf32, train, find);
         Ok(conv)
     }

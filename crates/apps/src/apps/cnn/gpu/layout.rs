@@ -1,9 +1,10 @@
-//! Where things lie in the cuDNN route: each block's geometry (the prepared space-to-depth
+//! Where things lie in the cuDNN route: each block's geometry ([`BlockGeom`]: the prepared space-to-depth
 //! input of [`NetConfig::prepare`], conv1 as a 4x4 stride-1 convolution over its 8 channels as
 //! on the CPU, MATLAB's 'same' padding of conv2 and conv3, done by cuDNN when it is even and by
 //! an explicit pad otherwise), the one flat buffer that holds every learnable value (so that
 //! one SGD kernel updates them all), and the moves of a [`Net`] into that buffer and back.
 
+use crate::apps::cnn::geom::BlockGeom;
 use crate::apps::cnn::net::{same_padding, Bn, Net, NetConfig, KERNELS, STRIDE};
 use burn::module::{Param, RunningState};
 use burn::tensor::backend::Backend;
@@ -11,50 +12,11 @@ use burn::tensor::{Tensor, TensorData};
 use std::sync::atomic::AtomicUsize;
 use std::sync::Arc;
 
-/// One convolution block's geometry.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Block {
-    /// Input channels, height and width (before padding).
-    pub c: usize,
-    pub h: usize,
-    pub w: usize,
-    /// Filters.
-    pub f: usize,
-    /// Kernel side.
-    pub k: usize,
-    pub stride: usize,
-    /// Padding before and after, rows and columns.
-    pub top: usize,
-    pub bottom: usize,
-    pub left: usize,
-    pub right: usize,
-    /// Output height and width of the convolution.
-    pub oh: usize,
-    pub ow: usize,
-    /// Whether a 2x2 pooling follows.
-    pub pool: bool,
-}
-
-impl Block {
-    /// Whether the padding is uneven (then padded explicitly, cuDNN's own padding being even).
-    pub fn explicit_pad(&self) -> bool {
-        self.top != self.bottom || self.left != self.right
-    }
-
-    /// Height and width of the block's output (after pooling, if any).
-    pub fn out(&self) -> (usize, usize) {
-        if self.pool {
-            (self.oh / 2, self.ow / 2)
-        } else {
-            (self.oh, self.ow)
-        }
-    }
-}
-
 /// The network's geometry on the device.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Geometry {
-    pub blocks: [Block; 3],
+    /// Per block (`n` unused: each pass has its own).
+    pub blocks: [BlockGeom; 3],
     pub classes: usize,
     /// Values of one prepared input sample.
     pub each: usize,
@@ -65,7 +27,8 @@ impl Geometry {
     pub fn new(cfg: &NetConfig) -> Self {
         let [c0, hb, wb] = cfg.prepared_shape();
         let f = cfg.arch.filters();
-        let b1 = Block {
+        let b1 = BlockGeom {
+            n: 0,
             c: c0,
             h: hb,
             w: wb,
@@ -73,18 +36,17 @@ impl Geometry {
             k: KERNELS[0] / 2,
             stride: 1,
             top: 0,
-            bottom: 0,
             left: 0,
-            right: 0,
             oh: hb + 1 - KERNELS[0] / 2,
             ow: wb + 1 - KERNELS[0] / 2,
             pool: true,
         };
-        let next = |prev: &Block, b: usize| {
-            let (h, w) = prev.out();
-            let (oh, top, bottom) = same_padding(h, KERNELS[b], STRIDE);
-            let (ow, left, right) = same_padding(w, KERNELS[b], STRIDE);
-            Block {
+        let next = |prev: &BlockGeom, b: usize| {
+            let (h, w) = prev.out_hw();
+            let (oh, top, _) = same_padding(h, KERNELS[b], STRIDE);
+            let (ow, left, _) = same_padding(w, KERNELS[b], STRIDE);
+            BlockGeom {
+                n: 0,
                 c: prev.f,
                 h,
                 w,
@@ -92,9 +54,7 @@ impl Geometry {
                 k: KERNELS[b],
                 stride: STRIDE,
                 top,
-                bottom,
                 left,
-                right,
                 oh,
                 ow,
                 pool: b < 2,
@@ -377,9 +337,11 @@ mod tests {
             classes: 4,
         };
         let g = Geometry::new(&cfg);
-        assert!(!g.blocks[1].explicit_pad());
-        assert!(g.blocks[2].explicit_pad());
-        assert_eq!((g.blocks[2].left, g.blocks[2].right), (0, 1));
+        assert!(!g.blocks[1].uneven());
+        assert!(g.blocks[2].uneven());
+        let b3 = g.blocks[2];
+        assert_eq!((b3.left, b3.padded_hw().1 - b3.w), (0, 1));
+        assert_eq!(b3.padded_hw().0 - b3.h, 2 * b3.top);
         assert_eq!(g.blocks[0].oh, 32);
     }
 }

@@ -75,15 +75,24 @@ fn loads(names: &[&std::ffi::CStr]) -> bool {
     })
 }
 
+/// Checks that the NVIDIA driver's library (`libcuda.so.1`) can be loaded.
+///
+/// # Errors
+/// Says that no driver could be loaded.
+pub fn driver() -> Result<()> {
+    if !loads(&[c"libcuda.so.1", c"libcuda.so"]) {
+        bail!("no NVIDIA driver could be loaded (libcuda.so.1): run on a machine with a GPU and its driver, or use `device: cpu`");
+    }
+    Ok(())
+}
+
 /// Checks that the NVIDIA driver, NVRTC and cuDNN 9 can be loaded (cudarc panics at the first
 /// call into a library it cannot load).
 ///
 /// # Errors
 /// Names the library that is missing.
 pub fn available() -> Result<()> {
-    if !loads(&[c"libcuda.so.1", c"libcuda.so"]) {
-        bail!("no NVIDIA driver could be loaded (libcuda.so.1): run on a machine with a GPU and its driver, or use `device: cpu`");
-    }
+    driver()?;
     if !loads(&[c"libnvrtc.so", c"libnvrtc.so.13", c"libnvrtc.so.12"]) {
         bail!("NVRTC (libnvrtc.so.13 or .12, CUDA's run-time compiler) could not be loaded: put the CUDA toolkit's or the nvidia-cuda-nvrtc wheel's lib folder on LD_LIBRARY_PATH");
     }

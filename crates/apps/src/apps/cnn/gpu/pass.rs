@@ -9,7 +9,8 @@ mod block;
 
 use super::dnn::{ck, cptr, mptr, s, Conv, ConvShape, Handle, Pool, Relu, Tensor, ONE, ZERO};
 use super::kernels::{blocks, grid, launch, Kernels, THREADS};
-use super::layout::{Block, Geometry, Params};
+use super::layout::{Geometry, Params};
+use crate::apps::cnn::geom::BlockGeom;
 use anyhow::{Context, Result};
 use cudarc::cudnn::sys;
 use cudarc::driver::{CudaSlice, CudaStream, DevicePtr, PushKernelArg};
@@ -81,7 +82,7 @@ fn at(b: &Buf<f32>, at: usize) -> u64 {
 
 /// One block's descriptors and activations for `n` samples.
 struct BlockPass {
-    g: Block,
+    g: BlockGeom,
     conv: Conv,
     /// `[1, F, 1, 1]`: bias, BN scale and offset.
     per_channel: Tensor,
@@ -109,17 +110,13 @@ impl BlockPass {
     fn new(
         stream: &Arc<CudaStream>,
         h: &Handle,
-        g: Block,
+        g: BlockGeom,
         n: usize,
         train: bool,
         (tf32, find): (bool, bool),
     ) -> Result<Self> {
-        let pad = g.explicit_pad();
-        let (ih, iw) = if pad {
-            (g.h + g.top + g.bottom, g.w + g.left + g.right)
-        } else {
-            (g.h, g.w)
-        };
+        let pad = g.uneven();
+        let (ih, iw) = if pad { g.padded_hw() } else { (g.h, g.w) };
         let shape = ConvShape {
             n,
             c: g.c,
@@ -142,7 +139,7 @@ impl BlockPass {
         let out = n * g.f * g.oh * g.ow;
         // Chunks of about 4096 values for the running statistics' sums.
         let parts = (n * g.oh * g.ow).div_ceil(4096).clamp(1, 256);
-        let (ph, pw) = g.out();
+        let (ph, pw) = g.out_hw();
         let pooled_len = n * g.f * ph * pw;
         let z = |len: usize| Buf::<f32>::zeros(stream, len);
         let opt = |on: bool, len: usize| on.then(|| z(len)).transpose();

@@ -25,7 +25,7 @@ impl DeviceNet {
         let [w, bias, _, _] = self.p.block[b].map(|o| at(&self.params, o));
         if let Some(padded) = &bp.padded {
             let planes = (pass.n * g.c) as u32;
-            let (hp, wp) = (g.h + g.top + g.bottom, g.w + g.left + g.right);
+            let (hp, wp) = g.padded_hw();
             launch!(
                 st,
                 self.k.pad,
@@ -269,7 +269,7 @@ impl DeviceNet {
                 // SAFETY: as above.
                 unsafe { bp.conv.backward_data(h, w, d_a, dp.ptr, ws, ws_len)? };
                 let planes = (pass.n * g.c) as u32;
-                let (hp, wp) = (g.h + g.top + g.bottom, g.w + g.left + g.right);
+                let (hp, wp) = g.padded_hw();
                 let len = pass.n * g.c * g.h * g.w;
                 launch!(
                     st,
