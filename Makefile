@@ -136,11 +136,13 @@ test-deps: hdf5 $(VENV)/bin/python
 		echo "chromium not found: install Debian's chromium for the report's browser test"; \
 	fi
 
-## lint: formatting and clippy with warnings as errors
+## lint: formatting and clippy with warnings as errors (also with the `cuda` feature, whose code
+## no test here runs)
 lint: hdf5
 	cargo fmt --all -- --check
 	cargo clippy --release $(RUST_PACKAGES) --all-targets --locked $(CARGO_FEATURES) -- -D warnings
 	cargo clippy --release $(RUST_PACKAGES) --all-targets --locked -- -D warnings
+	cargo clippy --release $(RUST_PACKAGES) --all-targets --locked --features "$(addprefix isar-clutter/,$(FEATURES) cuda)" -- -D warnings
 	cargo clippy --release -p isar-clutter-python --locked -- -D warnings
 
 fmt:
