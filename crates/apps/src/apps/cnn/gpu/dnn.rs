@@ -149,6 +149,8 @@ pub(super) struct Conv {
     pub w: Filter,
     /// Output.
     pub y: Tensor,
+    /// `[1, K, 1, 1]`: the biases (and a following batch normalisation's scale and offset).
+    pub bias: Tensor,
     fwd: sys::cudnnConvolutionFwdAlgo_t,
     bwd_data: sys::cudnnConvolutionBwdDataAlgo_t,
     bwd_filter: sys::cudnnConvolutionBwdFilterAlgo_t,
@@ -209,6 +211,7 @@ impl Conv {
             x: Tensor::new(g.n, g.c, g.h, g.w)?,
             w: Filter::new(g.k, g.c, g.r, g.s)?,
             y: Tensor::new(g.n, g.k, oh, ow)?,
+            bias: Tensor::new(1, g.k, 1, 1)?,
             fwd: sys::cudnnConvolutionFwdAlgo_t::CUDNN_CONVOLUTION_FWD_ALGO_IMPLICIT_GEMM,
             bwd_data: sys::cudnnConvolutionBwdDataAlgo_t::CUDNN_CONVOLUTION_BWD_DATA_ALGO_1,
             bwd_filter: sys::cudnnConvolutionBwdFilterAlgo_t::CUDNN_CONVOLUTION_BWD_FILTER_ALGO_1,
@@ -367,16 +370,18 @@ impl Conv {
         }
     }
 
-    /// `y = conv(x, w)`.
+    /// `y = conv(x, w) + b` (`b` per output channel).
     ///
     /// # Safety
     /// Device addresses of buffers of this convolution's shapes; `ws` of at least
     /// [`Conv::workspace`] bytes (`ws_len`).
+    #[allow(clippy::too_many_arguments)]
     pub unsafe fn forward(
         &self,
         h: &Handle,
         x: u64,
         w: u64,
+        b: u64,
         y: u64,
         ws: u64,
         ws_len: usize,
@@ -398,6 +403,18 @@ impl Conv {
                 mptr(y),
             ),
             "cudnnConvolutionForward",
+        )?;
+        ck(
+            sys::cudnnAddTensor(
+                h.0,
+                s(&ONE),
+                self.bias.0,
+                cptr(b),
+                s(&ONE),
+                self.y.0,
+                mptr(y),
+            ),
+            "cudnnAddTensor",
         )
     }
 
@@ -434,19 +451,34 @@ impl Conv {
         )
     }
 
-    /// `dw = conv_backward_filter(x, dy)`.
+    /// The weights' and biases' gradients `dw`, `db` from the input `x` and the output's
+    /// gradient `dy`.
     ///
     /// # Safety
     /// As [`Conv::forward`].
-    pub unsafe fn backward_filter(
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn backward_weights(
         &self,
         h: &Handle,
         x: u64,
         dy: u64,
         dw: u64,
+        db: u64,
         ws: u64,
         ws_len: usize,
     ) -> Result<()> {
+        ck(
+            sys::cudnnConvolutionBackwardBias(
+                h.0,
+                s(&ONE),
+                self.y.0,
+                cptr(dy),
+                s(&ZERO),
+                self.bias.0,
+                mptr(db),
+            ),
+            "cudnnConvolutionBackwardBias",
+        )?;
         ck(
             sys::cudnnConvolutionBackwardFilter(
                 h.0,

@@ -138,21 +138,23 @@ fn state<B: Backend>(s: &RunningState<Tensor<B, 1>>) -> Vec<f32> {
         .expect("f32 values")
 }
 
-/// conv1's `[F, 2, 8, 8]` weights as the 4x4 kernels over the 8 block channels
-/// (`[F, 8, 4, 4]`, channel `4 c + 2 p + q`, position `(i, j)` = row `2 i + p`, column
-/// `2 j + q`), as the CPU's space-to-depth form rearranges them.
+/// Where each of conv1's `[F, 2, 8, 8]` weights goes among the 4x4 kernels over the 8 block
+/// channels (`[F, 8, 4, 4]`, channel `4 c + 2 p + q`, position `(i, j)` = row `2 i + p`,
+/// column `2 j + q`), as the CPU's space-to-depth form rearranges them: pairs of (index in
+/// the `[F, 2, 8, 8]` array, index in the `[F, 8, 4, 4]` one).
+fn w1_blocks(f: usize) -> impl Iterator<Item = (usize, usize)> {
+    (0..f * 2 * 64).map(|plain| {
+        let (o, c, r, col) = (plain / 128, plain / 64 % 2, plain / 8 % 8, plain % 8);
+        let (i, p, j, q) = (r / 2, r % 2, col / 2, col % 2);
+        (plain, ((o * 8 + 4 * c + 2 * p + q) * 4 + i) * 4 + j)
+    })
+}
+
+/// conv1's `[F, 2, 8, 8]` weights in the `[F, 8, 4, 4]` layout ([`w1_blocks`]).
 fn w1_to_blocks(w: &[f32], f: usize) -> Vec<f32> {
     let mut out = vec![0.0; w.len()];
-    for o in 0..f {
-        for c in 0..2 {
-            for r in 0..8 {
-                for col in 0..8 {
-                    let (i, p, j, q) = (r / 2, r % 2, col / 2, col % 2);
-                    out[((o * 8 + 4 * c + 2 * p + q) * 4 + i) * 4 + j] =
-                        w[((o * 2 + c) * 8 + r) * 8 + col];
-                }
-            }
-        }
+    for (plain, blocked) in w1_blocks(f) {
+        out[blocked] = w[plain];
     }
     out
 }
@@ -160,16 +162,8 @@ fn w1_to_blocks(w: &[f32], f: usize) -> Vec<f32> {
 /// The inverse of [`w1_to_blocks`].
 fn w1_from_blocks(b: &[f32], f: usize) -> Vec<f32> {
     let mut out = vec![0.0; b.len()];
-    for o in 0..f {
-        for c in 0..2 {
-            for r in 0..8 {
-                for col in 0..8 {
-                    let (i, p, j, q) = (r / 2, r % 2, col / 2, col % 2);
-                    out[((o * 2 + c) * 8 + r) * 8 + col] =
-                        b[((o * 8 + 4 * c + 2 * p + q) * 4 + i) * 4 + j];
-                }
-            }
-        }
+    for (plain, blocked) in w1_blocks(f) {
+        out[plain] = b[blocked];
     }
     out
 }

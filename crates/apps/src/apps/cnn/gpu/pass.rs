@@ -7,12 +7,11 @@
 
 mod block;
 
-use super::dnn::{ck, cptr, mptr, s, Conv, ConvShape, Handle, Pool, Relu, Tensor, ONE, ZERO};
+use super::dnn::{Conv, ConvShape, Handle, Pool, Relu, Tensor};
 use super::kernels::{blocks, grid, launch, Kernels, THREADS};
 use super::layout::{Geometry, Params};
 use crate::apps::cnn::geom::BlockGeom;
 use anyhow::{Context, Result};
-use cudarc::cudnn::sys;
 use cudarc::driver::{CudaSlice, CudaStream, DevicePtr, PushKernelArg};
 use std::sync::Arc;
 
@@ -84,8 +83,6 @@ fn at(b: &Buf<f32>, at: usize) -> u64 {
 struct BlockPass {
     g: BlockGeom,
     conv: Conv,
-    /// `[1, F, 1, 1]`: bias, BN scale and offset.
-    per_channel: Tensor,
     /// The pooled output `[n, F, oh/2, ow/2]`.
     pooled: Option<Tensor>,
     padded: Option<Buf<f32>>,
@@ -145,7 +142,6 @@ impl BlockPass {
         let opt = |on: bool, len: usize| on.then(|| z(len)).transpose();
         Ok(BlockPass {
             g,
-            per_channel: Tensor::new(1, g.f, 1, 1)?,
             pooled: g.pool.then(|| Tensor::new(n, g.f, ph, pw)).transpose()?,
             padded: opt(pad, n * g.c * ih * iw)?,
             conv_out: z(out)?,
@@ -178,7 +174,6 @@ pub(super) struct Pass {
     pub n: usize,
     blocks: Vec<BlockPass>,
     fc: Conv,
-    fc_bias: Tensor,
     logits: Buf<f32>,
     /// Training only: the gathered mini-batch, its labels and the loss's gradient.
     x: Option<Buf<f32>>,
@@ -227,7 +222,6 @@ impl Pass {
             n,
             blocks,
             fc,
-            fc_bias: Tensor::new(1, g.classes, 1, 1)?,
             logits: z(n * g.classes)?,
             x: opt(n * g.each)?,
             labels: train.then(|| Buf::<u32>::zeros(stream, n)).transpose()?,
@@ -331,19 +325,8 @@ impl DeviceNet {
         let [fw, fb] = self.p.fc.map(|o| at(&self.params, o));
         // SAFETY: as above; the logits are `[n, classes, 1, 1]`.
         unsafe {
-            pass.fc.forward(h, input, fw, pass.logits.ptr, ws, ws_len)?;
-            ck(
-                sys::cudnnAddTensor(
-                    h.0,
-                    s(&ONE),
-                    pass.fc_bias.0,
-                    cptr(fb),
-                    s(&ONE),
-                    pass.fc.y.0,
-                    mptr(pass.logits.ptr),
-                ),
-                "cudnnAddTensor",
-            )
+            pass.fc
+                .forward(h, input, fw, fb, pass.logits.ptr, ws, ws_len)
         }
     }
 
@@ -411,19 +394,7 @@ impl DeviceNet {
         // SAFETY: buffers of the descriptors' shapes, as in `forward`.
         unsafe {
             pass.fc
-                .backward_filter(h, last.output(), dlogits, dfw, ws, ws_len)?;
-            ck(
-                sys::cudnnConvolutionBackwardBias(
-                    h.0,
-                    s(&ONE),
-                    pass.fc.y.0,
-                    cptr(dlogits),
-                    s(&ZERO),
-                    pass.fc_bias.0,
-                    mptr(dfb),
-                ),
-                "cudnnConvolutionBackwardBias",
-            )?;
+                .backward_weights(h, last.output(), dlogits, dfw, dfb, ws, ws_len)?;
             pass.fc.backward_data(h, fw, dlogits, d_last, ws, ws_len)?;
         }
         for b in (0..pass.blocks.len()).rev() {

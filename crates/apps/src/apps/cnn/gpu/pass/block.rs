@@ -46,19 +46,8 @@ impl DeviceNet {
         // SAFETY: every address is a buffer of the descriptor's shape (allocated in
         // `BlockPass::new` for this pass's `n`, or the parameter buffer's offsets).
         unsafe {
-            bp.conv.forward(h, input, w, bp.conv_out.ptr, ws, ws_len)?;
-            ck(
-                sys::cudnnAddTensor(
-                    h.0,
-                    s(&ONE),
-                    bp.per_channel.0,
-                    cptr(bias),
-                    s(&ONE),
-                    yd,
-                    mptr(bp.conv_out.ptr),
-                ),
-                "cudnnAddTensor",
-            )?;
+            bp.conv
+                .forward(h, input, w, bias, bp.conv_out.ptr, ws, ws_len)?;
         }
         self.normalise(pass, b, train)?;
         // SAFETY: as above.
@@ -117,7 +106,7 @@ impl DeviceNet {
                         cptr(bp.conv_out.ptr),
                         yd,
                         mptr(bp.bn_out.ptr),
-                        bp.per_channel.0,
+                        bp.conv.bias.0,
                         cptr(gamma),
                         cptr(beta),
                         0.0,
@@ -141,7 +130,7 @@ impl DeviceNet {
                         cptr(bp.conv_out.ptr),
                         yd,
                         mptr(bp.bn_out.ptr),
-                        bp.per_channel.0,
+                        bp.conv.bias.0,
                         cptr(gamma),
                         cptr(beta),
                         cptr(rm),
@@ -226,7 +215,7 @@ impl DeviceNet {
                     cptr(d_b),
                     yd,
                     mptr(d_a),
-                    bp.per_channel.0,
+                    bp.conv.bias.0,
                     cptr(gamma),
                     mptr(dgamma),
                     mptr(dbeta),
@@ -236,19 +225,8 @@ impl DeviceNet {
                 ),
                 "cudnnBatchNormalizationBackward",
             )?;
-            ck(
-                sys::cudnnConvolutionBackwardBias(
-                    h.0,
-                    s(&ONE),
-                    yd,
-                    cptr(d_a),
-                    s(&ZERO),
-                    bp.per_channel.0,
-                    mptr(db),
-                ),
-                "cudnnConvolutionBackwardBias",
-            )?;
-            bp.conv.backward_filter(h, input, d_a, dw, ws, ws_len)?;
+            bp.conv
+                .backward_weights(h, input, d_a, dw, db, ws, ws_len)?;
         }
         if b > 0 {
             self.input_gradient(pass, b, w, d_a)?;
