@@ -6,23 +6,14 @@
 //! refused with their YAML path.
 
 mod common;
-use common::{bin, text};
+use common::{bin, run_output, text};
 
 use common::read_table;
 use polars::prelude::*;
 use std::path::Path;
 
 fn run(spec: &Path, out: &Path, extra: &[&str]) {
-    let mut args = vec![
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--no-report",
-        "-q",
-    ];
-    args.extend_from_slice(extra);
-    let o = bin(&args);
+    let o = run_output(spec, out, &[&["--no-report"], extra].concat());
     assert!(o.status.success(), "{}", text(&o));
 }
 

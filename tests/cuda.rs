@@ -11,20 +11,10 @@
 
 mod common;
 
+use common::nvidia_driver as driver;
+
 use isar_clutter::apps::cnn::device::train_on_device;
 use isar_clutter::apps::cnn::train::{train, Device, TrainingOptions};
-
-/// Whether the NVIDIA driver's library loads (what the CUDA route checks first).
-fn driver() -> bool {
-    // SAFETY: dlopen with a valid C string; the handle is closed at once.
-    let handle = unsafe { libc::dlopen(c"libcuda.so.1".as_ptr(), libc::RTLD_LAZY) };
-    if handle.is_null() {
-        return false;
-    }
-    // SAFETY: a handle dlopen returned.
-    unsafe { libc::dlclose(handle) };
-    true
-}
 
 #[test]
 fn a_toy_set_is_learnt_on_the_gpu_and_predicts_on_the_cpu() {
@@ -74,7 +64,7 @@ mod cudnn {
     //! captured CUDA graph against the same steps issued one by one (bit for bit), and
     //! prediction on the GPU against the CPU's.
 
-    use super::driver;
+    use super::common::nvidia_driver as driver;
     use isar_clutter::apps::cnn::gpu::{self, GpuOptions, Predictor};
     use isar_clutter::apps::cnn::net::{Arch, Net, NetConfig};
     use isar_clutter::apps::cnn::train::{train, Cpu, Labelled, TrainingOptions};

@@ -6,19 +6,13 @@
 
 mod common;
 
-use common::{bin, read_json, tables, text};
+use common::{bin, nvidia_driver as driver, read_json, run_output, tables, text};
 use std::path::Path;
+use std::process::Output;
 
-/// Whether the NVIDIA driver's library loads (then `auto` would pick the GPU).
-fn driver() -> bool {
-    // SAFETY: dlopen with a valid C string; the handle is closed at once.
-    let handle = unsafe { libc::dlopen(c"libcuda.so.1".as_ptr(), libc::RTLD_LAZY) };
-    if handle.is_null() {
-        return false;
-    }
-    // SAFETY: a handle dlopen returned.
-    unsafe { libc::dlclose(handle) };
-    true
+/// `run SPEC --out OUT --no-report --quiet` plus `extra`.
+fn run(spec: &Path, out: &Path, extra: &[&str]) -> Output {
+    run_output(spec, out, &[&["--no-report"], extra].concat())
 }
 
 /// A small classification spec (two filtered-noise classes, 32 x 32, two epochs) in `dir`.
@@ -45,19 +39,6 @@ classification:
     )
     .unwrap();
     path
-}
-
-fn run(spec: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--no-report",
-        "-q",
-    ];
-    args.extend_from_slice(extra);
-    bin(&args)
 }
 
 #[test]

@@ -3,7 +3,7 @@
 //! tables as one local run; bad shard arguments and merges are refused clearly.
 
 mod common;
-use common::{bin, maps, same_tables, text, BIN};
+use common::{bin, maps, run_output, same_tables, text, BIN};
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -59,17 +59,9 @@ fn spec(dir: &Path) -> PathBuf {
     p
 }
 
+/// `run SPEC --out OUT --no-report --quiet` plus `extra`.
 fn run(spec: &Path, out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "run",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--no-report",
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    bin(&args)
+    run_output(spec, out, &[&["--no-report"], extra].concat())
 }
 
 fn done_records(out: &Path) -> usize {

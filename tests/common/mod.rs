@@ -77,7 +77,17 @@ pub fn opt_strings(df: &polars::prelude::DataFrame, column: &str) -> Vec<Option<
 /// Runs `isar-clutter run SPEC --quiet --out OUT` plus `extra` arguments and asserts that it
 /// succeeded (its stderr in the message if not).
 pub fn run_spec(spec: &std::path::Path, out: &std::path::Path, extra: &[&str]) {
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
+    let o = run_output(spec, out, extra);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// What `isar-clutter run SPEC --quiet --out OUT` plus `extra` arguments did.
+pub fn run_output(
+    spec: &std::path::Path,
+    out: &std::path::Path,
+    extra: &[&str],
+) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_isar-clutter"))
         .arg("run")
         .arg(spec)
         .arg("--quiet")
@@ -85,8 +95,7 @@ pub fn run_spec(spec: &std::path::Path, out: &std::path::Path, extra: &[&str]) {
         .arg(out)
         .args(extra)
         .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        .unwrap()
 }
 
 /// The project's virtualenv Python (`.venv/bin/python`, what `make test-deps` fills) if it
@@ -145,6 +154,19 @@ pub fn bin<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> std::process::Output {
         .args(args)
         .output()
         .expect("the binary runs")
+}
+
+/// Whether the NVIDIA driver's library (`libcuda.so.1`) loads: the GPU tests run, and `auto`
+/// may pick the GPU.
+pub fn nvidia_driver() -> bool {
+    // SAFETY: dlopen with a valid C string; the handle is closed at once.
+    let handle = unsafe { libc::dlopen(c"libcuda.so.1".as_ptr(), libc::RTLD_LAZY) };
+    if handle.is_null() {
+        return false;
+    }
+    // SAFETY: a handle dlopen returned.
+    unsafe { libc::dlclose(handle) };
+    true
 }
 
 /// What a run of the tool printed: its standard error, then its standard output.
