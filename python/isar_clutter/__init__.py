@@ -81,7 +81,10 @@ def load(
       parts in the dataset ``imag``; a stack ``[N, H, W]`` (``layout="hwn"``: ``[H, W, N]``)
       or a single scene ``[H, W]`` read in ``window`` (giving ``[1, rows, cols]``), or in
       ``map_box`` through the coordinate vectors beside it (OPERA's ``x_coordinates`` and
-      ``y_coordinates``, NISAR's ``xCoordinates`` and ``yCoordinates``).
+      ``y_coordinates``, NISAR's ``xCoordinates`` and ``yCoordinates``); a scene's
+      ``calibration`` (``"beta0"``, ``"sigma0"``, ``"gamma0"``) divides each value by the
+      NISAR product's table of it at its pixel (RSLC, GSLC), or, for ``beta0``, multiplies
+      it by the root of ICEYE's ``calibration_factor``.
       complex64 where the stored numbers fit a float32, else complex128.
 
     A bad file raises ``ValueError`` naming the field (``slc[i]``, ``annotation``, ``path[i]``,
@@ -91,13 +94,18 @@ def load(
     paths = _paths(path)
     kinds = {Path(p).suffix.lower() for p in paths}
     if kinds and kinds <= HDF5_SUFFIXES:
-        if len(paths) != 1 or annotation is not None or calibration is not None:
-            raise ValueError("HDF5: give one file, its dataset= (and imag=, layout=, window=)")
-        return load_hdf5(paths[0], dataset, imag, layout, window, map_box)
+        if len(paths) != 1 or annotation is not None:
+            raise ValueError(
+                "HDF5: give one file, its dataset= (and imag=, layout=, window=, calibration=)"
+            )
+        return load_hdf5(paths[0], dataset, imag, layout, window, map_box, calibration)
     if dataset is not None or imag is not None:
         raise ValueError("dataset= and imag= name datasets of an HDF5 file (.h5, .hdf5, .he5)")
     if calibration is not None and not (kinds and kinds <= {".nitf", ".ntf"}):
-        raise ValueError("calibration reads SICD's scale factors: give .nitf/.ntf files")
+        raise ValueError(
+            "calibration reads SICD's scale factors (.nitf/.ntf files) and HDF5 products' "
+            "(NISAR's tables, ICEYE's factor)"
+        )
     if kinds == {".slc"}:
         return load_uavsar(paths, _paths(annotation), window, map_box)
     if map_box is not None and not (kinds and kinds <= {".tif", ".tiff", ".nitf", ".ntf"}):

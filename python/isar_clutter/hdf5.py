@@ -6,7 +6,9 @@ here the field's own Python reader, h5py, reads them, with the same forms and ch
 dataset at a path in the file holding complex compounds (``{r, i}`` as h5py and NISAR write
 them, ``{real, imag}``, ``{re, im}``), real numbers (with the imaginary parts in ``imag``, or
 none) or float pairs (a last dimension of 2); a stack ``[N, H, W]`` (``[H, W, N]`` with
-``layout="hwn"``) or a single scene ``[H, W]``, read in ``window``.
+``layout="hwn"``) or a single scene ``[H, W]``, read in ``window`` and calibrated with
+the product's own scale factors as the command line's ``calibration`` calibrates it (NISAR's
+calibration tables, ICEYE's ``calibration_factor``; docs/formats.md).
 """
 
 import os
@@ -38,6 +40,7 @@ def load_hdf5(
     layout: str = "nhw",
     window: Optional[Tuple[int, int, int, int]] = None,
     map_box: Optional[Tuple[Tuple[float, float], Tuple[float, float]]] = None,
+    calibration: Optional[str] = None,
 ) -> np.ndarray:
     """The stack ``dataset`` of the HDF5 file ``path`` as ``[N, H, W]`` (see the module).
 
@@ -46,6 +49,12 @@ def load_hdf5(
     (``x_coordinates``/``y_coordinates``, OPERA's; ``xCoordinates``/``yCoordinates``,
     NISAR's; ``x``/``y``): the pixels that cover the box, as the command line's ``hdf5`` kind
     places a map ``window``.
+
+    A single scene may be calibrated (``calibration``: ``"beta0"``, ``"sigma0"``,
+    ``"gamma0"``) so that ``|x|**2`` is that quantity: by NISAR's table of it where a group
+    above the scene holds ``metadata/calibrationInformation/geometry`` (each value divided by
+    the table read bilinearly at its pixel, clamped to the table's grid), else ``beta0`` by
+    ICEYE's ``/calibration_factor`` (each value times its square root).
 
     complex64 where the stored numbers fit a float32 (floats of 4 bytes, integers of 2),
     complex128 otherwise. A single scene ``[H, W]`` gives ``[1, h, w]``, its ``window``
@@ -116,18 +125,127 @@ def load_hdf5(
                 )
             sel = (slice(r0, r0 + h), slice(c0, c0 + w))
             values = _complex(ds[sel], im[sel] if im is not None else None, form, out_type)
+            if calibration is not None:
+                values = values * _scale(f, path, dataset, dims, calibration, sel)
             return values[np.newaxis]
         if len(dims) != 3:
             raise ValueError(
                 f"dataset: {path}: {dataset!r} has dimensions {list(ds.shape)}: a stack is "
                 "[N, H, W] (or [H, W, N]; float pairs [N, H, W, 2]), a scene [H, W]"
             )
-        if window is not None:
-            raise ValueError(f"window: applies to a single scene [H, W]; {dataset!r} is a stack")
+        if window is not None or calibration is not None:
+            field = "window" if window is not None else "calibration"
+            raise ValueError(f"{field}: applies to a single scene [H, W]; {dataset!r} is a stack")
         values = _complex(ds[...], im[...] if im is not None else None, form, out_type)
         if layout == "hwn":
             values = np.ascontiguousarray(np.moveaxis(values, 2, 0))
         return values
+
+
+#: The group of a NISAR product holding its calibration tables.
+TABLES = "metadata/calibrationInformation/geometry"
+#: The names of a table's (row, column) axes: an RSLC's, a GSLC's.
+TABLE_AXES = [("zeroDopplerTime", "slantRange"), ("yCoordinates", "xCoordinates")]
+
+
+def _ancestors(name: str):
+    """The groups above the dataset ``name``, nearest first, ending with the root."""
+    parts = [p for p in name.split("/") if p]
+    return ["/" + "/".join(parts[:k]) for k in range(len(parts) - 1, -1, -1)]
+
+
+def _join(group: str, name: str) -> str:
+    return f"{group.rstrip('/')}/{name}"
+
+
+def _place(axis: np.ndarray, x: np.ndarray):
+    """For each coordinate ``x``: the index of the grid point of ``axis`` at or before it
+    and the share of the way to the next, clamped to the grid's ends."""
+    n = len(axis)
+    if n == 1:
+        return np.zeros(len(x), dtype=np.intp), np.zeros(len(x))
+    sign = 1.0 if axis[-1] > axis[0] else -1.0
+    before = np.searchsorted(sign * axis, sign * x, side="right")
+    i = np.clip(before, 1, n - 1) - 1
+    return i, np.clip((x - axis[i]) / (axis[i + 1] - axis[i]), 0.0, 1.0)
+
+
+def _scale(f, path: str, dataset: str, dims, quantity: str, sel) -> np.ndarray:
+    """The factors that calibrate the window ``sel`` of the scene to ``quantity``."""
+    groups = _ancestors(dataset)
+    roots = [k for k, g in enumerate(groups) if _join(g, TABLES) in f]
+    if not roots:
+        if quantity != "beta0":
+            raise ValueError(
+                f"calibration: {path}: no group above {dataset} holds NISAR's calibration "
+                f"tables ({TABLES}), and ICEYE's calibration_factor gives beta0 only "
+                f"(asked for {quantity})"
+            )
+        if "calibration_factor" not in f:
+            raise ValueError(
+                f"calibration: {path}: its HDF5 holds no /calibration_factor (ICEYE's beta0 "
+                f"scale factor) and no group above {dataset} holds NISAR's {TABLES}"
+            )
+        factor = float(np.asarray(f["calibration_factor"][()]))
+        if not (np.isfinite(factor) and factor > 0):
+            raise ValueError(f"calibration: {path}: /calibration_factor is {factor}")
+        return np.float32(np.sqrt(factor))
+    root = roots[0]
+    tables = _join(groups[root], TABLES)
+    g = f[tables]
+    if quantity not in g:
+        held = sorted(n for n in g if n in ("beta0", "sigma0", "gamma0"))
+        raise ValueError(f"calibration: {path}: {tables} holds no {quantity} table (it holds {held})")
+    names = next(((r, c) for r, c in TABLE_AXES if r in g and c in g), None)
+    if names is None:
+        raise ValueError(f"calibration: {path}: {tables} has no axes for its tables")
+
+    def units(d):
+        u = d.attrs.get("units")
+        return u.decode() if isinstance(u, bytes) else u
+
+    axes, coords = [], []
+    for name, n, side in zip(names, dims, ("rows", "columns")):
+        table_axis = g[name]
+        place = next((p for p in groups[: root + 1] if _join(p, name) in f), None)
+        if place is None:
+            raise ValueError(
+                f"calibration: {path}: no {name} beside {dataset}, to place "
+                f"{tables}/{quantity} on its pixels"
+            )
+        beside = f[_join(place, name)]
+        if beside.shape != (n,):
+            raise ValueError(
+                f"calibration: {path}: {beside.name} holds {beside.size} values for the "
+                f"scene's {n} {side}"
+            )
+        a, b = units(table_axis), units(beside)
+        if a is not None and b is not None and a.strip() != b.strip():
+            raise ValueError(
+                f"calibration: {path}: {table_axis.name} is in {a!r} but {beside.name} in "
+                f"{b!r}: the table and the scene must share their axes' units (and epoch)"
+            )
+        axes.append(table_axis[...].astype(np.float64))
+        coords.append(beside[...].astype(np.float64))
+    table = g[quantity][...].astype(np.float64)
+    if table.shape != (len(axes[0]), len(axes[1])):
+        raise ValueError(
+            f"calibration: {path}: {tables}/{quantity} has dimensions {list(table.shape)}, "
+            f"its axes {len(axes[0])} and {len(axes[1])}"
+        )
+    if not np.all(np.isfinite(table) & (table > 0)):
+        raise ValueError(
+            f"calibration: {path}: {tables}/{quantity} holds values that are not positive "
+            "numbers"
+        )
+    ri, ru = _place(axes[0], coords[0][sel[0]])
+    ci, cu = _place(axes[1], coords[1][sel[1]])
+    i1 = np.minimum(ri + 1, table.shape[0] - 1)
+    j1 = np.minimum(ci + 1, table.shape[1] - 1)
+    top = table[ri][:, ci] * (1 - cu) + table[ri][:, j1] * cu
+    bottom = table[i1][:, ci] * (1 - cu) + table[i1][:, j1] * cu
+    at = top * (1 - ru)[:, None] + bottom * ru[:, None]
+    return (1.0 / at).astype(np.float32)
 
 
 COORDINATE_NAMES = [("x_coordinates", "y_coordinates"), ("xCoordinates", "yCoordinates"),

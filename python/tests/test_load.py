@@ -241,3 +241,41 @@ def test_hdf5_stacks_and_scenes_are_read_as_written(tmp_path):
         ic.load(bad, dataset="pairs")
     with pytest.raises(ValueError, match="HDF5 file"):
         ic.load(scenes(tmp_path)[0], dataset="x")
+
+
+def test_hdf5_scenes_are_calibrated_by_nisar_tables_and_iceye_factors(tmp_path):
+    """tests/hdf5/make_nisar_fixtures.py's RSLC and GSLC frames (h5py, in isce3's layouts) and
+    the scenes numpy and scipy calibrated from them (``|DN|**2 / table**2``, the table read
+    bilinearly, clipped to its grid): ``calibration=`` gives those values; ICEYE's factor
+    gives ``beta0``; a table at another epoch than the scene's times is refused."""
+    pytest.importorskip("h5py")
+    pytest.importorskip("scipy")
+    path = Path(__file__).resolve().parents[2] / "tests" / "hdf5" / "make_nisar_fixtures.py"
+    spec = importlib.util.spec_from_file_location("nisar_fixtures", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(tmp_path)
+    rslc = "/science/LSAR/RSLC/swaths/frequencyA/HH"
+    got = ic.load(tmp_path / "rslc.h5", dataset=rslc, calibration="sigma0")
+    want = np.load(tmp_path / "rslc_sigma0.npy")
+    # numpy's bilinear reading against scipy's: the factors agree to their float32 rounding.
+    np.testing.assert_allclose(got[0], want, rtol=2.5e-7, atol=0)
+    window = ic.load(tmp_path / "gslc.h5", dataset="/science/LSAR/GSLC/grids/frequencyA/HH",
+                     window=(3, 2, 30, 25), calibration="gamma0")
+    np.testing.assert_allclose(window[0], np.load(tmp_path / "gslc_gamma0.npy")[3:33, 2:27],
+                               rtol=2.5e-7, atol=0)
+    plain = ic.load(tmp_path / "rslc.h5", dataset=rslc)
+    assert not np.allclose(plain[0], want, rtol=1e-3)
+    with pytest.raises(ValueError, match=r"calibration: .*bad\.h5: /epoch/metadata/.*2025-11-02"):
+        ic.load(tmp_path / "bad.h5", dataset="/epoch/swaths/frequencyA/HH", calibration="sigma0")
+    with pytest.raises(ValueError, match=r"holds no rcs table \(it holds \['beta0', 'gamma0', 'sigma0'\]\)"):
+        ic.load(tmp_path / "rslc.h5", dataset=rslc, calibration="rcs")
+    import h5py
+
+    ints = np.arange(-600, 600, dtype=np.int16).reshape(2, 20, 30)
+    with h5py.File(tmp_path / "iceye.h5", "w") as f:
+        f["s_i"], f["s_q"], f["calibration_factor"] = ints[0], ints[1], 3.7e-7
+    beta0 = ic.load(tmp_path / "iceye.h5", dataset="s_i", imag="s_q", calibration="beta0")
+    assert np.array_equal(beta0[0], (ints[0] + 1j * ints[1]).astype(np.complex64) * np.float32(np.sqrt(3.7e-7)))
+    with pytest.raises(ValueError, match="gives beta0 only"):
+        ic.load(tmp_path / "iceye.h5", dataset="s_i", imag="s_q", calibration="sigma0")

@@ -439,6 +439,11 @@ pub struct CutArgs {
     /// dataset in each file, e.g. /data/VV.
     #[arg(long)]
     pub dataset: Option<String>,
+    /// Calibrate the values so that |value|^2 is this quantity (sigma0, beta0, gamma0; rcs for
+    /// SICD) with the files' own scale factors: SICD's Radiometric polynomials, NISAR's
+    /// calibration tables (RSLC, GSLC), ICEYE's calibration_factor (beta0).
+    #[arg(long, value_name = "QUANTITY")]
+    pub calibration: Option<String>,
     /// A mask of the scene (.npy [H, W], bool or uint8): no patch covers a non-zero pixel.
     #[arg(long, value_name = "MASK.npy")]
     pub avoid_mask: Option<PathBuf>,

@@ -96,9 +96,9 @@ pub fn cut(a: CutArgs) -> Result<()> {
         patch: a.patch,
         stride: a.stride.unwrap_or(a.patch),
         window: a.window,
-        avoid: a.avoid,
-        polygon: a.polygon,
-        avoid_mask: a.avoid_mask,
+        avoid: a.avoid.clone(),
+        polygon: a.polygon.clone(),
+        avoid_mask: a.avoid_mask.clone(),
     };
     let t = std::time::Instant::now();
     let bar = indicatif::ProgressBar::new_spinner();
@@ -109,20 +109,46 @@ pub fn cut(a: CutArgs) -> Result<()> {
         bar.set_message(format!("{n} patches written"));
         bar.tick();
     };
+    let map = isar_clutter::io::scenes::SceneOptions {
+        window: a.map_box,
+        polygon: a.map_polygon.clone().map(|p| p.0),
+        calibration: a.calibration.clone(),
+    };
+    let done = cut_inputs(&a, (&options, &map), progress)?;
+    bar.finish_and_clear();
+    eprintln!(
+        "{} patch(es) of {}x{} ({} place(s) x {} scene(s)) -> {} (places: {}) in {:.2} s",
+        done.samples(),
+        options.patch.rows,
+        options.patch.cols,
+        done.places,
+        done.scenes,
+        a.out.display(),
+        done.record.display(),
+        t.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// [`cut`]'s cut of its inputs, by their kind (their files' suffixes), with `options`.
+fn cut_inputs(
+    a: &CutArgs,
+    options @ (cut_options, map): (
+        &isar_clutter::io::cut::CutOptions,
+        &isar_clutter::io::scenes::SceneOptions,
+    ),
+    progress: impl Fn(usize),
+) -> Result<isar_clutter::io::cut::Cut> {
+    use isar_clutter::io::cut;
+    use isar_clutter::io::scenes::{cut_scenes, SceneOptions};
+    use isar_clutter::io::{geotiff::GeoTiff, sicd::Sicd, uavsar::UavsarScene};
     let suffix = |p: &std::path::Path| {
         let s = p.extension().map(|e| e.to_string_lossy().to_lowercase());
         s.unwrap_or_default()
     };
     let kinds: std::collections::BTreeSet<String> = a.input.iter().map(|p| suffix(p)).collect();
     let kinds: Vec<&str> = kinds.iter().map(String::as_str).collect();
-    use isar_clutter::io::scenes::{cut_scenes, MapRegion};
-    use isar_clutter::io::{geotiff::GeoTiff, sicd::Sicd, uavsar::UavsarScene};
-    let (input, out, chunk) = (&a.input, &a.out, a.chunk);
-    let map = MapRegion {
-        window: a.map_box,
-        polygon: a.map_polygon.map(|p| p.0),
-    };
-    let scenes = (&options, &map);
+    let (input, out, chunk, scenes) = (&a.input, &a.out, a.chunk, options);
     let hdf5 = matches!(kinds[..], ["h5"] | ["hdf5"] | ["he5"]);
     if a.dataset.is_some() && !hdf5 {
         anyhow::bail!(
@@ -133,14 +159,20 @@ pub fn cut(a: CutArgs) -> Result<()> {
     }
     let done = match kinds[..] {
         ["npy"] if input.len() == 1 => {
-            if map != MapRegion::default() {
+            if map.calibration.is_some() {
+                anyhow::bail!(
+                    "--calibration: {} is an .npy array, which holds no scale factors",
+                    input[0].display()
+                );
+            }
+            if *map != SceneOptions::default() {
                 anyhow::bail!(
                     "--map-box, --map-polygon: {} has no georeferencing; give --window and \
                      --polygon in pixels",
                     input[0].display()
                 );
             }
-            cut::cut_npy(&input[0], out, &options, chunk, progress)?
+            cut::cut_npy(&input[0], out, cut_options, chunk, progress)?
         }
         ["tif"] | ["tiff"] | ["tif", "tiff"] => {
             cut_scenes::<GeoTiff>(input, out, scenes, chunk, progress)?
@@ -166,19 +198,7 @@ pub fn cut(a: CutArgs) -> Result<()> {
             )
         }
     };
-    bar.finish_and_clear();
-    eprintln!(
-        "{} patch(es) of {}x{} ({} place(s) x {} scene(s)) -> {} (places: {}) in {:.2} s",
-        done.samples(),
-        options.patch.rows,
-        options.patch.cols,
-        done.places,
-        done.scenes,
-        a.out.display(),
-        done.record.display(),
-        t.elapsed().as_secs_f64()
-    );
-    Ok(())
+    Ok(done)
 }
 
 /// The single scenes `[H, W]` at `dataset` in the HDF5 files `paths`, checked, with `place`.

@@ -303,6 +303,9 @@ pub fn record_path(out: &Path) -> PathBuf {
 #[derive(serde::Serialize)]
 struct Record<'a> {
     input: String,
+    /// The quantity the values were calibrated to (absent: as stored).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    calibrated_to: Option<&'a str>,
     scene_shape: &'a [usize],
     options: &'a CutOptions,
     order: &'static str,
@@ -381,7 +384,8 @@ pub fn cut_npy(
         progress,
         || Ok(()),
     )?;
-    let record = write_record(out, input.display().to_string(), &header.shape, o, &places)?;
+    let input = (input.display().to_string(), None);
+    let record = write_record(out, input, &header.shape, o, &places)?;
     Ok(Cut {
         scenes,
         places: places.len(),
@@ -416,14 +420,15 @@ pub fn write_patches(
     })
 }
 
-/// Writes the record of the cut of `input` (of `scene_shape`) into `out` at `places`
-/// ([`record_path`]); its path.
+/// Writes the record of the cut of `input` (its files, and the quantity their values were
+/// calibrated to, if any; of `scene_shape`) into `out` at `places` ([`record_path`]); its
+/// path.
 ///
 /// # Errors
 /// If it cannot be written.
 pub fn write_record(
     out: &Path,
-    input: String,
+    (input, calibrated_to): (String, Option<&str>),
     scene_shape: &[usize],
     o: &CutOptions,
     places: &[(usize, usize)],
@@ -431,6 +436,7 @@ pub fn write_record(
     let record = record_path(out);
     let text = serde_json::to_vec_pretty(&Record {
         input,
+        calibrated_to,
         scene_shape,
         options: o,
         order: "sample p * scenes + t is scene t at place p (top-left row, column)",

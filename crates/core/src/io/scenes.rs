@@ -278,6 +278,16 @@ impl<S: Scene> Scenes<S> {
         (self.scenes.len(), self.window.rows(), self.window.cols())
     }
 
+    /// Makes every scene's reads calibrated values of `quantity` ([`Scene::calibrate`]).
+    ///
+    /// # Errors
+    /// The first scene's that cannot be, naming its file.
+    pub fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
+        self.scenes
+            .iter_mut()
+            .try_for_each(|s| s.calibrate(quantity))
+    }
+
     /// The files, in order.
     pub fn paths(&self) -> Vec<PathBuf> {
         self.scenes.iter().map(|s| s.path().to_path_buf()).collect()
@@ -419,15 +429,19 @@ impl<S: Scene> Scenes<S> {
     }
 }
 
-/// A window and a polygon in the scenes' map coordinates (`isar-clutter cut --map-box`,
-/// `--map-polygon`), turned into pixels through their georeferencing.
+/// What a cut of scene files takes beyond a cut's pixel options: a window and a polygon in
+/// the scenes' map coordinates (`isar-clutter cut --map-box`, `--map-polygon`), turned into
+/// pixels through their georeferencing, and the quantity to calibrate to (`--calibration`).
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct MapRegion {
+pub struct SceneOptions {
     /// The box `x` x `y` ([`Place::Map`]), instead of the options' pixel window.
     pub window: Option<([f64; 2], [f64; 2])>,
     /// The vertices `[x, y]` of a region patches must lie inside, instead of the options'
     /// pixel polygon.
     pub polygon: Option<Vec<[f64; 2]>>,
+    /// Calibrate the values to this quantity with the files' scale factors
+    /// ([`Scene::calibrate`]).
+    pub calibration: Option<String>,
 }
 
 /// Cuts the scenes `paths` of format `S` (one, or a time stack of coregistered ones) into the
@@ -441,7 +455,7 @@ pub struct MapRegion {
 pub fn cut_scenes<S: OpenScene + Sync>(
     paths: &[PathBuf],
     out: &Path,
-    options: (&super::cut::CutOptions, &MapRegion),
+    options: (&super::cut::CutOptions, &SceneOptions),
     chunk: usize,
     progress: impl Fn(usize),
 ) -> anyhow::Result<super::cut::Cut> {
@@ -458,7 +472,7 @@ pub fn cut_opened<S: Scene + Sync>(
     open: impl FnOnce(Option<Place>) -> Result<Scenes<S>, StackError>,
     paths: &[PathBuf],
     out: &Path,
-    (o, map): (&super::cut::CutOptions, &MapRegion),
+    (o, map): (&super::cut::CutOptions, &SceneOptions),
     chunk: usize,
     progress: impl Fn(usize),
 ) -> anyhow::Result<super::cut::Cut> {
@@ -467,7 +481,12 @@ pub fn cut_opened<S: Scene + Sync>(
         Some((x, y)) => Some(Place::Map { x, y }),
         None => o.window.map(Place::Pixels),
     };
-    let stack = open(place).map_err(|e| anyhow::anyhow!("--input {e}"))?;
+    let mut stack = open(place).map_err(|e| anyhow::anyhow!("--input {e}"))?;
+    if let Some(q) = &map.calibration {
+        stack
+            .calibrate(q)
+            .map_err(|e| anyhow::anyhow!("--calibration: {e}"))?;
+    }
     let (rows, cols) = stack.scenes[0].dims();
     let mut options = o.clone();
     if map.window.is_some() {
@@ -514,7 +533,8 @@ pub fn cut_opened<S: Scene + Sync>(
     };
     super::cut::write_patches(out, (samples, o.patch, chunk), fill, progress, after)?;
     let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
-    let record = super::cut::write_record(out, names.join(", "), &[t, rows, cols], o, &places)?;
+    let input = (names.join(", "), map.calibration.as_deref());
+    let record = super::cut::write_record(out, input, &[t, rows, cols], o, &places)?;
     Ok(super::cut::Cut {
         scenes: t,
         places: places.len(),

@@ -9,14 +9,18 @@
 //! datasets included), so memory holds the stack and one block, never the file; a build
 //! without it refuses such a stack, saying so. A single scene `[H, W]` ([`H5Scene`]) is read a
 //! window at a time instead, to be cut into patches, and placed on the map by the coordinate
-//! vectors beside it (`coords.rs`).
+//! vectors beside it (`coords.rs`), and calibrated by the product's own scale factors
+//! (`calibration.rs`: NISAR's tables, `lut.rs`; ICEYE's factor).
 
 use crate::io::npy::Stack;
 use std::path::Path;
 
 #[cfg(feature = "mat73")]
+mod calibration;
+#[cfg(feature = "mat73")]
 mod chunks;
 pub mod coords;
+pub mod lut;
 #[cfg(feature = "mat73")]
 mod read;
 mod types;
@@ -121,8 +125,29 @@ impl H5Stack {
 pub struct H5Scene {
     /// The scene's dataset, checked.
     pub stack: H5Stack,
-    /// The quantity reads are calibrated to and the amplitude factor (`None`: as stored).
-    pub calibration: Option<(String, f32)>,
+    /// How its reads are calibrated (`None`: as stored).
+    pub calibration: Option<Calibrated>,
+}
+
+/// A scene's calibration: the quantity `|value|^2` is made, where its scale comes from, and
+/// the scale.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibrated {
+    /// `beta0`, `sigma0` or `gamma0`.
+    pub quantity: String,
+    /// The dataset of the file that gives the scale (`/calibration_factor`, or NISAR's table).
+    pub source: String,
+    /// The scale.
+    pub scale: Scale,
+}
+
+/// How a calibrated read scales the stored values.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Scale {
+    /// Every value times one factor (ICEYE's: the root of its `calibration_factor`).
+    Factor(f32),
+    /// Every value divided by the table at its pixel (NISAR's).
+    Table(Box<lut::GridLut>),
 }
 
 impl H5Scene {
@@ -152,32 +177,52 @@ impl crate::io::scenes::Scene for H5Scene {
         out: &mut [num_complex::Complex32],
     ) -> Result<(), String> {
         self.stack.read_window(window, out)?;
-        if let Some((_, k)) = &self.calibration {
-            out.iter_mut().for_each(|v| *v *= *k);
+        match self.calibration.as_ref().map(|c| &c.scale) {
+            Some(Scale::Factor(k)) => out.iter_mut().for_each(|v| *v *= *k),
+            Some(Scale::Table(t)) => t.apply(window, out),
+            None => {}
         }
         Ok(())
     }
 
-    /// `beta0` from the file's `calibration_factor` (ICEYE's SLC products: `beta0 =
-    /// calibration_factor |value|^2`, as sarpy's ICEYE reader reads it): every value times the
-    /// factor's square root.
+    /// `beta0`, `sigma0` or `gamma0` from the product's table of it where a group above the
+    /// scene holds NISAR's `metadata/calibrationInformation/geometry` (each value divided by
+    /// the table, read bilinearly at its pixel: [`lut`]), else `beta0` from the file's
+    /// `calibration_factor` (ICEYE's SLC products: `beta0 = calibration_factor |value|^2`, as
+    /// sarpy's ICEYE reader reads it: every value times the factor's square root).
     fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
-        let path = self.stack.path.display();
-        if quantity != "beta0" {
-            return Err(format!(
-                "{path}: an HDF5 scene is calibrated by ICEYE's calibration_factor, which gives \
-                 beta0 only (asked for {quantity})"
-            ));
-        }
         #[cfg(feature = "mat73")]
         {
-            let factor = read::calibration_factor(&self.stack)?;
-            self.calibration = Some((quantity.to_string(), factor.sqrt() as f32));
+            let st = &self.stack;
+            let calibrated = |source: String, scale| Calibrated {
+                quantity: quantity.to_string(),
+                source,
+                scale,
+            };
+            if let Some((source, table)) = calibration::nisar_table(st, quantity)? {
+                self.calibration = Some(calibrated(source, Scale::Table(Box::new(table))));
+                return Ok(());
+            }
+            if quantity != "beta0" {
+                return Err(format!(
+                    "{}: no group above {} holds NISAR's calibration tables \
+                     (metadata/calibrationInformation/geometry), and ICEYE's calibration_factor \
+                     gives beta0 only (asked for {quantity})",
+                    st.path.display(),
+                    st.dataset
+                ));
+            }
+            let factor = calibration::iceye_factor(st)?;
+            let scale = Scale::Factor(factor.sqrt() as f32);
+            self.calibration = Some(calibrated("/calibration_factor".into(), scale));
             Ok(())
         }
         #[cfg(not(feature = "mat73"))]
         {
-            Err(format!("{path}: this build reads no HDF5"))
+            Err(format!(
+                "{}: this build reads no HDF5 (asked for {quantity})",
+                self.stack.path.display()
+            ))
         }
     }
 
@@ -209,7 +254,8 @@ impl crate::io::scenes::Scene for H5Scene {
             "imag": self.stack.imag,
             "rows": self.stack.dims[1],
             "cols": self.stack.dims[2],
-            "calibrated_to": self.calibration.as_ref().map(|c| c.0.clone()),
+            "calibrated_to": self.calibration.as_ref().map(|c| c.quantity.clone()),
+            "calibration_source": self.calibration.as_ref().map(|c| c.source.clone()),
         })
     }
 }

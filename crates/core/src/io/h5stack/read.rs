@@ -92,24 +92,6 @@ pub(super) fn scene_georeference(st: &H5Stack) -> Result<crate::io::mapping::Geo
     )))
 }
 
-/// ICEYE's `calibration_factor` (a scalar at the file's root: `beta0 = factor |value|^2`).
-pub(super) fn calibration_factor(st: &H5Stack) -> Result<f64, String> {
-    let at = |what: String| format!("{}: {what}", st.path.display());
-    let file = hdf5_metno::File::open(&st.path).map_err(|e| at(h5(e)))?;
-    let ds = file.dataset("calibration_factor").map_err(|_| {
-        at("its HDF5 holds no /calibration_factor (ICEYE's beta0 scale factor)".into())
-    })?;
-    let v: f64 = ds
-        .read_scalar()
-        .map_err(|e| at(format!("/calibration_factor is not one number: {}", h5(e))))?;
-    if !(v.is_finite() && v > 0.0) {
-        return Err(at(format!(
-            "/calibration_factor is {v}, not a positive number"
-        )));
-    }
-    Ok(v)
-}
-
 /// See [`H5Stack::open`].
 pub(super) fn open(
     path: &Path,

@@ -177,7 +177,10 @@ fn storage(t: &TypeDescriptor) -> String {
 }
 
 /// A string attribute's value (fixed or variable length, ASCII or UTF-8), `None` if absent.
-fn string_attr(loc: &hdf5_metno::Location, name: &str) -> Result<Option<String>, String> {
+pub(crate) fn string_attr(
+    loc: &hdf5_metno::Location,
+    name: &str,
+) -> Result<Option<String>, String> {
     if !loc.attr_names().map_err(h5)?.iter().any(|n| n == name) {
         return Ok(None);
     }

@@ -5,7 +5,8 @@
 //! sample at a time by the core's `io::h5stack` (a build with the `mat73` feature, which links
 //! libhdf5). A single scene `[H, W]` (a NISAR RSLC or OPERA CSLC frame) is cut into patches
 //! (`cut`, inside `window`), each patch a sample, read a band of patch rows at a time, and may
-//! be calibrated to beta-0 with ICEYE's `calibration_factor` (`calibration: beta0`).
+//! be calibrated with the product's own scale factors (`calibration: sigma0`): NISAR's
+//! calibration tables (beta0, sigma0, gamma0), or ICEYE's `calibration_factor` (beta0).
 
 use super::cost::{file_sizes, Cost, Sizes, C64};
 use super::kind::{DataError, DatasetKind, Layout, Materialised};
@@ -39,8 +40,9 @@ pub struct Spec {
     /// For a single scene `[H, W]`: how it is cut into patches, each patch a sample.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cut: Option<CutSpec>,
-    /// For a single scene: calibrate its values to `beta0` with the file's
-    /// `calibration_factor` (ICEYE's SLC products).
+    /// For a single scene: calibrate its values so that `|value|^2` is this quantity, with
+    /// NISAR's calibration tables (`beta0`, `sigma0`, `gamma0`) or ICEYE's
+    /// `calibration_factor` (`beta0`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<String>,
 }
@@ -97,8 +99,7 @@ impl DatasetKind for Hdf5Dataset {
                 let mut scenes = Scenes::new(vec![H5Scene::new(stack.clone())], window)
                     .map_err(|e| ctx.err(format!("{at}.{}", e.field), e.message))?;
                 if let Some(q) = &spec.calibration {
-                    use crate::io::scenes::Scene;
-                    scenes.scenes[0]
+                    scenes
                         .calibrate(q)
                         .map_err(|m| ctx.err(format!("{at}.calibration"), m))?;
                 }

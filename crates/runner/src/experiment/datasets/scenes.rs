@@ -301,11 +301,9 @@ impl<F: SceneFormat> DatasetKind for SceneDataset<F> {
             ctx.err(path, e.message)
         })?;
         if let Some(q) = &spec.calibration {
-            for scene in &mut stack.scenes {
-                scene
-                    .calibrate(q)
-                    .map_err(|m| ctx.err(format!("{at}.calibration"), m))?;
-            }
+            stack
+                .calibrate(q)
+                .map_err(|m| ctx.err(format!("{at}.calibration"), m))?;
         }
         let data = CutScenes::new(stack, spec.cut.as_ref(), ctx, &format!("{at}.cut"))?;
         Ok(SceneDataset { data })

@@ -1,0 +1,146 @@
+"""NISAR fixtures for tests/nisar.rs and python/tests/test_load.py, written with h5py, numpy and
+scipy (not by the tool), in the layouts of isce3's product writers (NISAR's processor).
+
+`rslc.h5`: an RSLC frame. `/science/LSAR/RSLC/swaths/frequencyA/HH` a complex64 [40, 30]
+scene (chunked 8 x 8, gzip), its rows' zero-Doppler times `/science/LSAR/RSLC/swaths/
+zeroDopplerTime` (seconds since an epoch, the `units` attribute as fixed-length bytes, as
+isce3 writes it) and its columns' slant ranges `.../frequencyA/slantRange` (metres); the
+calibration tables `/science/LSAR/RSLC/metadata/calibrationInformation/geometry/{beta0, sigma0,
+gamma0}` (float32 [4, 4]: beta0 1, sigma0 and gamma0 `1/sqrt(sin)` and `1/sqrt(tan)` of an
+incidence angle rising with range, scaled along time) over their own `zeroDopplerTime` (every
+12 lines from 3 lines before the first) and `slantRange` (every 7 columns from the sixth), so
+that rows after the 34th and columns outside 5..26 lie beyond the tables' grids.
+
+`gslc.h5`: a GSLC frame. `/science/LSAR/GSLC/grids/frequencyA/HH` complex64 [40, 30] with
+`xCoordinates` (rising) and `yCoordinates` (falling: north up) beside it, and the tables in
+`/science/LSAR/GSLC/metadata/calibrationInformation/geometry` over coarser `yCoordinates` (also
+falling) and `xCoordinates`.
+
+`rslc_sigma0.npy` and `gslc_gamma0.npy`: the scenes calibrated by the convention of ASF's
+NISAR documentation (`sigma0 = |DN|^2 / sigma0_table^2`: each value divided by the table at
+its pixel), the table read at each pixel by scipy's `RegularGridInterpolator` (linear) at the
+pixel's coordinates clipped to the table's grid (isce3's `LUT2d` clamps so), the factor
+`1 / table` rounded to float32 and multiplying the complex64 values.
+
+`bad.h5`: RSLC frames that cannot be calibrated, one a group: `/epoch` (the scene's times in
+seconds since another epoch than the tables'), `/no_time` (no zero-Doppler times beside the
+scene), `/zero` (a sigma0 table with a 0), `/short` (29 slant ranges for 30 columns).
+
+Usage: python make_nisar_fixtures.py OUT_DIR
+"""
+
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+from scipy.interpolate import RegularGridInterpolator
+
+ROWS, COLS = 40, 30
+EPOCH = "seconds since 2025-11-01T00:00:00.000000000"
+
+
+def axis(group, name, values, units):
+    """A float64 axis with its units as isce3 writes them (fixed-length bytes)."""
+    d = group.create_dataset(name, data=np.asarray(values, dtype=np.float64))
+    d.attrs["units"] = np.bytes_(units)
+
+
+def tables(group, row_axis, col_axis, names, incidence, along):
+    """The three tables over the axes `names` = (row, column) in `group`."""
+    axis(group, names[0], row_axis, EPOCH if names[0] == "zeroDopplerTime" else "meters")
+    axis(group, names[1], col_axis, "meters")
+    theta = np.radians(incidence)[None, :]
+    scale = along[:, None]
+    out = {
+        "beta0": np.ones((len(row_axis), len(col_axis))),
+        "sigma0": scale / np.sqrt(np.sin(theta)),
+        "gamma0": scale / np.sqrt(np.tan(theta)),
+    }
+    for name, v in out.items():
+        group[name] = v.astype(np.float32)
+    return {k: v.astype(np.float32) for k, v in out.items()}
+
+
+def calibrated(scene, row_axis, col_axis, table, rows, cols):
+    """`scene` divided by `table` read at each pixel (clipped to its grid), in float32."""
+    f = RegularGridInterpolator((row_axis, col_axis), table.astype(np.float64), method="linear")
+    r = np.clip(rows, min(row_axis), max(row_axis))
+    c = np.clip(cols, min(col_axis), max(col_axis))
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    at = f(np.stack([rr, cc], axis=-1))
+    return (scene * (1.0 / at).astype(np.float32)).astype(np.complex64)
+
+
+def rslc(root, scene, t0=1000.0, dt=0.002, r0=850_000.0, dr=3.5, time_units=EPOCH, n_ranges=COLS):
+    """An RSLC frame in `root`; its axes and tables."""
+    swaths = root.create_group("swaths")
+    freq = swaths.create_group("frequencyA")
+    freq.create_dataset("HH", data=scene, chunks=(8, 8), compression="gzip")
+    t = t0 + dt * np.arange(ROWS)
+    r = r0 + dr * np.arange(COLS)
+    axis(swaths, "zeroDopplerTime", t, time_units)
+    axis(freq, "slantRange", r[:n_ranges], "meters")
+    geometry = root.create_group("metadata/calibrationInformation/geometry")
+    lt = t0 + dt * (-3 + 12 * np.arange(4))
+    lr = r0 + dr * (5 + 7 * np.arange(4))
+    made = tables(
+        geometry,
+        lt,
+        lr,
+        ("zeroDopplerTime", "slantRange"),
+        np.linspace(30.0, 45.0, 4),
+        np.array([1.0, 1.03, 0.98, 1.05]),
+    )
+    return (t, r, lt, lr, made)
+
+
+def main(out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(20261129)
+
+    def scene():
+        v = rng.standard_normal((ROWS, COLS)) + 1j * rng.standard_normal((ROWS, COLS))
+        return (300.0 * v).astype(np.complex64)
+
+    x = scene()
+    with h5py.File(out / "rslc.h5", "w") as f:
+        t, r, lt, lr, made = rslc(f.create_group("science/LSAR/RSLC"), x)
+    np.save(out / "rslc_sigma0.npy", calibrated(x, lt, lr, made["sigma0"], t, r))
+
+    g = scene()
+    with h5py.File(out / "gslc.h5", "w") as f:
+        root = f.create_group("science/LSAR/GSLC")
+        freq = root.create_group("grids/frequencyA")
+        freq.create_dataset("HH", data=g, chunks=(8, 8), compression="gzip")
+        xs = 400_000.0 + 10.0 * (np.arange(COLS) + 0.5)
+        ys = 3_800_000.0 - 5.0 * (np.arange(ROWS) + 0.5)
+        axis(freq, "xCoordinates", xs, "meters")
+        axis(freq, "yCoordinates", ys, "meters")
+        geometry = root.create_group("metadata/calibrationInformation/geometry")
+        lx = 400_000.0 + 60.0 * np.arange(6)
+        ly = 3_800_010.0 - 50.0 * np.arange(5)
+        made = tables(
+            geometry,
+            ly,
+            lx,
+            ("yCoordinates", "xCoordinates"),
+            np.linspace(28.0, 44.0, 6),
+            np.array([1.0, 0.97, 1.02, 1.04, 0.99]),
+        )
+    np.save(out / "gslc_gamma0.npy", calibrated(g, ly, lx, made["gamma0"], ys, xs))
+
+    with h5py.File(out / "bad.h5", "w") as f:
+        rslc(f.create_group("epoch"), x, time_units="seconds since 2025-11-02T00:00:00.000000000")
+        rslc(f.create_group("no_time"), x)
+        del f["no_time/swaths/zeroDopplerTime"]
+        rslc(f.create_group("zero"), x)
+        table = f["zero/metadata/calibrationInformation/geometry/sigma0"]
+        v = table[...]
+        v[2, 1] = 0.0
+        table[...] = v
+        rslc(f.create_group("short"), x, n_ranges=COLS - 1)
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]))
