@@ -95,28 +95,41 @@ impl GridLut {
         })
     }
 
+    /// The table's value at its row `i` (clamped to the last) and column `j` (likewise).
+    fn value(&self, i: usize, j: usize) -> f64 {
+        let i = i.min(self.values.len() / self.width - 1);
+        self.values[i * self.width + j.min(self.width - 1)]
+    }
+
     /// The table's value at the scene's pixel `(r, c)`: bilinear between the four grid
-    /// points around it.
+    /// points around it (first along the rows, then across: the order [`GridLut::apply`]
+    /// keeps, value for value).
     pub fn at(&self, r: usize, c: usize) -> f64 {
         let (p, q) = (self.row_places[r], self.col_places[c]);
-        let v = |i: usize, j: usize| {
-            let i = i.min(self.values.len() / self.width - 1);
-            self.values[i * self.width + j.min(self.width - 1)]
-        };
-        let top = v(p.i, q.i) * (1.0 - q.u) + v(p.i, q.i + 1) * q.u;
-        let bottom = v(p.i + 1, q.i) * (1.0 - q.u) + v(p.i + 1, q.i + 1) * q.u;
-        top * (1.0 - p.u) + bottom * p.u
+        let down = |j: usize| self.value(p.i, j) * (1.0 - p.u) + self.value(p.i + 1, j) * p.u;
+        down(q.i) * (1.0 - q.u) + down(q.i + 1) * q.u
     }
 
     /// Calibrates `out`, the values of the scene's `window` row after row: each divided by
-    /// the table at its pixel (the factor rounded to a `f32`).
+    /// the table at its pixel ([`GridLut::at`]; the factor rounded to a `f32`). Rows on
+    /// every core, each with the table first read down to its row at every table column.
     pub fn apply(&self, window: &Window, out: &mut [Complex32]) {
+        use rayon::prelude::*;
         let width = window.c1 - window.c0;
-        for (k, row) in out.chunks_mut(width).enumerate() {
-            for (j, z) in row.iter_mut().enumerate() {
-                *z *= (1.0 / self.at(window.r0 + k, window.c0 + j)) as f32;
+        let cols = &self.col_places[window.c0..window.c1];
+        let rows = out.par_chunks_mut(width).enumerate();
+        rows.for_each_init(Vec::new, |line, (k, row)| {
+            let p = self.row_places[window.r0 + k];
+            line.clear();
+            line.extend(
+                (0..=self.width)
+                    .map(|j| self.value(p.i, j) * (1.0 - p.u) + self.value(p.i + 1, j) * p.u),
+            );
+            for (z, q) in row.iter_mut().zip(cols) {
+                let v = line[q.i] * (1.0 - q.u) + line[q.i + 1] * q.u;
+                *z *= (1.0 / v) as f32;
             }
-        }
+        });
     }
 }
 
@@ -200,6 +213,32 @@ mod tests {
         // Row 1 is half way: 2 and 3; row 2 the last: 3 and 4.
         let want = [2.0, 3.0, 3.0, 4.0].map(|t: f32| Complex32::new(6.0 / t, -6.0 / t));
         assert_eq!(out, want);
+    }
+
+    #[test]
+    fn apply_is_the_pixel_by_pixel_definition_value_for_value() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
+        let ra: Vec<f64> = (0..7).map(|k| 100.0 + 50.0 * k as f64).collect();
+        let ca: Vec<f64> = (0..5).map(|k| 900.0 - 40.0 * k as f64).collect();
+        let values: Vec<f64> = (0..35).map(|_| rng.random_range(0.5..2.0)).collect();
+        let rows: Vec<f64> = (0..90).map(|k| 80.0 + 4.0 * k as f64).collect();
+        let cols: Vec<f64> = (0..70).map(|k| 600.0 + 4.7 * k as f64).collect();
+        let lut = GridLut::new(values, (&ra, &ca), (&rows, &cols)).unwrap();
+        let win = Window {
+            r0: 3,
+            r1: 88,
+            c0: 5,
+            c1: 69,
+        };
+        let data: Vec<Complex32> = (0..win.rows() * win.cols())
+            .map(|_| Complex32::new(rng.random_range(-9.0..9.0), rng.random_range(-9.0..9.0)))
+            .collect();
+        let mut fast = data.clone();
+        lut.apply(&win, &mut fast);
+        for (k, (z, f)) in data.iter().zip(&fast).enumerate() {
+            let (r, c) = (win.r0 + k / win.cols(), win.c0 + k % win.cols());
+            assert_eq!(*f, *z * (1.0 / lut.at(r, c)) as f32, "pixel ({r}, {c})");
+        }
     }
 
     #[test]
