@@ -124,3 +124,77 @@ fn nisar_tables_calibrate_as_numpy_does_by_asfs_convention() {
     assert!(said.contains("--calibration: ") && said.contains("holds no scale factors"));
     assert!(!d.join("never.npy").exists());
 }
+
+#[test]
+fn an_rslc_map_box_lands_where_its_geolocation_grid_puts_it() {
+    // `map_box.json`: a longitude/latitude box and the pixels scipy places it on through the
+    // frame's geolocation grid at its reference terrain height (200 m; on the ellipsoid it
+    // would land a column to the right).
+    let dir = tempfile::tempdir().unwrap();
+    let Some(fx) = fixtures(dir.path()) else {
+        return;
+    };
+    let d = dir.path();
+    let b = common::read_json(&fx.join("map_box.json"));
+    let f = |v: &serde_json::Value| v.as_f64().unwrap();
+    let (x, y) = (
+        [f(&b["x"][0]), f(&b["x"][1])],
+        [f(&b["y"][0]), f(&b["y"][1])],
+    );
+    let w: Vec<u64> = (0..4).map(|k| b["window"][k].as_u64().unwrap()).collect();
+    let input = [fx.join("rslc.h5")];
+    let cut = |name: &str, place: &[&str]| {
+        let out = d.join(name);
+        let extra = ["--dataset", RSLC, "--patch", "4", "--stride", "3"];
+        let mut args: Vec<String> = vec!["cut".into(), "--input".into()];
+        args.push(input[0].display().to_string());
+        args.extend(extra.iter().chain(place).map(|a| a.to_string()));
+        args.extend(["--out".into(), out.display().to_string()]);
+        let o = common::bin(&args);
+        assert!(o.status.success(), "{}", common::text(&o));
+        std::fs::read(out).unwrap()
+    };
+    let map_box = format!("--map-box={},{},{},{}", x[0], x[1], y[0], y[1]);
+    let pixels = format!("{}:{},{}:{}", w[0], w[1], w[2], w[3]);
+    let by_map = cut("map.npy", &[&map_box]);
+    assert_eq!(by_map, cut("pixels.npy", &["--window", &pixels]));
+    let e = &b["ellipsoid_window"];
+    let ellipsoid = format!("{}:{},{}:{}", e[0], e[1], e[2], e[3]);
+    assert_ne!(by_map, cut("ellipsoid.npy", &["--window", &ellipsoid]));
+    // The `hdf5` kind's map window: the same tables as its pixel window.
+    let kind = format!("kind: hdf5, path: fixtures/rslc.h5, dataset: {RSLC}, cut: {{patch: 4}}");
+    let map = format!(
+        "{kind}, window: {{x: [{}, {}], y: [{}, {}]}}",
+        x[0], x[1], y[0], y[1]
+    );
+    let px = format!(
+        "{kind}, window: {{row: {}, col: {}, size: [{}, {}]}}",
+        w[0],
+        w[2],
+        w[1] - w[0],
+        w[3] - w[2]
+    );
+    common::scenes::assert_same_tables(
+        &common::scenes::run(d, "map", &map),
+        &common::scenes::run(d, "px", &px),
+    );
+    // A box off the grid: refused, saying so.
+    let o = common::bin(&[
+        "cut",
+        "--input",
+        input[0].to_str().unwrap(),
+        "--dataset",
+        RSLC,
+        "--patch",
+        "4",
+        "--map-box=-100,-99.9,10,10.1",
+        "--out",
+        d.join("never.npy").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", common::text(&o));
+    assert!(
+        common::text(&o).contains("maps to no finite pixels"),
+        "{}",
+        common::text(&o)
+    );
+}

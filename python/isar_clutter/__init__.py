@@ -81,7 +81,8 @@ def load(
       parts in the dataset ``imag``; a stack ``[N, H, W]`` (``layout="hwn"``: ``[H, W, N]``)
       or a single scene ``[H, W]`` read in ``window`` (giving ``[1, rows, cols]``), or in
       ``map_box`` through the coordinate vectors beside it (OPERA's ``x_coordinates`` and
-      ``y_coordinates``, NISAR's ``xCoordinates`` and ``yCoordinates``); a scene's
+      ``y_coordinates``, NISAR's ``xCoordinates`` and ``yCoordinates``; else a NISAR
+      RSLC's geolocation grid at its terrain height, longitude and latitude); a scene's
       ``calibration`` (``"beta0"``, ``"sigma0"``, ``"gamma0"``) divides each value by the
       NISAR product's table of it at its pixel (RSLC, GSLC), or, for ``beta0``, multiplies
       it by the root of ICEYE's ``calibration_factor``.

@@ -8,7 +8,7 @@ them, ``{real, imag}``, ``{re, im}``), real numbers (with the imaginary parts in
 none) or float pairs (a last dimension of 2); a stack ``[N, H, W]`` (``[H, W, N]`` with
 ``layout="hwn"``) or a single scene ``[H, W]``, read in ``window`` and calibrated with
 the product's own scale factors as the command line's ``calibration`` calibrates it (NISAR's
-calibration tables, ICEYE's ``calibration_factor``; docs/formats.md).
+calibration tables, ICEYE's ``calibration_factor``; docs/spec.md).
 """
 
 import os
@@ -47,8 +47,9 @@ def load_hdf5(
     A single scene's window may instead be ``map_box`` ``((x0, x1), (y0, y1))`` in the map
     coordinates of the vectors of its column and row centres beside it in its group
     (``x_coordinates``/``y_coordinates``, OPERA's; ``xCoordinates``/``yCoordinates``,
-    NISAR's; ``x``/``y``): the pixels that cover the box, as the command line's ``hdf5`` kind
-    places a map ``window``.
+    NISAR's; ``x``/``y``), else through a NISAR RSLC product's geolocation grid at its
+    reference terrain height: the pixels that cover the box, as the command line's ``hdf5``
+    kind places a map ``window``.
 
     A single scene may be calibrated (``calibration``: ``"beta0"``, ``"sigma0"``,
     ``"gamma0"``) so that ``|x|**2`` is that quantity: by NISAR's table of it where a group
@@ -261,9 +262,13 @@ def _map_window(f, path: str, dataset: str, dims, map_box):
             x, y = group[xn][...].astype(np.float64), group[yn][...].astype(np.float64)
             break
     else:
+        grid = _geolocation_window(f, path, dataset, dims, map_box)
+        if grid is not None:
+            return grid
         raise ValueError(
             f"window: {path}: {dataset} has no coordinate vectors beside it in {group.name} "
-            "(x_coordinates/y_coordinates, xCoordinates/yCoordinates or x/y)"
+            "(x_coordinates/y_coordinates, xCoordinates/yCoordinates or x/y) and no group "
+            "above it holds NISAR's metadata/geolocationGrid"
         )
     if len(x) != dims[1] or len(y) != dims[0] or len(x) < 2 or len(y) < 2:
         raise ValueError(f"window: {path}: the coordinate vectors are not the scene's size")
@@ -285,6 +290,97 @@ def _map_window(f, path: str, dataset: str, dims, map_box):
 
     r0, r1 = int(np.floor(snap(min(rows)))), int(np.ceil(snap(max(rows))))
     c0, c1 = int(np.floor(snap(min(cols)))), int(np.ceil(snap(max(cols))))
+    return (r0, c0, r1 - r0, c1 - c0)
+
+
+#: Where a NISAR product keeps its geolocation grid and its processor's terrain heights.
+GEOLOCATION = "metadata/geolocationGrid"
+TERRAIN = "metadata/processingInformation/parameters/referenceTerrainHeight"
+
+
+def _index(v: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Fractional indices of ``t`` along the axis ``v``, linear between and beyond its values."""
+    sign = 1.0 if v[-1] > v[0] else -1.0
+    i = np.clip(np.searchsorted(sign * v, sign * t, side="right"), 1, len(v) - 1) - 1
+    return i + (t - v[i]) / (v[i + 1] - v[i])
+
+
+def _position(nodes: np.ndarray, t: float) -> float:
+    """The fractional node index ``t`` as a pixel position: linear between the nodes'
+    positions ``nodes``, extended from the end pairs."""
+    i = min(max(int(np.floor(t)), 0), len(nodes) - 2)
+    return float(nodes[i] + (t - i) * (nodes[i + 1] - nodes[i]))
+
+
+def _geolocation_window(f, path: str, dataset: str, dims, map_box):
+    """``(row, col, rows, cols)`` covering ``map_box`` through the NISAR RSLC product's
+    geolocation grid above ``dataset`` at its reference terrain height (as the command line's
+    io/h5stack/geolocation.rs and io/geogrid.rs place it), ``None`` without one."""
+    groups = _ancestors(dataset)
+    roots = [k for k, g in enumerate(groups) if _join(g, GEOLOCATION + "/coordinateX") in f]
+    if not roots:
+        return None
+    root = groups[roots[0]]
+    g = f[_join(root, GEOLOCATION)]
+    times, ranges = g["zeroDopplerTime"][...], g["slantRange"][...]
+    heights = g["heightAboveEllipsoid"][...].astype(np.float64)
+    xs, ys = g["coordinateX"][...].astype(np.float64), g["coordinateY"][...].astype(np.float64)
+    terrain = f[_join(root, TERRAIN)][...] if _join(root, TERRAIN) in f else np.array([])
+    terrain = terrain[np.isfinite(terrain)]
+    h = float(terrain.mean()) if terrain.size else 0.0
+    if len(heights) == 1:
+        layer = [xs[0], ys[0]]
+    else:
+        k = int(np.clip(np.searchsorted(heights, h, side="right"), 1, len(heights) - 1)) - 1
+        w = float(np.clip((h - heights[k]) / (heights[k + 1] - heights[k]), 0.0, 1.0))
+        layer = [c[k] * (1 - w) + c[k + 1] * w for c in (xs, ys)]
+    beside = []
+    for name, n in (("zeroDopplerTime", dims[0]), ("slantRange", dims[1])):
+        place = next((p for p in groups[: roots[0] + 1] if _join(p, name) in f), None)
+        if place is None or f[_join(place, name)].shape != (n,):
+            raise ValueError(f"window: {path}: no {name} of the scene's size beside {dataset}")
+        beside.append(f[_join(place, name)][...].astype(np.float64))
+    node_rows = _index(beside[0], times) + 0.5
+    node_cols = _index(beside[1], ranges) + 0.5
+    m, n = len(node_rows), len(node_cols)
+
+    def at(a, b):
+        i, j = min(max(int(np.floor(a)), 0), m - 2), min(max(int(np.floor(b)), 0), n - 2)
+        u, v = a - i, b - j
+        p = [c[i : i + 2, j : j + 2] for c in layer]
+        val = [q[0, 0] * (1 - u) * (1 - v) + q[0, 1] * (1 - u) * v + q[1, 0] * u * (1 - v)
+               + q[1, 1] * u * v for q in p]
+        da = [(q[1, 0] - q[0, 0]) * (1 - v) + (q[1, 1] - q[0, 1]) * v for q in p]
+        db = [(q[0, 1] - q[0, 0]) * (1 - u) + (q[1, 1] - q[1, 0]) * u for q in p]
+        return val, da, db
+
+    def pixel(x, y):
+        scale = max(abs(np.cos(np.radians(y))), 1e-9) if abs(y) <= 90 else 1.0
+        d = ((layer[0] - x) * scale) ** 2 + (layer[1] - y) ** 2
+        a, b = (float(t) for t in np.unravel_index(np.argmin(d), d.shape))
+        for _ in range(60):
+            val, da, db = at(a, b)
+            rx, ry = x - val[0], y - val[1]
+            det = da[0] * db[1] - db[0] * da[1]
+            sa, sb = (rx * db[1] - db[0] * ry) / det, (da[0] * ry - rx * da[1]) / det
+            a, b = a + sa, b + sb
+            if max(abs(sa), abs(sb)) < 1e-10:
+                if not (-1e-9 <= a <= m - 1 + 1e-9 and -1e-9 <= b <= n - 1 + 1e-9):
+                    break
+                return _position(node_rows, a), _position(node_cols, b)
+        raise ValueError(f"window: {path}: the point ({x}, {y}) lies outside the geolocation grid")
+
+    (x0, x1), (y0, y1) = map_box
+    steps = np.arange(17) / 16
+    edges = [(x0 + (x1 - x0) * t, yy) for t in steps for yy in (y0, y1)]
+    edges += [(xx, y0 + (y1 - y0) * t) for t in steps for xx in (x0, x1)]
+    placed = np.array([pixel(xx, yy) for xx, yy in edges])
+
+    def snap(v):
+        return round(v) if abs(v - round(v)) < 1e-6 else v
+
+    r0, r1 = int(np.floor(snap(placed[:, 0].min()))), int(np.ceil(snap(placed[:, 0].max())))
+    c0, c1 = int(np.floor(snap(placed[:, 1].min()))), int(np.ceil(snap(placed[:, 1].max())))
     return (r0, c0, r1 - r0, c1 - c0)
 
 

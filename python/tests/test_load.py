@@ -279,3 +279,25 @@ def test_hdf5_scenes_are_calibrated_by_nisar_tables_and_iceye_factors(tmp_path):
     assert np.array_equal(beta0[0], (ints[0] + 1j * ints[1]).astype(np.complex64) * np.float32(np.sqrt(3.7e-7)))
     with pytest.raises(ValueError, match="gives beta0 only"):
         ic.load(tmp_path / "iceye.h5", dataset="s_i", imag="s_q", calibration="sigma0")
+
+
+def test_an_rslc_map_box_is_placed_by_its_geolocation_grid(tmp_path):
+    """The RSLC frame of tests/hdf5/make_nisar_fixtures.py: ``map_box`` reads the window scipy
+    placed the box on through the frame's geolocation grid at its terrain height."""
+    pytest.importorskip("h5py")
+    pytest.importorskip("scipy")
+    import json
+
+    path = Path(__file__).resolve().parents[2] / "tests" / "hdf5" / "make_nisar_fixtures.py"
+    spec = importlib.util.spec_from_file_location("nisar_fixtures", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(tmp_path)
+    box = json.loads((tmp_path / "map_box.json").read_text())
+    rslc = "/science/LSAR/RSLC/swaths/frequencyA/HH"
+    got = ic.load(tmp_path / "rslc.h5", dataset=rslc, map_box=(box["x"], box["y"]))
+    r0, r1, c0, c1 = box["window"]
+    want = ic.load(tmp_path / "rslc.h5", dataset=rslc, window=(r0, c0, r1 - r0, c1 - c0))
+    assert got.shape == want.shape and np.array_equal(got, want)
+    with pytest.raises(ValueError, match="outside the geolocation grid"):
+        ic.load(tmp_path / "rslc.h5", dataset=rslc, map_box=((-100.0, -99.9), (10.0, 10.1)))

@@ -11,6 +11,16 @@ incidence angle rising with range, scaled along time) over their own `zeroDopple
 12 lines from 3 lines before the first) and `slantRange` (every 7 columns from the sixth), so
 that rows after the 34th and columns outside 5..26 lie beyond the tables' grids.
 
+`rslc.h5` also holds the frame's geolocation grid (`metadata/geolocationGrid`, as isce3 writes
+it: `coordinateX`/`coordinateY` [heights, times, ranges] at `heightAboveEllipsoid` -500, 0, 500
+and 1000 m over nodes every 9 lines and 8 columns with margins, `epsg` 4326) of a rotated,
+slightly curved longitude/latitude map that shifts with height, and the processor's
+`referenceTerrainHeight` (mean 200 m). `map_box.json`: a longitude/latitude box and the pixel
+window that covers it (`[r0, r1, c0, c1]`, ends excluded) at 200 m, found by scipy: the grid's
+two layers around 200 m interpolated linearly, read at a pixel by `RegularGridInterpolator`
+over the nodes' times and ranges, and the box's corners placed by `scipy.optimize.fsolve`
+(the box's edges are monotonic in rows and columns, so its corners bound them).
+
 `gslc.h5`: a GSLC frame. `/science/LSAR/GSLC/grids/frequencyA/HH` complex64 [40, 30] with
 `xCoordinates` (rising) and `yCoordinates` (falling: north up) beside it, and the tables in
 `/science/LSAR/GSLC/metadata/calibrationInformation/geometry` over coarser `yCoordinates` (also
@@ -29,12 +39,14 @@ scene), `/zero` (a sigma0 table with a 0), `/short` (29 slant ranges for 30 colu
 Usage: python make_nisar_fixtures.py OUT_DIR
 """
 
+import json
 import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
+from scipy.optimize import fsolve
 
 ROWS, COLS = 40, 30
 EPOCH = "seconds since 2025-11-01T00:00:00.000000000"
@@ -95,6 +107,63 @@ def rslc(root, scene, t0=1000.0, dt=0.002, r0=850_000.0, dr=3.5, time_units=EPOC
     return (t, r, lt, lr, made)
 
 
+HEIGHTS = np.array([-500.0, 0.0, 500.0, 1000.0])
+
+
+def lonlat(row, col, h):
+    """The map's longitude and latitude at pixel-centre indices (row, col) and height h:
+    rotated about 20 degrees from the pixel axes, slightly curved, shifted with height."""
+    lon = -121.9 + 2.0e-4 * col + 7.0e-5 * row + 3.0e-7 * col**2 + 1.0e-6 * h * (1 + 0.01 * col)
+    lat = 37.4 - 1.8e-4 * row + 6.5e-5 * col - 2.0e-7 * row * col + 4.0e-7 * h
+    return lon, lat
+
+
+def geolocation(root, t, r):
+    """isce3's geolocation grid of `lonlat` over nodes every 9 lines and 8 columns, with
+    margins, and a reference terrain height; the map box and its window at that height."""
+    grid = root.create_group("metadata/geolocationGrid")
+    rows = -6.0 + 9.0 * np.arange(7)
+    cols = -4.0 + 8.0 * np.arange(6)
+    dt, dr = t[1] - t[0], r[1] - r[0]
+    axis(grid, "zeroDopplerTime", t[0] + dt * rows, EPOCH)
+    axis(grid, "slantRange", r[0] + dr * cols, "meters")
+    axis(grid, "heightAboveEllipsoid", HEIGHTS, "meters")
+    rr, cc = np.meshgrid(rows, cols, indexing="ij")
+    cube = [lonlat(rr, cc, h) for h in HEIGHTS]
+    grid["coordinateX"] = np.stack([c[0] for c in cube])
+    grid["coordinateY"] = np.stack([c[1] for c in cube])
+    grid["epsg"] = np.int32(4326)
+    terrain = np.array([180.0, 220.0, 190.0, 210.0])
+    root["metadata/processingInformation/parameters/referenceTerrainHeight"] = terrain
+    rr_nodes = rows
+    x, y = [-121.8970, -121.8951], [37.3979, 37.4003]
+
+    def window_at(h):
+        """The box's window with the grid's layers interpolated linearly at height h."""
+        k = int(np.clip(np.searchsorted(HEIGHTS, h, side="right"), 1, len(HEIGHTS) - 1)) - 1
+        w = (h - HEIGHTS[k]) / (HEIGHTS[k + 1] - HEIGHTS[k])
+        layers = [grid[n][k] * (1 - w) + grid[n][k + 1] * w for n in ("coordinateX", "coordinateY")]
+        maps = [RegularGridInterpolator((rr_nodes, cols), v, method="linear") for v in layers]
+
+        def place(lon, lat):
+            f = lambda p: [maps[0]([p])[0] - lon, maps[1]([p])[0] - lat]
+            p = fsolve(f, [20.0, 15.0], xtol=1e-13)
+            assert np.allclose(f(p), 0, atol=1e-12), f(p)
+            return p + 0.5  # pixel-corner positions, as the tool counts them
+
+        corners = np.array([place(lo, la) for lo in x for la in y])
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        ends = np.concatenate([lo, hi])
+        assert np.all(np.abs(ends - np.round(ends)) > 1e-3), ends
+        return [int(np.floor(lo[0])), int(np.ceil(hi[0])), int(np.floor(lo[1])), int(np.ceil(hi[1]))]
+
+    window = window_at(terrain.mean())
+    assert 0 <= window[0] < window[1] <= ROWS and 0 <= window[2] < window[3] <= COLS, window
+    # The height matters: on the ellipsoid the box lands elsewhere.
+    assert window_at(0.0) != window, window
+    return {"x": x, "y": y, "window": window, "ellipsoid_window": window_at(0.0)}
+
+
 def main(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(20261129)
@@ -106,6 +175,8 @@ def main(out: Path) -> None:
     x = scene()
     with h5py.File(out / "rslc.h5", "w") as f:
         t, r, lt, lr, made = rslc(f.create_group("science/LSAR/RSLC"), x)
+        box = geolocation(f["science/LSAR/RSLC"], t, r)
+    (out / "map_box.json").write_text(json.dumps(box))
     np.save(out / "rslc_sigma0.npy", calibrated(x, lt, lr, made["sigma0"], t, r))
 
     g = scene()

@@ -8,7 +8,9 @@
 //! ([`super::projection`]) at the scene centre's height. A grid of map points sampling the
 //! image in blocks of pixels (UAVSAR's `.llh` files: a latitude and longitude every 8 rows and
 //! 2 columns) places a box exactly at the grid's resolution: the window covers the blocks
-//! whose points lie in the box.
+//! whose points lie in the box. Map coordinates at the nodes of a grid over the pixels (a NISAR
+//! RSLC's geolocation grid) place a point by inverting the grid's bilinear map
+//! ([`super::geogrid`]).
 
 use super::cut::Window;
 use super::projection::Projection;
@@ -45,6 +47,8 @@ pub enum Georeference {
     },
     /// A map point for every block of pixels.
     Grid(Box<PointGrid>),
+    /// Map coordinates at the nodes of a grid over the pixels, bilinear between them.
+    Nodes(Box<super::geogrid::NodeGrid>),
 }
 
 /// Map points sampling an image in blocks: point `(i, j)` (row-major, `rows x cols` of them)
@@ -157,7 +161,7 @@ const EDGE_POINTS: usize = 17;
 
 /// The pixel window that covers the box `x` x `y` of map coordinates under `georef`: the
 /// box's edges in pixel coordinates (corners, and [`EDGE_POINTS`] points an edge for ground
-/// control points), rounded outwards (a coordinate within 1e-6 of a whole pixel taken as that
+/// control points and node grids), rounded outwards (a coordinate within 1e-6 of a whole pixel taken as that
 /// pixel).
 ///
 /// # Errors
@@ -169,7 +173,8 @@ pub fn map_window(georef: &Georeference, x: [f64; 2], y: [f64; 2]) -> Result<Map
         return Ok(MapWindow { window, fit: None });
     }
     let (to_pixel, fit) = transform(georef)?;
-    let steps = if fit.is_some() { EDGE_POINTS - 1 } else { 1 };
+    let bends = fit.is_some() || matches!(georef, Georeference::Nodes(_));
+    let steps = if bends { EDGE_POINTS - 1 } else { 1 };
     let (mut rows, mut cols) = (
         [f64::INFINITY, f64::NEG_INFINITY],
         [f64::INFINITY, f64::NEG_INFINITY],
@@ -268,6 +273,7 @@ fn transform(georef: &Georeference) -> Result<(ToPixel<'_>, Option<Fit>), String
             (Box::new(move |xx, yy| Some(p.pixel(xx, yy))), fit)
         }
         Georeference::Grid(g) => (Box::new(|xx, yy| g.pixel(xx, yy)), None),
+        Georeference::Nodes(g) => (Box::new(|xx, yy| g.pixel(xx, yy)), None),
     })
 }
 

@@ -5,10 +5,12 @@
 //! their annotations (`uavsar`); complex stacks in HDF5 files (`h5stack`); output folders the tool owns
 //! (`outdir`: claim, lock, completeness; `journal`: what the tool wrote there); map coordinates
 //! to pixels (`mapping`: affine transforms and ground control points; `projection`: SICD's
-//! ground-to-image projection).
+//! ground-to-image projection; `geogrid`: map coordinates at the nodes of a grid, as NISAR's
+//! geolocation grid gives them).
 
 pub mod atomic;
 pub mod cut;
+pub mod geogrid;
 pub mod geotiff;
 pub mod h5stack;
 pub mod journal;

@@ -6,8 +6,8 @@
 //! ICEYE's scalar `/calibration_factor`.
 
 use super::lut::GridLut;
+use super::product::{axis, h5, same_units, Product};
 use super::types::H5Stack;
-use crate::io::mat::v73::string_attr;
 
 /// The group of a product that holds its calibration tables, below the product's group.
 const TABLES: &str = "metadata/calibrationInformation/geometry";
@@ -18,30 +18,6 @@ const AXES: [(&str, &str); 2] = [
     ("zeroDopplerTime", "slantRange"),
     ("yCoordinates", "xCoordinates"),
 ];
-
-/// What a failed HDF5 call says.
-fn h5(e: hdf5_metno::Error) -> String {
-    e.to_string()
-}
-
-/// The groups above the dataset `name`, nearest first, ending with the root.
-fn ancestors(name: &str) -> Vec<String> {
-    let parts: Vec<&str> = name.split('/').filter(|p| !p.is_empty()).collect();
-    (0..parts.len())
-        .rev()
-        .map(|k| format!("/{}", parts[..k].join("/")))
-        .collect()
-}
-
-/// A 1-D dataset of numbers, as `f64`, and its `units` attribute.
-fn axis(g: &hdf5_metno::Group, name: &str) -> Result<(Vec<f64>, Option<String>), String> {
-    let d = g.dataset(name).map_err(h5)?;
-    if d.ndim() != 1 {
-        return Err(format!("has dimensions {:?}, not one", d.shape()));
-    }
-    let values = d.read_raw::<f64>().map_err(h5)?;
-    Ok((values, string_attr(&d, "units")?))
-}
 
 /// NISAR's calibration table of `quantity` for the scene `st`, placed on its pixels, with its
 /// dataset's path; `None` where no group above the scene holds [`TABLES`].
@@ -57,14 +33,11 @@ pub(super) fn nisar_table(
 ) -> Result<Option<(String, GridLut)>, String> {
     let at = |what: String| format!("{}: {what}", st.path.display());
     let file = hdf5_metno::File::open(&st.path).map_err(|e| at(h5(e)))?;
-    let groups = ancestors(&st.dataset);
-    let Some(root) = groups
-        .iter()
-        .position(|g| file.link_exists(&format!("{g}/{TABLES}").replace("//", "/")))
-    else {
+    let Some(product) = Product::find(&file, &st.dataset, TABLES) else {
         return Ok(None);
     };
-    let tables = format!("{}/{TABLES}", groups[root]).replace("//", "/");
+    let tables = product.join(TABLES);
+    let join = |name: &str| format!("{tables}/{name}");
     let g = file.group(&tables).map_err(|e| at(h5(e)))?;
     if !g.link_exists(quantity) {
         let names = g.member_names().map_err(|e| at(h5(e)))?;
@@ -102,44 +75,16 @@ pub(super) fn nisar_table(
     let values = table
         .read_raw::<f64>()
         .map_err(|e| at(format!("{tables}/{quantity}: {}", h5(e))))?;
-    // The scene's own coordinates of the same names: in its group or one above it, up to
-    // the product's group.
+    let because = format!("to place {tables}/{quantity} on its pixels");
     let beside = |name: &str, len: usize, side: &str| {
-        let Some(place) = groups[..=root]
-            .iter()
-            .find(|p| file.link_exists(&format!("{p}/{name}").replace("//", "/")))
-        else {
-            return Err(at(format!(
-                "no {name} beside {} (looked in {} and the groups above it up to {}), to \
-                 place {tables}/{quantity} on its pixels",
-                st.dataset, groups[0], groups[root]
-            )));
-        };
-        let grp = file.group(place).map_err(|e| at(h5(e)))?;
-        let (v, units) = read_axis(&grp, place, name)?;
-        if v.len() != len {
-            return Err(at(format!(
-                "{place}/{name} holds {} values for the scene's {len} {side}",
-                v.len()
-            )));
-        }
-        Ok((v, units, format!("{place}/{name}")))
+        product
+            .beside(&file, st, (name, len, side), &because)
+            .map_err(at)
     };
     let (rows, row_scene_units, rp) = beside(rn, st.dims[1], "rows")?;
     let (cols, col_scene_units, cp) = beside(cn, st.dims[2], "columns")?;
-    for (table_units, scene_units, name, scene_axis) in [
-        (row_units, row_scene_units, rn, rp),
-        (col_units, col_scene_units, cn, cp),
-    ] {
-        if let (Some(a), Some(b)) = (&table_units, &scene_units) {
-            if a.trim() != b.trim() {
-                return Err(at(format!(
-                    "{tables}/{name} is in {a:?} but {scene_axis} in {b:?}: the table and the \
-                     scene must share their axes' units (and epoch)"
-                )));
-            }
-        }
-    }
+    same_units((&join(rn), &row_units), (&rp, &row_scene_units)).map_err(at)?;
+    same_units((&join(cn), &col_units), (&cp, &col_scene_units)).map_err(at)?;
     let source = format!("{tables}/{quantity}");
     GridLut::new(values, (&row_axis, &col_axis), (&rows, &cols))
         .map(|t| Some((source.clone(), t)))
@@ -169,23 +114,4 @@ pub(super) fn iceye_factor(st: &H5Stack) -> Result<f64, String> {
         )));
     }
     Ok(v)
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn ancestors_run_from_the_nearest_group_to_the_root() {
-        assert_eq!(
-            super::ancestors("/science/LSAR/RSLC/swaths/frequencyA/HH"),
-            [
-                "/science/LSAR/RSLC/swaths/frequencyA",
-                "/science/LSAR/RSLC/swaths",
-                "/science/LSAR/RSLC",
-                "/science/LSAR",
-                "/science",
-                "/"
-            ]
-        );
-        assert_eq!(super::ancestors("frame"), ["/"]);
-    }
 }

@@ -20,7 +20,11 @@ mod calibration;
 #[cfg(feature = "mat73")]
 mod chunks;
 pub mod coords;
+#[cfg(feature = "mat73")]
+mod geolocation;
 pub mod lut;
+#[cfg(feature = "mat73")]
+mod product;
 #[cfg(feature = "mat73")]
 mod read;
 mod types;

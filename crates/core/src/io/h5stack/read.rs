@@ -62,8 +62,8 @@ fn h5(e: hdf5_metno::Error) -> String {
     e.to_string()
 }
 
-/// The affine georeference of a single scene from the coordinate vectors beside it
-/// ([`super::coords`]).
+/// The georeference of a single scene: affine from the coordinate vectors beside it
+/// ([`super::coords`]), else its NISAR product's geolocation grid ([`super::geolocation`]).
 pub(super) fn scene_georeference(st: &H5Stack) -> Result<crate::io::mapping::Georeference, String> {
     let at = |what: String| format!("{}: {what}", st.path.display());
     let file = hdf5_metno::File::open(&st.path).map_err(|e| at(h5(e)))?;
@@ -85,9 +85,13 @@ pub(super) fn scene_georeference(st: &H5Stack) -> Result<crate::io::mapping::Geo
             .map_err(|m| at(format!("{}: {m}", st.dataset)))?;
         return Ok(crate::io::mapping::Georeference::Affine(a));
     }
+    if let Some((nodes, _)) = super::geolocation::nisar_grid(st)? {
+        return Ok(crate::io::mapping::Georeference::Nodes(Box::new(nodes)));
+    }
     Err(at(format!(
         "{} has no coordinate vectors beside it in {group} (x_coordinates/y_coordinates, \
-         xCoordinates/yCoordinates or x/y: its column and row centres)",
+         xCoordinates/yCoordinates or x/y: its column and row centres) and no group above it \
+         holds NISAR's metadata/geolocationGrid",
         st.dataset
     )))
 }
