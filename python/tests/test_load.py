@@ -49,10 +49,7 @@ def test_a_uavsar_stack_is_read_as_numpy_reads_it(tmp_path):
 def test_a_uavsar_map_box_reads_the_blocks_of_the_llh_points_in_it(tmp_path):
     """tests/uavsar/make_fixtures.py's scenes and ``.llh`` grid: ``map_box`` gives the window
     numpy cut there from the blocks whose points lie in the box."""
-    path = Path(__file__).resolve().parents[2] / "tests" / "uavsar" / "make_fixtures.py"
-    spec = importlib.util.spec_from_file_location("uavsar_fixtures", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = fixture_script("uavsar", "make_fixtures")
     module.main(tmp_path)
     paths = sorted(tmp_path.glob("*_s1_1x1.slc"))
     x = ic.load(paths, map_box=module.BOX)
@@ -123,14 +120,26 @@ def test_geotiff_scenes_are_read_as_rasterio_reads_them(tmp_path):
         ic.load(paths)
 
 
-def sicd_script(name):
-    """The fixture script ``tests/sicd/<name>.py`` (it writes SICD files with sarpy) as a module."""
-    pytest.importorskip("sarpy")
-    path = Path(__file__).resolve().parents[2] / "tests" / "sicd" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(name, path)
+def fixture_script(folder, name):
+    """The fixture script ``tests/<folder>/<name>.py`` as a module."""
+    path = Path(__file__).resolve().parents[2] / "tests" / folder / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"{folder}_{name}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def sicd_script(name):
+    """The fixture script ``tests/sicd/<name>.py`` (it writes SICD files with sarpy) as a module."""
+    pytest.importorskip("sarpy")
+    return fixture_script("sicd", name)
+
+
+def nisar_fixtures(tmp_path):
+    """tests/hdf5/make_nisar_fixtures.py's files (h5py, numpy, scipy) in ``tmp_path``."""
+    pytest.importorskip("h5py")
+    pytest.importorskip("scipy")
+    fixture_script("hdf5", "make_nisar_fixtures").main(tmp_path)
 
 
 def sicd_fixtures(tmp_path):
@@ -248,13 +257,7 @@ def test_hdf5_scenes_are_calibrated_by_nisar_tables_and_iceye_factors(tmp_path):
     the scenes numpy and scipy calibrated from them (``|DN|**2 / table**2``, the table read
     bilinearly, clipped to its grid): ``calibration=`` gives those values; ICEYE's factor
     gives ``beta0``; a table at another epoch than the scene's times is refused."""
-    pytest.importorskip("h5py")
-    pytest.importorskip("scipy")
-    path = Path(__file__).resolve().parents[2] / "tests" / "hdf5" / "make_nisar_fixtures.py"
-    spec = importlib.util.spec_from_file_location("nisar_fixtures", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    module.main(tmp_path)
+    nisar_fixtures(tmp_path)
     rslc = "/science/LSAR/RSLC/swaths/frequencyA/HH"
     got = ic.load(tmp_path / "rslc.h5", dataset=rslc, calibration="sigma0")
     want = np.load(tmp_path / "rslc_sigma0.npy")
@@ -284,15 +287,9 @@ def test_hdf5_scenes_are_calibrated_by_nisar_tables_and_iceye_factors(tmp_path):
 def test_an_rslc_map_box_is_placed_by_its_geolocation_grid(tmp_path):
     """The RSLC frame of tests/hdf5/make_nisar_fixtures.py: ``map_box`` reads the window scipy
     placed the box on through the frame's geolocation grid at its terrain height."""
-    pytest.importorskip("h5py")
-    pytest.importorskip("scipy")
     import json
 
-    path = Path(__file__).resolve().parents[2] / "tests" / "hdf5" / "make_nisar_fixtures.py"
-    spec = importlib.util.spec_from_file_location("nisar_fixtures", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    module.main(tmp_path)
+    nisar_fixtures(tmp_path)
     box = json.loads((tmp_path / "map_box.json").read_text())
     rslc = "/science/LSAR/RSLC/swaths/frequencyA/HH"
     got = ic.load(tmp_path / "rslc.h5", dataset=rslc, map_box=(box["x"], box["y"]))

@@ -58,11 +58,14 @@ def axis(group, name, values, units):
     d.attrs["units"] = np.bytes_(units)
 
 
-def tables(group, row_axis, col_axis, names, incidence, along):
-    """The three tables over the axes `names` = (row, column) in `group`."""
+def tables(group, axes, names, incidence, along):
+    """The three tables over the axes `axes` named `names` (row, column) in `group`: the
+    incidence angle rising linearly over the columns between the degrees `incidence`, the
+    tables scaled along the rows by `along`."""
+    row_axis, col_axis = axes
     axis(group, names[0], row_axis, EPOCH if names[0] == "zeroDopplerTime" else "meters")
     axis(group, names[1], col_axis, "meters")
-    theta = np.radians(incidence)[None, :]
+    theta = np.radians(np.linspace(incidence[0], incidence[1], len(col_axis)))[None, :]
     scale = along[:, None]
     out = {
         "beta0": np.ones((len(row_axis), len(col_axis))),
@@ -96,14 +99,8 @@ def rslc(root, scene, t0=1000.0, dt=0.002, r0=850_000.0, dr=3.5, time_units=EPOC
     geometry = root.create_group("metadata/calibrationInformation/geometry")
     lt = t0 + dt * (-3 + 12 * np.arange(4))
     lr = r0 + dr * (5 + 7 * np.arange(4))
-    made = tables(
-        geometry,
-        lt,
-        lr,
-        ("zeroDopplerTime", "slantRange"),
-        np.linspace(30.0, 45.0, 4),
-        np.array([1.0, 1.03, 0.98, 1.05]),
-    )
+    along = np.array([1.0, 1.03, 0.98, 1.05])
+    made = tables(geometry, (lt, lr), ("zeroDopplerTime", "slantRange"), (30.0, 45.0), along)
     return (t, r, lt, lr, made)
 
 
@@ -191,14 +188,8 @@ def main(out: Path) -> None:
         geometry = root.create_group("metadata/calibrationInformation/geometry")
         lx = 400_000.0 + 60.0 * np.arange(6)
         ly = 3_800_010.0 - 50.0 * np.arange(5)
-        made = tables(
-            geometry,
-            ly,
-            lx,
-            ("yCoordinates", "xCoordinates"),
-            np.linspace(28.0, 44.0, 6),
-            np.array([1.0, 0.97, 1.02, 1.04, 0.99]),
-        )
+        along = np.array([1.0, 0.97, 1.02, 1.04, 0.99])
+        made = tables(geometry, (ly, lx), ("yCoordinates", "xCoordinates"), (28.0, 44.0), along)
     np.save(out / "gslc_gamma0.npy", calibrated(g, ly, lx, made["gamma0"], ys, xs))
 
     with h5py.File(out / "bad.h5", "w") as f:

@@ -366,6 +366,22 @@ mod tests {
         write_script(path, &format!("#!/bin/sh\n{body}")).unwrap();
     }
 
+    /// [`submit_with`] the fake `sbatch` just written, tried again while running it fails
+    /// with "Text file busy": another test thread's child, forked while the script was open
+    /// for writing, holds that descriptor until it executes its own program (a few
+    /// milliseconds), and Linux refuses to run a file open for writing.
+    fn submit_fake(fake: &Path, s: &Scripts) -> Result<(String, String)> {
+        for _ in 0..200 {
+            match submit_with(fake, s) {
+                Err(e) if format!("{e:#}").contains("Text file busy") => {
+                    std::thread::sleep(std::time::Duration::from_millis(10))
+                }
+                done => return done,
+            }
+        }
+        submit_with(fake, s)
+    }
+
     #[test]
     fn array_script_asks_for_one_task_per_shard_and_runs_the_shard() {
         let (dir, mut opts) = setup("out", 3);
@@ -568,7 +584,7 @@ mod tests {
             ),
         );
         assert_eq!(
-            submit_with(&fake, &s).unwrap(),
+            submit_fake(&fake, &s).unwrap(),
             ("41".to_string(), "42".to_string())
         );
         let want = format!(
@@ -588,7 +604,7 @@ mod tests {
             &fake,
             "echo 'sbatch: error: invalid partition specified: gpu' >&2\nexit 1\n",
         );
-        let err = format!("{:#}", submit_with(&fake, &s).unwrap_err());
+        let err = format!("{:#}", submit_fake(&fake, &s).unwrap_err());
         assert!(err.contains("invalid partition specified: gpu"), "{err}");
         assert!(err.contains("array.sbatch"), "{err}");
         // The merge submission fails after the array was accepted: say which job to cancel.
@@ -601,7 +617,7 @@ mod tests {
                  else echo 'sbatch: error: busy' >&2; exit 1; fi\n"
             ),
         );
-        let err = format!("{:#}", submit_with(&fake, &s).unwrap_err());
+        let err = format!("{:#}", submit_fake(&fake, &s).unwrap_err());
         assert!(err.contains("scancel 7") && err.contains("busy"), "{err}");
         let missing = dir.path().join("no/sbatch");
         let err = format!("{:#}", submit_with(&missing, &s).unwrap_err());
