@@ -174,9 +174,15 @@ fn an_rslc_map_box_lands_where_its_geolocation_grid_puts_it() {
         w[1] - w[0],
         w[3] - w[2]
     );
-    common::scenes::assert_same_tables(
-        &common::scenes::run(d, "map", &map),
-        &common::scenes::run(d, "px", &px),
+    let by_map = common::scenes::run(d, "map", &map);
+    common::scenes::assert_same_tables(&by_map, &common::scenes::run(d, "px", &px));
+    let files = common::scenes::dataset_files(&by_map);
+    assert_eq!(
+        files["files"][0]["map_placed_by"],
+        "geolocation grid /science/LSAR/RSLC/metadata/geolocationGrid at 200 m above the \
+         ellipsoid (the mean of /science/LSAR/RSLC/metadata/processingInformation/parameters/\
+         referenceTerrainHeight)",
+        "{files}"
     );
     // A box off the grid: refused, saying so.
     let o = common::bin(&[

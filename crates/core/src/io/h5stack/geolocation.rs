@@ -28,14 +28,15 @@ fn index(v: &[f64], t: f64) -> f64 {
     i as f64 + (t - v[i]) / (v[i + 1] - v[i])
 }
 
-/// The frame's geolocation grid at its reference terrain height, on its pixels, and that
-/// height; `None` where no group above the scene holds [`GRID`].
+/// The frame's geolocation grid at its reference terrain height, on its pixels, and what it
+/// is in words (the grid and the height); `None` where no group above the scene holds
+/// [`GRID`].
 ///
 /// # Errors
 /// Naming the file and the dataset: a grid dataset missing or of another shape than its
 /// axes, fewer than two heights, times or ranges; the scene's times or ranges missing beside
 /// it, of another length than its side, or in other units than the grid's.
-pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, f64)>, String> {
+pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, String)>, String> {
     let at = |what: String| format!("{}: {what}", st.path.display());
     let file = hdf5_metno::File::open(&st.path).map_err(|e| at(h5(e)))?;
     let Some(product) = Product::find(&file, &st.dataset, &format!("{GRID}/coordinateX")) else {
@@ -75,7 +76,7 @@ pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, f64)>, String
             .map_err(|e| at(format!("{grid}/{name}: {}", h5(e))))
     };
     let (xs, ys) = (cube("coordinateX")?, cube("coordinateY")?);
-    let height = terrain_height(&file, &product).map_err(at)?;
+    let (height, from) = terrain_height(&file, &product).map_err(at)?;
     // The layers around the height (the nearest end layer beyond them).
     let k = heights
         .partition_point(|&h| h <= height)
@@ -118,14 +119,17 @@ pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, f64)>, String
     let node_cols = ranges.iter().map(|&r| index(&cols, r) + 0.5).collect();
     let nodes = NodeGrid::new(node_rows, node_cols, layer(&xs), layer(&ys))
         .map_err(|m| at(format!("{grid}: {m}")))?;
-    Ok(Some((nodes, height)))
+    let by = format!("geolocation grid {grid} at {height} m above the ellipsoid ({from})");
+    Ok(Some((nodes, by)))
 }
 
-/// The mean of the product's reference terrain heights (finite ones), 0 m where it has none.
-fn terrain_height(file: &hdf5_metno::File, product: &Product) -> Result<f64, String> {
+/// The mean of the product's reference terrain heights (finite ones), 0 m where it has none;
+/// and where it came from, in words.
+fn terrain_height(file: &hdf5_metno::File, product: &Product) -> Result<(f64, String), String> {
     let path = product.join(TERRAIN);
+    let none = || (0.0, format!("no {path}: the ellipsoid"));
     if !file.link_exists(&path) {
-        return Ok(0.0);
+        return Ok(none());
     }
     let v: Vec<f64> = file
         .dataset(&path)
@@ -133,9 +137,10 @@ fn terrain_height(file: &hdf5_metno::File, product: &Product) -> Result<f64, Str
         .map_err(|e| format!("{path}: {}", h5(e)))?;
     let finite: Vec<f64> = v.into_iter().filter(|h| h.is_finite()).collect();
     Ok(if finite.is_empty() {
-        0.0
+        none()
     } else {
-        finite.iter().sum::<f64>() / finite.len() as f64
+        let mean = finite.iter().sum::<f64>() / finite.len() as f64;
+        (mean, format!("the mean of {path}"))
     })
 }
 

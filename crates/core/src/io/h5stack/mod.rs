@@ -131,6 +131,9 @@ pub struct H5Scene {
     pub stack: H5Stack,
     /// How its reads are calibrated (`None`: as stored).
     pub calibration: Option<Calibrated>,
+    /// What placed a map window on it, once [`crate::io::scenes::Scene::georeference`] has
+    /// (for the manifest): the coordinate vectors, or the geolocation grid and its height.
+    placed_by: std::sync::OnceLock<String>,
 }
 
 /// A scene's calibration: the quantity `|value|^2` is made, where its scale comes from, and
@@ -160,6 +163,7 @@ impl H5Scene {
         H5Scene {
             stack,
             calibration: None,
+            placed_by: std::sync::OnceLock::new(),
         }
     }
 }
@@ -235,11 +239,13 @@ impl crate::io::scenes::Scene for H5Scene {
     }
 
     /// The affine transform of the coordinate vectors beside the scene in its group
-    /// ([`coords`]).
+    /// ([`coords`]), else its NISAR product's geolocation grid (`geolocation.rs`).
     fn georeference(&self) -> Result<crate::io::mapping::Georeference, String> {
         #[cfg(feature = "mat73")]
         {
-            read::scene_georeference(&self.stack)
+            let (georef, by) = read::scene_georeference(&self.stack)?;
+            let _ = self.placed_by.set(by);
+            Ok(georef)
         }
         #[cfg(not(feature = "mat73"))]
         {
@@ -260,6 +266,7 @@ impl crate::io::scenes::Scene for H5Scene {
             "cols": self.stack.dims[2],
             "calibrated_to": self.calibration.as_ref().map(|c| c.quantity.clone()),
             "calibration_source": self.calibration.as_ref().map(|c| c.source.clone()),
+            "map_placed_by": self.placed_by.get(),
         })
     }
 }

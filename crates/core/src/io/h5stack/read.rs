@@ -63,8 +63,11 @@ fn h5(e: hdf5_metno::Error) -> String {
 }
 
 /// The georeference of a single scene: affine from the coordinate vectors beside it
-/// ([`super::coords`]), else its NISAR product's geolocation grid ([`super::geolocation`]).
-pub(super) fn scene_georeference(st: &H5Stack) -> Result<crate::io::mapping::Georeference, String> {
+/// ([`super::coords`]), else its NISAR product's geolocation grid ([`super::geolocation`]);
+/// and what it came from, in words.
+pub(super) fn scene_georeference(
+    st: &H5Stack,
+) -> Result<(crate::io::mapping::Georeference, String), String> {
     let at = |what: String| format!("{}: {what}", st.path.display());
     let file = hdf5_metno::File::open(&st.path).map_err(|e| at(h5(e)))?;
     let group = match st.dataset.trim_end_matches('/').rfind('/') {
@@ -83,10 +86,11 @@ pub(super) fn scene_georeference(st: &H5Stack) -> Result<crate::io::mapping::Geo
         let (x, y) = (read(x, xn)?, read(y, yn)?);
         let a = super::coords::affine(&x, &y, (st.dims[1], st.dims[2]))
             .map_err(|m| at(format!("{}: {m}", st.dataset)))?;
-        return Ok(crate::io::mapping::Georeference::Affine(a));
+        let by = format!("coordinate vectors {group}/{xn}, {group}/{yn}");
+        return Ok((crate::io::mapping::Georeference::Affine(a), by));
     }
-    if let Some((nodes, _)) = super::geolocation::nisar_grid(st)? {
-        return Ok(crate::io::mapping::Georeference::Nodes(Box::new(nodes)));
+    if let Some((nodes, by)) = super::geolocation::nisar_grid(st)? {
+        return Ok((crate::io::mapping::Georeference::Nodes(Box::new(nodes)), by));
     }
     Err(at(format!(
         "{} has no coordinate vectors beside it in {group} (x_coordinates/y_coordinates, \
