@@ -324,16 +324,20 @@ def _geolocation_window(f, path: str, dataset: str, dims, map_box):
     g = f[_join(root, GEOLOCATION)]
     times, ranges = g["zeroDopplerTime"][...], g["slantRange"][...]
     heights = g["heightAboveEllipsoid"][...].astype(np.float64)
-    xs, ys = g["coordinateX"][...].astype(np.float64), g["coordinateY"][...].astype(np.float64)
     terrain = f[_join(root, TERRAIN)][...] if _join(root, TERRAIN) in f else np.array([])
     terrain = terrain[np.isfinite(terrain)]
     h = float(terrain.mean()) if terrain.size else 0.0
+    # The two layers around the height (only they are read), linear between them.
     if len(heights) == 1:
-        layer = [xs[0], ys[0]]
+        k, k1, w = 0, 0, 0.0
     else:
         k = int(np.clip(np.searchsorted(heights, h, side="right"), 1, len(heights) - 1)) - 1
-        w = float(np.clip((h - heights[k]) / (heights[k + 1] - heights[k]), 0.0, 1.0))
-        layer = [c[k] * (1 - w) + c[k + 1] * w for c in (xs, ys)]
+        k1 = k + 1
+        w = float(np.clip((h - heights[k]) / (heights[k1] - heights[k]), 0.0, 1.0))
+    layer = []
+    for name in ("coordinateX", "coordinateY"):
+        two = g[name][k : k1 + 1].astype(np.float64)
+        layer.append(two[0] * (1 - w) + two[-1] * w)
     beside = []
     for name, n in (("zeroDopplerTime", dims[0]), ("slantRange", dims[1])):
         place = next((p for p in groups[: roots[0] + 1] if _join(p, name) in f), None)

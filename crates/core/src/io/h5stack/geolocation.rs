@@ -5,9 +5,9 @@
 //! above the ellipsoid (`heightAboveEllipsoid`). The grid is taken at the frame's reference
 //! terrain height (the mean of the product's
 //! `metadata/processingInformation/parameters/referenceTerrainHeight`, the heights its
-//! processor used; 0 m where it has none), linear between the two layers around it, and its
-//! nodes placed on the scene's pixels by the scene's own times and ranges stored beside it:
-//! a [`NodeGrid`].
+//! processor used; 0 m where it has none), linear between the two layers around it (only those
+//! two are read), and its nodes placed on the scene's pixels by the scene's own times and
+//! ranges stored beside it: a [`NodeGrid`].
 
 use super::product::{axis, h5, same_units, Product};
 use super::types::H5Stack;
@@ -61,21 +61,6 @@ pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, String)>, Str
             "{grid} has {nh} heights, {nt} times and {nr} ranges: a grid needs 1, 2 and 2 or more"
         )));
     }
-    let cube = |name: &str| -> Result<Vec<f64>, String> {
-        let d = g
-            .dataset(name)
-            .map_err(|e| at(format!("{grid}/{name}: {}", h5(e))))?;
-        if d.shape() != [nh, nt, nr] {
-            return Err(at(format!(
-                "{grid}/{name} has dimensions {:?}, its axes [{nh}, {nt}, {nr}] \
-                 (heightAboveEllipsoid, zeroDopplerTime, slantRange)",
-                d.shape()
-            )));
-        }
-        d.read_raw::<f64>()
-            .map_err(|e| at(format!("{grid}/{name}: {}", h5(e))))
-    };
-    let (xs, ys) = (cube("coordinateX")?, cube("coordinateY")?);
     let (height, from) = terrain_height(&file, &product).map_err(at)?;
     // The layers around the height (the nearest end layer beyond them).
     let k = heights
@@ -88,13 +73,28 @@ pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, String)>, Str
         let w = ((height - heights[k]) / (heights[k + 1] - heights[k])).clamp(0.0, 1.0);
         (k + 1, w)
     };
-    let layer = |c: &[f64]| -> Vec<f64> {
-        let (a, b) = (&c[k * nt * nr..][..nt * nr], &c[k1 * nt * nr..][..nt * nr]);
-        a.iter()
-            .zip(b)
+    // Those two layers of a cube (only they are read), mixed at the height.
+    let layer = |name: &str| -> Result<Vec<f64>, String> {
+        let fail = |e: hdf5_metno::Error| at(format!("{grid}/{name}: {}", h5(e)));
+        let d = g.dataset(name).map_err(fail)?;
+        if d.shape() != [nh, nt, nr] {
+            return Err(at(format!(
+                "{grid}/{name} has dimensions {:?}, its axes [{nh}, {nt}, {nr}] \
+                 (heightAboveEllipsoid, zeroDopplerTime, slantRange)",
+                d.shape()
+            )));
+        }
+        let two: ndarray::Array3<f64> = d.read_slice(ndarray::s![k..=k1, .., ..]).map_err(fail)?;
+        let (a, b) = (
+            two.index_axis(ndarray::Axis(0), 0),
+            two.index_axis(ndarray::Axis(0), k1 - k),
+        );
+        Ok(a.iter()
+            .zip(b.iter())
             .map(|(p, q)| p * (1.0 - w) + q * w)
-            .collect()
+            .collect())
     };
+    let (xs, ys) = (layer("coordinateX")?, layer("coordinateY")?);
     let why = format!("to place {grid} on its pixels");
     let (rows, row_units, rp) = product
         .beside(&file, st, ("zeroDopplerTime", st.dims[1], "rows"), &why)
@@ -117,8 +117,8 @@ pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, String)>, Str
     // Pixel centres sit at whole indices; the grid's pixel positions count from corners.
     let node_rows = times.iter().map(|&t| index(&rows, t) + 0.5).collect();
     let node_cols = ranges.iter().map(|&r| index(&cols, r) + 0.5).collect();
-    let nodes = NodeGrid::new(node_rows, node_cols, layer(&xs), layer(&ys))
-        .map_err(|m| at(format!("{grid}: {m}")))?;
+    let nodes =
+        NodeGrid::new(node_rows, node_cols, xs, ys).map_err(|m| at(format!("{grid}: {m}")))?;
     let by = format!("geolocation grid {grid} at {height} m above the ellipsoid ({from})");
     Ok(Some((nodes, by)))
 }
