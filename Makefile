@@ -117,15 +117,16 @@ hdf5:
 		echo "no libhdf5 found (Debian's libhdf5-dev, or pkg-config): set HDF5_DIR to an HDF5 installation, or build without mat73: make FEATURES="; exit 1; \
 	fi
 
-## test-deps: libhdf5-dev (`hdf5`); SciPy, h5py, rasterio, sarpy, zarr and xarray (pinned) in
-## .venv for the MATLAB .mat, HDF5, GeoTIFF, SICD and Zarr tests;
+## test-deps: libhdf5-dev (`hdf5`); SciPy, h5py, rasterio, sarpy, zarr, xarray and
+## xarray-sentinel (pinned) in .venv for the MATLAB .mat, HDF5, GeoTIFF, Sentinel-1, SICD and
+## Zarr tests;
 ## headless Chromium for the report's browser test (Debian's `chromium`; installed with apt
 ## when running as root, otherwise a hint). Under CI=true the browser and .mat tests fail
 ## without them rather than skipping.
-TEST_DEPS := scipy==1.15.3 h5py==3.13.0 rasterio==1.4.3 sarpy==1.3.64 zarr==3.1.3 xarray==2025.10.1
-TEST_DEP_VERSIONS := ["1.15.3", "3.13.0", "1.4.3", "1.3.64", "3.1.3", "2025.10.1"]
+TEST_DEPS := scipy==1.15.3 h5py==3.13.0 rasterio==1.4.3 sarpy==1.3.64 zarr==3.1.3 xarray==2025.10.1 xarray-sentinel==0.9.6
+TEST_DEP_VERSIONS := ["1.15.3", "3.13.0", "1.4.3", "1.3.64", "3.1.3", "2025.10.1", "0.9.6"]
 test-deps: hdf5 $(VENV)/bin/python
-	@$(VENV)/bin/python -c 'import sys, scipy, h5py, rasterio, sarpy, zarr, xarray; sys.exit([m.__version__ for m in (scipy, h5py, rasterio, sarpy, zarr, xarray)] != $(TEST_DEP_VERSIONS))' 2>/dev/null || \
+	@$(VENV)/bin/python -c 'import sys, scipy, h5py, rasterio, sarpy, zarr, xarray, xarray_sentinel; sys.exit([m.__version__ for m in (scipy, h5py, rasterio, sarpy, zarr, xarray, xarray_sentinel)] != $(TEST_DEP_VERSIONS))' 2>/dev/null || \
 	{ echo "installing $(TEST_DEPS) into $(VENV) for the .mat, HDF5, GeoTIFF, SICD and Zarr tests (pip)"; \
 	  $(VENV)/bin/pip install --quiet $(TEST_DEPS); }
 	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || \

@@ -66,7 +66,10 @@ def load(
       strips or tiles, uncompressed or deflate); every scene is one sample, read in
       ``window`` as above, or in the pixels covering ``map_box`` ``((x0, x1), (y0, y1))``
       of the files' map coordinates (their affine transform, or their ground control points
-      as GDAL fits them: longitude and latitude for Sentinel-1). complex64.
+      as GDAL fits them: longitude and latitude for Sentinel-1). complex64; ``calibration``
+      (``"sigma0"``, ``"beta0"``, ``"gamma0"``) divides each value of a Sentinel-1
+      measurement by its SAFE product's calibration table there (``annotation/calibration/
+      calibration-<name>.xml``), so that ``|x|**2`` is that quantity.
     - SICD images (``.nitf``, ``.ntf``: NITF 2.1 with SICD XML, Umbra's and Capella's
       single-look complex deliveries; ``RE32F_IM32F``, ``RE16I_IM16I``, ``AMP8I_PHS8I``);
       every image is one sample, read in ``window`` as above, or in the pixels covering
@@ -102,10 +105,11 @@ def load(
         return load_hdf5(paths[0], dataset, imag, layout, window, map_box, calibration)
     if dataset is not None or imag is not None:
         raise ValueError("dataset= and imag= name datasets of an HDF5 file (.h5, .hdf5, .he5)")
-    if calibration is not None and not (kinds and kinds <= {".nitf", ".ntf"}):
+    if calibration is not None and not (kinds and kinds <= {".nitf", ".ntf", ".tif", ".tiff"}):
         raise ValueError(
-            "calibration reads SICD's scale factors (.nitf/.ntf files) and HDF5 products' "
-            "(NISAR's tables, ICEYE's factor)"
+            "calibration reads SICD's scale factors (.nitf/.ntf files), Sentinel-1's "
+            "calibration annotations (.tiff measurements in their SAFE product) and HDF5 "
+            "products' (NISAR's tables, ICEYE's factor)"
         )
     if kinds == {".slc"}:
         return load_uavsar(paths, _paths(annotation), window, map_box)
@@ -115,7 +119,7 @@ def load(
             "images (.nitf, .ntf) and HDF5 scenes (.h5, .hdf5, .he5)"
         )
     if kinds and kinds <= {".tif", ".tiff"} and annotation is None:
-        return load_geotiff(paths, window, map_box)
+        return load_geotiff(paths, window, map_box, calibration)
     if kinds and kinds <= {".nitf", ".ntf"} and annotation is None:
         return load_sicd(paths, window, calibration, map_box)
     raise ValueError(

@@ -44,9 +44,11 @@ def load_geotiff(
     paths: Sequence[Union[str, PathLike]],
     window: Optional[Tuple[int, int, int, int]] = None,
     map_box: Optional[Tuple[Tuple[float, float], Tuple[float, float]]] = None,
+    calibration: Optional[str] = None,
 ) -> np.ndarray:
     """The window ``(row, col, rows, cols)`` (or the pixels covering ``map_box`` ``((x0, x1),
-    (y0, y1))`` in map coordinates) of every complex GeoTIFF scene as complex64 [N, H, W]."""
+    (y0, y1))`` in map coordinates) of every complex GeoTIFF scene as complex64 [N, H, W],
+    calibrated to ``calibration`` by each Sentinel-1 measurement's SAFE annotation."""
 
 def load_sicd(
     paths: Sequence[Union[str, PathLike]],

@@ -127,7 +127,7 @@ def load_hdf5(
             sel = (slice(r0, r0 + h), slice(c0, c0 + w))
             values = _complex(ds[sel], im[sel] if im is not None else None, form, out_type)
             if calibration is not None:
-                values = values * _scale(f, path, dataset, dims, calibration, sel)
+                values = _calibrate(f, path, dataset, dims, calibration, sel, values)
             return values[np.newaxis]
         if len(dims) != 3:
             raise ValueError(
@@ -171,8 +171,8 @@ def _place(axis: np.ndarray, x: np.ndarray):
     return i, np.clip((x - axis[i]) / (axis[i + 1] - axis[i]), 0.0, 1.0)
 
 
-def _scale(f, path: str, dataset: str, dims, quantity: str, sel) -> np.ndarray:
-    """The factors that calibrate the window ``sel`` of the scene to ``quantity``."""
+def _calibrate(f, path: str, dataset: str, dims, quantity: str, sel, values) -> np.ndarray:
+    """``values``, the window ``sel`` of the scene, calibrated to ``quantity``."""
     groups = _ancestors(dataset)
     roots = [k for k, g in enumerate(groups) if _join(g, TABLES) in f]
     if not roots:
@@ -190,7 +190,7 @@ def _scale(f, path: str, dataset: str, dims, quantity: str, sel) -> np.ndarray:
         factor = float(np.asarray(f["calibration_factor"][()]))
         if not (np.isfinite(factor) and factor > 0):
             raise ValueError(f"calibration: {path}: /calibration_factor is {factor}")
-        return np.float32(np.sqrt(factor))
+        return values * np.float32(np.sqrt(factor))
     root = roots[0]
     tables = _join(groups[root], TABLES)
     g = f[tables]
@@ -246,7 +246,7 @@ def _scale(f, path: str, dataset: str, dims, quantity: str, sel) -> np.ndarray:
     top = table[ri][:, ci] * (1 - cu) + table[ri][:, j1] * cu
     bottom = table[i1][:, ci] * (1 - cu) + table[i1][:, j1] * cu
     at = top * (1 - ru)[:, None] + bottom * ru[:, None]
-    return (1.0 / at).astype(np.float32)
+    return values / at.astype(np.float32)
 
 
 COORDINATE_NAMES = [("x_coordinates", "y_coordinates"), ("xCoordinates", "yCoordinates"),

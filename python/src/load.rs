@@ -40,24 +40,27 @@ pub fn load_uavsar<'py>(
     read_stack(py, &stack, "UAVSAR", |_| true)
 }
 
-/// load_geotiff(paths, window=None, map_box=None)
+/// load_geotiff(paths, window=None, map_box=None, calibration=None)
 /// --
 ///
 /// The same window `(row, col, rows, cols)` of every complex GeoTIFF scene in `paths`
 /// (default: the whole scene), or the pixels covering `map_box` `((x0, x1), (y0, y1))` in the
 /// files' map coordinates (their affine transform or ground control points, as the `geotiff`
-/// kind's map `window`), as a complex64 `[N, H, W]` array. A bad file is a `ValueError`
-/// naming the field, the scene, the file and the TIFF tag; an unreadable one an `OSError`.
+/// kind's map `window`), as a complex64 `[N, H, W]` array, calibrated to `calibration`
+/// (`sigma0`, `beta0`, `gamma0`) by each Sentinel-1 measurement's calibration annotation in
+/// its SAFE product. A bad file is a `ValueError` naming the field, the scene, the file and
+/// the TIFF tag; an unreadable one an `OSError`.
 #[pyfunction]
-#[pyo3(signature = (paths, window = None, map_box = None))]
+#[pyo3(signature = (paths, window = None, map_box = None, calibration = None))]
 pub fn load_geotiff<'py>(
     py: Python<'py>,
     paths: Vec<PathBuf>,
     window: Option<(usize, usize, usize, usize)>,
     map_box: Option<([f64; 2], [f64; 2])>,
+    calibration: Option<String>,
 ) -> PyResult<Bound<'py, PyArray3<Complex32>>> {
     let place = place(window, map_box)?;
-    load_scenes::<GeoTiff>(py, &paths, place, None, "GeoTIFF", |e| {
+    load_scenes::<GeoTiff>(py, &paths, place, calibration, "GeoTIFF", |e| {
         matches!(e, TiffError::Io { .. })
     })
 }
@@ -124,11 +127,9 @@ where
     let mut stack =
         Scenes::<S>::open(paths, window).map_err(|e| PyValueError::new_err(e.to_string()))?;
     if let Some(q) = &calibration {
-        for scene in &mut stack.scenes {
-            scene
-                .calibrate(q)
-                .map_err(|m| PyValueError::new_err(format!("calibration: {m}")))?;
-        }
+        stack
+            .calibrate(q)
+            .map_err(|m| PyValueError::new_err(format!("calibration: {m}")))?;
     }
     read_stack(py, &stack, what, is_io)
 }

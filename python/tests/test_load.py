@@ -298,3 +298,28 @@ def test_an_rslc_map_box_is_placed_by_its_geolocation_grid(tmp_path):
     assert got.shape == want.shape and np.array_equal(got, want)
     with pytest.raises(ValueError, match="outside the geolocation grid"):
         ic.load(tmp_path / "rslc.h5", dataset=rslc, map_box=((-100.0, -99.9), (10.0, 10.1)))
+
+
+def test_a_sentinel1_measurement_is_calibrated_by_its_safe_annotation(tmp_path):
+    """A SAFE product of tests/geotiff/make_s1_calibration.py (rasterio's CInt16 measurement,
+    ESA's calibration annotation): ``calibration="sigma0"`` divides each value by the
+    ``sigmaNought`` table read bilinearly (scipy) at its line and pixel, as float32."""
+    pytest.importorskip("scipy")
+    from scipy.interpolate import RegularGridInterpolator
+
+    module = fixture_script("geotiff", "make_s1_calibration")
+    scene = (np.arange(40 * 30).reshape(40, 30) % 97 - 48 + 1j * (np.arange(1200).reshape(40, 30) % 31)).astype(np.complex64)
+    lines, pixels = [-3 + 11 * k for k in range(5)], [8 * j for j in range(5)]
+    li, pj = np.meshgrid(np.arange(5.0), np.arange(5.0), indexing="ij")
+    sigma = 620.0 + 9.0 * pj - 4.0 * li + 1.5 * li * pj
+    tables = {"sigmaNought": sigma, "betaNought": sigma * 0 + 473.0, "gamma": sigma * 0 + 560.0, "dn": sigma * 0 + 400.0}
+    tiff = module.product(tmp_path / module.SAFE, scene, lines, pixels, tables)
+    got = ic.load(tiff, calibration="sigma0")
+    written = np.asarray([[float(f"{v:.6e}") for v in row] for row in sigma])
+    f = RegularGridInterpolator((np.array(lines, float), np.array(pixels, float)), written)
+    rr, cc = np.meshgrid(np.arange(40.0), np.arange(30.0), indexing="ij")
+    want = scene / f(np.stack([rr, cc], axis=-1)).astype(np.float32)
+    np.testing.assert_allclose(got[0], want, rtol=2.5e-7, atol=0)
+    assert not np.allclose(ic.load(tiff)[0], want)
+    with pytest.raises(ValueError, match="calibration: .*asked for rcs"):
+        ic.load(tiff, calibration="rcs")

@@ -29,8 +29,8 @@ falling) and `xCoordinates`.
 `rslc_sigma0.npy` and `gslc_gamma0.npy`: the scenes calibrated by the convention of ASF's
 NISAR documentation (`sigma0 = |DN|^2 / sigma0_table^2`: each value divided by the table at
 its pixel), the table read at each pixel by scipy's `RegularGridInterpolator` (linear) at the
-pixel's coordinates clipped to the table's grid (isce3's `LUT2d` clamps so), the factor
-`1 / table` rounded to float32 and multiplying the complex64 values.
+pixel's coordinates clipped to the table's grid (isce3's `LUT2d` clamps so), rounded to
+float32 and dividing the complex64 values.
 
 `bad.h5`: RSLC frames that cannot be calibrated, one a group: `/epoch` (the scene's times in
 seconds since another epoch than the tables'), `/no_time` (no zero-Doppler times beside the
@@ -84,7 +84,7 @@ def calibrated(scene, row_axis, col_axis, table, rows, cols):
     c = np.clip(cols, min(col_axis), max(col_axis))
     rr, cc = np.meshgrid(r, c, indexing="ij")
     at = f(np.stack([rr, cc], axis=-1))
-    return (scene * (1.0 / at).astype(np.float32)).astype(np.complex64)
+    return (scene / at.astype(np.float32)).astype(np.complex64)
 
 
 def rslc(root, scene, t0=1000.0, dt=0.002, r0=850_000.0, dr=3.5, time_units=EPOCH, n_ranges=COLS):

@@ -2,7 +2,8 @@
 //! v7.3 with the `mat73` feature; read, and written by `generate`), NetCDF-3 files, model folders, Parquet tables, and atomic writes (a temporary name in the same folder,
 //! then a rename), so a reader never sees a half-written file; generated samples streamed with
 //! direct I/O (`stream`); clutter stacks cut from scenes (`cut`); UAVSAR single-look complex scenes and
-//! their annotations (`uavsar`); complex stacks in HDF5 files (`h5stack`); output folders the tool owns
+//! their annotations (`uavsar`); complex stacks in HDF5 files (`h5stack`); calibration
+//! tables read at each pixel (`lut`); output folders the tool owns
 //! (`outdir`: claim, lock, completeness; `journal`: what the tool wrote there); map coordinates
 //! to pixels (`mapping`: affine transforms and ground control points; `projection`: SICD's
 //! ground-to-image projection; `geogrid`: map coordinates at the nodes of a grid, as NISAR's
@@ -14,6 +15,7 @@ pub mod geogrid;
 pub mod geotiff;
 pub mod h5stack;
 pub mod journal;
+pub mod lut;
 pub mod mapping;
 pub mod mat;
 pub mod model;

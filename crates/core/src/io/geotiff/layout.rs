@@ -118,4 +118,6 @@ pub struct GeoTiff {
     pub blocks: Blocks,
     /// Georeferencing.
     pub georef: Georef,
+    /// Sentinel-1's calibration of its reads, from its SAFE product (`None`: as stored).
+    pub calibration: Option<Box<super::s1cal::S1Calibration>>,
 }

@@ -5,7 +5,8 @@
 //! The first image of the file is read (overviews are not), a window at a time
 //! ([`read::read_window`]): only the strips or tiles under the window are read, so a window of
 //! a scene of any size needs the window's memory and a band of blocks. Its georeferencing
-//! ([`georef::Georef`]) goes into a run's manifest.
+//! ([`georef::Georef`]) goes into a run's manifest. A Sentinel-1 measurement inside its SAFE
+//! product is calibrated by the product's calibration annotation ([`s1cal`]).
 //!
 //! Why a reader of our own: the `tiff` crate (image-rs, 0.11) decodes no complex sample
 //! format (TIFF's `SampleFormat` 5 and 6), and GDAL, which does, would add a C library with
@@ -16,6 +17,7 @@ pub mod georef;
 pub mod ifd;
 pub mod layout;
 pub mod read;
+pub mod s1cal;
 
 pub use ifd::tag_name;
 pub use layout::{Blocks, Compression, GeoTiff, Num, TiffError};
@@ -124,6 +126,7 @@ impl GeoTiff {
             compression,
             blocks,
             georef: georef::Georef::read(&ifd),
+            calibration: None,
         })
     }
 
@@ -142,6 +145,8 @@ impl GeoTiff {
             },
             "blocks": if self.blocks.tiled { "tiles" } else { "strips" },
             "georef": self.georef,
+            "calibrated_to": self.calibration.as_ref().map(|c| c.quantity.clone()),
+            "calibration_source": self.calibration.as_ref().map(|c| c.source.display().to_string()),
         })
     }
 }
@@ -256,7 +261,19 @@ impl Scene for GeoTiff {
     }
 
     fn read_window(&self, window: &Window, out: &mut [Complex32]) -> Result<(), TiffError> {
-        read::read_window(self, window, out)
+        read::read_window(self, window, out)?;
+        if let Some(c) = &self.calibration {
+            c.table.apply(window, out);
+        }
+        Ok(())
+    }
+
+    /// `sigma0`, `beta0` or `gamma0` by the Sentinel-1 calibration annotation of its SAFE
+    /// product (each value divided by the table at its pixel, [`s1cal`]).
+    fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
+        let c = s1cal::sentinel1(&self.path, quantity, (self.rows, self.cols))?;
+        self.calibration = Some(Box::new(c));
+        Ok(())
     }
 
     fn describe(&self) -> serde_json::Value {

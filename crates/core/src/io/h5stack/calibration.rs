@@ -5,9 +5,9 @@
 //! `swaths/zeroDopplerTime` and `swaths/frequencyA/slantRange`), read into a [`GridLut`]; or
 //! ICEYE's scalar `/calibration_factor`.
 
-use super::lut::GridLut;
 use super::product::{axis, h5, same_units, Product};
 use super::types::H5Stack;
+use crate::io::lut::GridLut;
 
 /// The group of a product that holds its calibration tables, below the product's group.
 const TABLES: &str = "metadata/calibrationInformation/geometry";

@@ -10,7 +10,7 @@
 //! without it refuses such a stack, saying so. A single scene `[H, W]` ([`H5Scene`]) is read a
 //! window at a time instead, to be cut into patches, and placed on the map by the coordinate
 //! vectors beside it (`coords.rs`), and calibrated by the product's own scale factors
-//! (`calibration.rs`: NISAR's tables, `lut.rs`; ICEYE's factor).
+//! (`calibration.rs`: NISAR's tables, read by [`crate::io::lut`]; ICEYE's factor).
 
 use crate::io::npy::Stack;
 use std::path::Path;
@@ -22,7 +22,6 @@ mod chunks;
 pub mod coords;
 #[cfg(feature = "mat73")]
 mod geolocation;
-pub mod lut;
 #[cfg(feature = "mat73")]
 mod product;
 #[cfg(feature = "mat73")]
@@ -154,7 +153,7 @@ pub enum Scale {
     /// Every value times one factor (ICEYE's: the root of its `calibration_factor`).
     Factor(f32),
     /// Every value divided by the table at its pixel (NISAR's).
-    Table(Box<lut::GridLut>),
+    Table(Box<crate::io::lut::GridLut>),
 }
 
 impl H5Scene {
@@ -195,7 +194,7 @@ impl crate::io::scenes::Scene for H5Scene {
 
     /// `beta0`, `sigma0` or `gamma0` from the product's table of it where a group above the
     /// scene holds NISAR's `metadata/calibrationInformation/geometry` (each value divided by
-    /// the table, read bilinearly at its pixel: [`lut`]), else `beta0` from the file's
+    /// the table, read bilinearly at its pixel: [`crate::io::lut`]), else `beta0` from the file's
     /// `calibration_factor` (ICEYE's SLC products: `beta0 = calibration_factor |value|^2`, as
     /// sarpy's ICEYE reader reads it: every value times the factor's square root).
     fn calibrate(&mut self, quantity: &str) -> Result<(), String> {

@@ -1,12 +1,14 @@
-//! Radiometric calibration of an HDF5 scene by a 2-D look-up table, as NISAR's RSLC and GSLC
-//! products carry one (`metadata/calibrationInformation/geometry/{beta0, sigma0, gamma0}`):
-//! a table of scale values on a coarse grid of the scene's own axes (zero-Doppler time and
-//! slant range for an RSLC, map x and y for a GSLC). The table's value at a pixel is read
+//! Radiometric calibration by a 2-D look-up table: a table of scale values on a coarse grid
+//! of a scene's own axes, as NISAR's RSLC and GSLC products carry them
+//! (`metadata/calibrationInformation/geometry/{beta0, sigma0, gamma0}` over zero-Doppler time
+//! and slant range, or map x and y) and Sentinel-1's calibration annotations (`sigmaNought`,
+//! `betaNought`, `gamma` over image lines and pixels). The table's value at a pixel is read
 //! bilinearly between its grid points, clamped to the grid's edges (the mission's `isce3`
-//! `LUT2d` reads its tables so), and the quantity is `|value|^2 / table^2` (ASF's NISAR
+//! `LUT2d` reads NISAR's tables so), and the quantity is `|value|^2 / table^2` (ASF's NISAR
 //! documentation, *GSLC: backscatter*: "divide [beta0] by the square of the values provided in
-//! either the sigma0 or gamma0 LUT"; the beta0 table holds 1 where the data are valid). So a
-//! calibrated read divides each value by the table at its pixel ([`GridLut::apply`]).
+//! either the sigma0 or gamma0 LUT", the beta0 table holding 1 where the data are valid; ESA's
+//! *Radiometric Calibration of Sentinel-1 Level-1 Products*: `|DN|^2 / A^2`). So a calibrated
+//! read divides each value by the table at its pixel ([`GridLut::apply`]).
 
 use crate::io::cut::Window;
 use num_complex::Complex32;
@@ -111,7 +113,8 @@ impl GridLut {
     }
 
     /// Calibrates `out`, the values of the scene's `window` row after row: each divided by
-    /// the table at its pixel ([`GridLut::at`]; the factor rounded to a `f32`). Rows on
+    /// the table at its pixel ([`GridLut::at`], rounded to a `f32`), as numpy divides a
+    /// complex64 by a float32 (both parts times the float32 reciprocal). Rows on
     /// every core, each with the table first read down to its row at every table column.
     pub fn apply(&self, window: &Window, out: &mut [Complex32]) {
         use rayon::prelude::*;
@@ -127,7 +130,7 @@ impl GridLut {
             );
             for (z, q) in row.iter_mut().zip(cols) {
                 let v = line[q.i] * (1.0 - q.u) + line[q.i + 1] * q.u;
-                *z *= (1.0 / v) as f32;
+                *z *= 1.0 / v as f32;
             }
         });
     }
@@ -237,7 +240,7 @@ mod tests {
         lut.apply(&win, &mut fast);
         for (k, (z, f)) in data.iter().zip(&fast).enumerate() {
             let (r, c) = (win.r0 + k / win.cols(), win.c0 + k % win.cols());
-            assert_eq!(*f, *z * (1.0 / lut.at(r, c)) as f32, "pixel ({r}, {c})");
+            assert_eq!(*f, *z * (1.0 / lut.at(r, c) as f32), "pixel ({r}, {c})");
         }
     }
 
