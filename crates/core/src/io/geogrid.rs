@@ -47,11 +47,7 @@ impl NodeGrid {
             ));
         }
         for (v, name) in [(&rows, "rows"), (&cols, "columns")] {
-            let rising = v.len() >= 2 && v[1] > v[0];
-            let monotonic = v
-                .windows(2)
-                .all(|p| if rising { p[1] > p[0] } else { p[1] < p[0] });
-            if v.len() < 2 || !monotonic || v.iter().any(|a| !a.is_finite()) {
+            if v.len() < 2 || crate::io::lut::monotonic(v).is_err() {
                 return Err(format!(
                     "its node {name} are not 2 or more strictly monotonic pixel positions"
                 ));

@@ -136,8 +136,12 @@ impl GridLut {
     }
 }
 
-/// Why `axis` is not a table's axis: empty, not finite, or not strictly monotonic.
-fn monotonic(axis: &[f64]) -> Result<(), String> {
+/// Why `axis` is not a table's axis (or any axis of positions): empty, not finite, or not
+/// strictly monotonic.
+///
+/// # Errors
+/// Saying which, and where.
+pub(crate) fn monotonic(axis: &[f64]) -> Result<(), String> {
     if axis.is_empty() {
         return Err("is empty".into());
     }

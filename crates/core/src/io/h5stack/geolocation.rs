@@ -106,12 +106,10 @@ pub(super) fn nisar_grid(st: &H5Stack) -> Result<Option<(NodeGrid, String)>, Str
     same_units((&join("zeroDopplerTime"), &time_units), (&rp, &row_units)).map_err(at)?;
     same_units((&join("slantRange"), &range_units), (&cp, &col_units)).map_err(at)?;
     for (v, p) in [(&rows, &rp), (&cols, &cp)] {
-        let rising = v.len() >= 2 && v[1] > v[0];
-        let ok = v.len() >= 2
-            && v.windows(2)
-                .all(|q| if rising { q[1] > q[0] } else { q[1] < q[0] });
-        if !ok {
-            return Err(at(format!("{p} is not strictly monotonic")));
+        match crate::io::lut::monotonic(v) {
+            Ok(()) if v.len() >= 2 => {}
+            Ok(()) => return Err(at(format!("{p} holds one value: no axis"))),
+            Err(m) => return Err(at(format!("{p} {m}"))),
         }
     }
     // Pixel centres sit at whole indices; the grid's pixel positions count from corners.
