@@ -301,26 +301,14 @@ impl NetConfig {
             self.classes,
             device,
         );
-        let mut convs = convs.into_iter();
-        let mut next = || convs.next().expect("three convolutions");
-        let (w1, b1) = next();
-        let (w2, b2) = next();
-        let (w3, b3) = next();
-        Net {
-            w1,
-            b1,
-            bn1: Bn::new(f[0], device),
-            w2,
-            b2,
-            bn2: Bn::new(f[1], device),
-            w3,
-            b3,
-            bn3: Bn::new(f[2], device),
-            fc_w,
-            fc_b: Param::from_tensor(Tensor::zeros([self.classes], device)),
-            height: self.height,
-            width: self.width,
-        }
+        let mut convs = convs.into_iter().zip(f);
+        let mut next = || {
+            let ((w, b), f) = convs.next().expect("three convolutions");
+            (w, b, Bn::new(f, device))
+        };
+        let blocks = [next(), next(), next()];
+        let fc_b = Param::from_tensor(Tensor::zeros([self.classes], device));
+        Net::from_parts(blocks, (fc_w, fc_b), (self.height, self.width))
     }
 }
 
@@ -478,7 +466,34 @@ pub struct Net<B: Backend> {
     pub width: usize,
 }
 
+/// One convolution block's parameters: weights, biases and its batch normalisation.
+pub type BlockParams<B> = (Param<Tensor<B, 4>>, Param<Tensor<B, 1>>, Bn<B>);
+
 impl<B: Backend> Net<B> {
+    /// The network of the three blocks' parameters (conv1 to conv3), the fully connected
+    /// layer's weights and biases, for images of `height` x `width`.
+    pub fn from_parts(
+        [(w1, b1, bn1), (w2, b2, bn2), (w3, b3, bn3)]: [BlockParams<B>; 3],
+        (fc_w, fc_b): (Param<Tensor<B, 2>>, Param<Tensor<B, 1>>),
+        (height, width): (usize, usize),
+    ) -> Net<B> {
+        Net {
+            w1,
+            b1,
+            bn1,
+            w2,
+            b2,
+            bn2,
+            w3,
+            b3,
+            bn3,
+            fc_w,
+            fc_b,
+            height,
+            width,
+        }
+    }
+
     /// A copy on another backend (values through host memory), e.g. a network trained on a
     /// GPU for prediction on the CPU.
     pub fn to_backend<B2: Backend>(&self, device: &B2::Device) -> Net<B2> {

@@ -229,9 +229,7 @@ pub fn load(dir: &Path) -> Result<Loaded> {
         };
         (w, b, bn)
     };
-    let (w1, b1, bn1) = block(&mut take);
-    let (w2, b2, bn2) = block(&mut take);
-    let (w3, b3, bn3) = block(&mut take);
+    let blocks = [block(&mut take), block(&mut take), block(&mut take)];
     let (s, v) = take();
     let fc_w = Param::from_tensor(Tensor::<Cpu, 2>::from_data(
         TensorData::new(v, [s[0], s[1]]),
@@ -244,21 +242,7 @@ pub fn load(dir: &Path) -> Result<Loaded> {
     ));
     let (_, mean) = take();
     Ok(Loaded {
-        net: Net {
-            w1,
-            b1,
-            bn1,
-            w2,
-            b2,
-            bn2,
-            w3,
-            b3,
-            bn3,
-            fc_w,
-            fc_b,
-            height: cfg.height,
-            width: cfg.width,
-        },
+        net: Net::from_parts(blocks, (fc_w, fc_b), (cfg.height, cfg.width)),
         mean,
         info,
     })

@@ -247,30 +247,16 @@ pub(super) fn unflatten<B: Backend>(
         };
         (w, bias, bn)
     };
-    let (w1, b1, bn1) = conv(0);
-    let (w2, b2, bn2) = conv(1);
-    let (w3, b3, bn3) = conv(2);
+    let blocks = [conv(0), conv(1), conv(2)];
     let b3g = g.blocks[2];
     let rows = b3g.f * b3g.oh * b3g.ow;
     let fc = transpose(&flat[p.fc[0]..p.fc[0] + rows * g.classes], g.classes, rows);
-    Net {
-        w1,
-        b1,
-        bn1,
-        w2,
-        b2,
-        bn2,
-        w3,
-        b3,
-        bn3,
-        fc_w: Param::from_tensor(Tensor::<B, 2>::from_data(
-            TensorData::new(fc, [rows, g.classes]),
-            device,
-        )),
-        fc_b: Param::from_tensor(t1(&flat[p.fc[1]..p.fc[1] + g.classes])),
-        height: cfg.height,
-        width: cfg.width,
-    }
+    let fc_w = Param::from_tensor(Tensor::<B, 2>::from_data(
+        TensorData::new(fc, [rows, g.classes]),
+        device,
+    ));
+    let fc_b = Param::from_tensor(t1(&flat[p.fc[1]..p.fc[1] + g.classes]));
+    Net::from_parts(blocks, (fc_w, fc_b), (cfg.height, cfg.width))
 }
 
 #[cfg(test)]
