@@ -158,6 +158,21 @@ fn a_map_box_on_uavsar_scenes_reads_the_blocks_of_the_llh_points_in_it() {
             && e.contains("no `llh_1_<R>x<A>` field"),
         "{e}"
     );
+    // Asked for by the cut's map polygon alone: named there.
+    let polygon = format!(
+        "kind: uavsar, slc: [{}], cut: {{patch: 2, polygon_map: [[{x0}, {y0}], [{x1}, {y0}], \
+         [{x0}, {y1}]]}}",
+        scenes().join(", "),
+        x0 = x[0],
+        x1 = x[1],
+        y0 = y[0],
+        y1 = y[1]
+    );
+    let e = scenes::refused(d, "no_llh_polygon", &polygon);
+    assert!(
+        e.contains("datasets[0].cut.polygon_map") && e.contains("no `llh_1_<R>x<A>` field"),
+        "{e}"
+    );
     std::fs::write(&ann, text).unwrap();
     // A truncated `.llh` file.
     let llh = fx.join("testsite_L090HH_01_BC_s1_2x8.llh");

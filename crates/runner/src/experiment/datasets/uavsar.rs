@@ -88,12 +88,18 @@ impl DatasetKind for UavsarDataset {
             };
             ctx.err(path, e.message)
         })?;
-        let mapped = spec.window.is_some_and(|w| w.x.is_some())
-            || spec.cut.as_ref().is_some_and(|c| c.polygon_map.is_some());
+        // The field that asked for a map: the window's box, else the cut's map polygon.
+        let asked = if spec.window.is_some_and(|w| w.x.is_some()) {
+            Some("window")
+        } else if spec.cut.as_ref().is_some_and(|c| c.polygon_map.is_some()) {
+            Some("cut.polygon_map")
+        } else {
+            None
+        };
         let mut llh = vec![];
-        if mapped {
+        if let Some(field) = asked {
             for scene in &stack.scenes {
-                let f = llh_file(scene).map_err(|m| ctx.err(format!("{at}.window"), m))?;
+                let f = llh_file(scene).map_err(|m| ctx.err(format!("{at}.{field}"), m))?;
                 if !llh.contains(&f) {
                     llh.push(f);
                 }
