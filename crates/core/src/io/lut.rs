@@ -13,6 +13,39 @@
 use crate::io::cut::Window;
 use num_complex::Complex32;
 
+/// A scene's calibration: the quantity `|value|^2` is made, where its scale comes from, and
+/// the scale (HDF5 scenes: NISAR's tables, ICEYE's factor; Sentinel-1 measurements: their
+/// SAFE annotation's tables).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibrated {
+    /// `beta0`, `sigma0` or `gamma0`.
+    pub quantity: String,
+    /// What gives the scale: a dataset of the file (`/calibration_factor`, NISAR's table) or
+    /// an annotation file.
+    pub source: String,
+    /// The scale.
+    pub scale: Scale,
+}
+
+/// How a calibrated read scales the stored values.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Scale {
+    /// Every value times one factor (ICEYE's: the root of its `calibration_factor`).
+    Factor(f32),
+    /// Every value divided by the table at its pixel.
+    Table(Box<GridLut>),
+}
+
+impl Calibrated {
+    /// Calibrates `out`, the values of the scene's `window` row after row.
+    pub fn apply(&self, window: &Window, out: &mut [Complex32]) {
+        match &self.scale {
+            Scale::Factor(k) => out.iter_mut().for_each(|v| *v *= *k),
+            Scale::Table(t) => t.apply(window, out),
+        }
+    }
+}
+
 /// Where a coordinate falls on a table's axis: the grid point before it and the share of the
 /// way to the next (`0 <= share <= 1`; clamped at the ends).
 #[derive(Debug, Clone, Copy, PartialEq)]

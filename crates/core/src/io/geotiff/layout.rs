@@ -119,5 +119,5 @@ pub struct GeoTiff {
     /// Georeferencing.
     pub georef: Georef,
     /// Sentinel-1's calibration of its reads, from its SAFE product (`None`: as stored).
-    pub calibration: Option<Box<super::s1cal::S1Calibration>>,
+    pub calibration: Option<crate::io::lut::Calibrated>,
 }

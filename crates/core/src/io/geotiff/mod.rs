@@ -146,7 +146,7 @@ impl GeoTiff {
             "blocks": if self.blocks.tiled { "tiles" } else { "strips" },
             "georef": self.georef,
             "calibrated_to": self.calibration.as_ref().map(|c| c.quantity.clone()),
-            "calibration_source": self.calibration.as_ref().map(|c| c.source.display().to_string()),
+            "calibration_source": self.calibration.as_ref().map(|c| c.source.clone()),
         })
     }
 }
@@ -263,7 +263,7 @@ impl Scene for GeoTiff {
     fn read_window(&self, window: &Window, out: &mut [Complex32]) -> Result<(), TiffError> {
         read::read_window(self, window, out)?;
         if let Some(c) = &self.calibration {
-            c.table.apply(window, out);
+            c.apply(window, out);
         }
         Ok(())
     }
@@ -272,7 +272,7 @@ impl Scene for GeoTiff {
     /// product (each value divided by the table at its pixel, [`s1cal`]).
     fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
         let c = s1cal::sentinel1(&self.path, quantity, (self.rows, self.cols))?;
-        self.calibration = Some(Box::new(c));
+        self.calibration = Some(c);
         Ok(())
     }
 

@@ -8,19 +8,8 @@
 //! `calibrate_amplitude` does the same). Every vector must give the same pixels (as
 //! xarray-sentinel also requires: a regular line-pixel grid).
 
-use crate::io::lut::GridLut;
+use crate::io::lut::{Calibrated, GridLut, Scale};
 use std::path::{Path, PathBuf};
-
-/// A Sentinel-1 measurement's calibration to one quantity.
-#[derive(Debug, Clone, PartialEq)]
-pub struct S1Calibration {
-    /// `sigma0`, `beta0` or `gamma0`.
-    pub quantity: String,
-    /// The calibration annotation it was read from.
-    pub source: PathBuf,
-    /// The table, placed on the measurement's pixels.
-    pub table: GridLut,
-}
 
 /// The calibration annotation of the measurement `tiff` in its SAFE folder.
 pub fn annotation_of(tiff: &Path) -> Option<PathBuf> {
@@ -71,7 +60,7 @@ pub fn sentinel1(
     tiff: &Path,
     quantity: &str,
     (rows, cols): (usize, usize),
-) -> Result<S1Calibration, String> {
+) -> Result<Calibrated, String> {
     let name = element(quantity).ok_or_else(|| {
         format!(
             "{}: Sentinel-1's calibration annotation gives sigma0, beta0 and gamma0 (asked for \
@@ -131,10 +120,10 @@ pub fn sentinel1(
     let scene_cols: Vec<f64> = (0..cols).map(|c| c as f64).collect();
     let table = GridLut::new(values, (&lines, &pixels), (&scene_rows, &scene_cols))
         .map_err(|m| at(format!("{name}: {m}")))?;
-    Ok(S1Calibration {
+    Ok(Calibrated {
         quantity: quantity.to_string(),
-        source: xml,
-        table,
+        source: xml.display().to_string(),
+        scale: Scale::Table(Box::new(table)),
     })
 }
 

@@ -67,15 +67,17 @@ pub(super) fn nisar_table(
     let shape = table.shape();
     if shape != [row_axis.len(), col_axis.len()] {
         return Err(at(format!(
-            "{tables}/{quantity} has dimensions {shape:?}, its axes {rn} and {cn} {} and {}",
+            "{} has dimensions {shape:?}, its axes {rn} and {cn} {} and {}",
+            join(quantity),
             row_axis.len(),
             col_axis.len()
         )));
     }
+    let source = join(quantity);
     let values = table
         .read_raw::<f64>()
-        .map_err(|e| at(format!("{tables}/{quantity}: {}", h5(e))))?;
-    let because = format!("to place {tables}/{quantity} on its pixels");
+        .map_err(|e| at(format!("{source}: {}", h5(e))))?;
+    let because = format!("to place {source} on its pixels");
     let beside = |name: &str, len: usize, side: &str| {
         product
             .beside(&file, st, (name, len, side), &because)
@@ -85,7 +87,6 @@ pub(super) fn nisar_table(
     let (cols, col_scene_units, cp) = beside(cn, st.dims[2], "columns")?;
     same_units((&join(rn), &row_units), (&rp, &row_scene_units)).map_err(at)?;
     same_units((&join(cn), &col_units), (&cp, &col_scene_units)).map_err(at)?;
-    let source = format!("{tables}/{quantity}");
     GridLut::new(values, (&row_axis, &col_axis), (&rows, &cols))
         .map(|t| Some((source.clone(), t)))
         .map_err(|m| at(format!("{source}: {m}")))

@@ -129,31 +129,10 @@ pub struct H5Scene {
     /// The scene's dataset, checked.
     pub stack: H5Stack,
     /// How its reads are calibrated (`None`: as stored).
-    pub calibration: Option<Calibrated>,
+    pub calibration: Option<crate::io::lut::Calibrated>,
     /// What placed a map window on it, once [`crate::io::scenes::Scene::georeference`] has
     /// (for the manifest): the coordinate vectors, or the geolocation grid and its height.
     placed_by: std::sync::OnceLock<String>,
-}
-
-/// A scene's calibration: the quantity `|value|^2` is made, where its scale comes from, and
-/// the scale.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Calibrated {
-    /// `beta0`, `sigma0` or `gamma0`.
-    pub quantity: String,
-    /// The dataset of the file that gives the scale (`/calibration_factor`, or NISAR's table).
-    pub source: String,
-    /// The scale.
-    pub scale: Scale,
-}
-
-/// How a calibrated read scales the stored values.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Scale {
-    /// Every value times one factor (ICEYE's: the root of its `calibration_factor`).
-    Factor(f32),
-    /// Every value divided by the table at its pixel (NISAR's).
-    Table(Box<crate::io::lut::GridLut>),
 }
 
 impl H5Scene {
@@ -184,10 +163,8 @@ impl crate::io::scenes::Scene for H5Scene {
         out: &mut [num_complex::Complex32],
     ) -> Result<(), String> {
         self.stack.read_window(window, out)?;
-        match self.calibration.as_ref().map(|c| &c.scale) {
-            Some(Scale::Factor(k)) => out.iter_mut().for_each(|v| *v *= *k),
-            Some(Scale::Table(t)) => t.apply(window, out),
-            None => {}
+        if let Some(c) = &self.calibration {
+            c.apply(window, out);
         }
         Ok(())
     }
@@ -200,6 +177,7 @@ impl crate::io::scenes::Scene for H5Scene {
     fn calibrate(&mut self, quantity: &str) -> Result<(), String> {
         #[cfg(feature = "mat73")]
         {
+            use crate::io::lut::{Calibrated, Scale};
             let st = &self.stack;
             let calibrated = |source: String, scale| Calibrated {
                 quantity: quantity.to_string(),

@@ -4,6 +4,7 @@
 //! read in blocks of whole chunks, in single precision where its numbers fit.
 
 use super::chunks;
+use super::product::{ancestors, h5};
 use super::types::{Form, H5Stack, OpenError, Storage};
 use crate::io::mat::v73::{is_number, Parts};
 use crate::io::npy::{Dtype, NpyHeader, Stack};
@@ -57,11 +58,6 @@ pair_type!(PairReIm, "re", "im");
 /// The field names of the complex compounds read.
 const COMPOUND_NAMES: [(&str, &str); 3] = [("r", "i"), ("real", "imag"), ("re", "im")];
 
-/// What a failed HDF5 call says.
-fn h5(e: hdf5_metno::Error) -> String {
-    e.to_string()
-}
-
 /// The georeference of a single scene: affine from the coordinate vectors beside it
 /// ([`super::coords`]), else its NISAR product's geolocation grid ([`super::geolocation`]);
 /// and what it came from, in words.
@@ -70,10 +66,7 @@ pub(super) fn scene_georeference(
 ) -> Result<(crate::io::mapping::Georeference, String), String> {
     let at = |what: String| format!("{}: {what}", st.path.display());
     let file = hdf5_metno::File::open(&st.path).map_err(|e| at(h5(e)))?;
-    let group = match st.dataset.trim_end_matches('/').rfind('/') {
-        Some(0) | None => "/",
-        Some(i) => &st.dataset[..i],
-    };
+    let group = &ancestors(&st.dataset)[0];
     let g = file.group(group).map_err(|e| at(h5(e)))?;
     for (xn, yn) in super::coords::NAMES {
         let (Ok(x), Ok(y)) = (g.dataset(xn), g.dataset(yn)) else {
